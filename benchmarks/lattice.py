@@ -1,0 +1,196 @@
+"""Throughput of the D3Q19 lattice Boltzmann kernel against the machine's memory roofline.
+
+Run::
+
+    python benchmarks/lattice.py                 # 64^3 and 128^3, float32 and float64, + lbmpy
+    python benchmarks/lattice.py --sizes 128 --dtypes float32 --no-lbmpy
+
+Everything is measured in the same run:
+
+* memory bandwidth: a STREAM-like triad ``a = b + s c`` compiled with Numba (parallel)
+  on float64 arrays of 2^25 elements (3 x 256 MiB, far larger than the caches),
+  counted as 24 B per element (STREAM convention);
+* MLUPS (million lattice-node updates per second) of the fused, compiled step
+  (``Lattice.step(n)``, one compiled call for n steps), best of several repeats;
+* roofline: a D3Q19 update must load and store 19 populations, 2 x 19 x 4 = 152 B
+  in float32 and 304 B in float64, so MLUPS_roof = bandwidth / bytes per update;
+* optionally lbmpy's generated D3Q19 TRT kernel (C + OpenMP, two lattices, SoA
+  layout) at 128^3 in float32, timed alone (no ghost-layer exchange), if lbmpy
+  imports; otherwise a note is printed.
+
+``run_benchmark(size, dtype)`` returns the numbers as a dict for the CLI.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+try:
+    from elastocell.lattice import Lattice, LatticeParams
+except ImportError:  # running from a source checkout without installing
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
+    from elastocell.lattice import Lattice, LatticeParams
+
+import numba
+from numba import njit, prange
+
+THREADS = 2
+TRIAD_ELEMENTS = 1 << 25
+_bandwidth_cache: dict[int, float] = {}
+
+
+def _set_threads(threads: int = THREADS) -> int:
+    threads = max(1, min(threads, numba.config.NUMBA_NUM_THREADS))
+    numba.set_num_threads(threads)
+    return threads
+
+
+@njit(parallel=True, cache=True)
+def _triad(a, b, c, scalar):
+    for i in prange(a.size):
+        a[i] = b[i] + scalar * c[i]
+
+
+def stream_triad_bandwidth(elements: int = TRIAD_ELEMENTS, repeats: int = 8) -> float:
+    """Best STREAM-triad bandwidth in GB/s (1e9 B/s), 24 B per element, float64."""
+    if elements in _bandwidth_cache:
+        return _bandwidth_cache[elements]
+    _set_threads()
+    a = np.zeros(elements)
+    b = np.ones(elements)
+    c = np.full(elements, 2.0)
+    _triad(a, b, c, 3.0)  # compile + first touch
+    best = np.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        _triad(a, b, c, 3.0)
+        best = min(best, time.perf_counter() - t)
+    gbs = 24.0 * elements / best / 1e9
+    _bandwidth_cache[elements] = gbs
+    return gbs
+
+
+def bytes_per_update(dtype) -> int:
+    """Minimum memory traffic of one D3Q19 node update: load + store 19 populations."""
+    return 2 * 19 * np.dtype(dtype).itemsize
+
+
+def time_fused_kernel(size: int, dtype="float32", repeats: int = 3, target_seconds: float = 0.6) -> float:
+    """Best MLUPS of ``Lattice.step(n)`` on a periodic size^3 lattice (TRT, no force)."""
+    _set_threads()
+    lattice = Lattice(
+        LatticeParams((size, size, size), relaxation_time=0.8, dtype=str(np.dtype(dtype))),
+        velocity=(0.01, 0.0, 0.0),
+    )
+    lattice.step(2)  # compile (or load from cache) and warm up
+    t = time.perf_counter()
+    lattice.step(2)
+    per_step = max(time.perf_counter() - t, 1e-6) / 2
+    steps = max(2, 2 * int(target_seconds / per_step / 2))
+    best = np.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        lattice.step(steps)
+        best = min(best, time.perf_counter() - t)
+    return size**3 * steps / best / 1e6
+
+
+def run_benchmark(size: int = 128, dtype="float32") -> dict:
+    """Measure the fused kernel at size^3 and the memory bandwidth in the same process.
+
+    Returns a dict with ``mlups`` (million node updates / s), ``bandwidth_gbs`` (STREAM
+    triad, GB/s), ``roofline_fraction`` (mlups / (bandwidth / bytes per update)), plus
+    ``roofline_mlups``, ``bytes_per_update``, ``size``, ``dtype``, ``threads``.
+    """
+    bandwidth = stream_triad_bandwidth()
+    mlups = time_fused_kernel(size, dtype)
+    nbytes = bytes_per_update(dtype)
+    roofline = bandwidth * 1e9 / nbytes / 1e6
+    return {
+        "size": int(size),
+        "dtype": str(np.dtype(dtype)),
+        "threads": numba.get_num_threads(),
+        "mlups": mlups,
+        "bandwidth_gbs": bandwidth,
+        "bytes_per_update": nbytes,
+        "roofline_mlups": roofline,
+        "roofline_fraction": mlups / roofline,
+    }
+
+
+def time_lbmpy(size: int = 128, dtype="float32", repeats: int = 5) -> tuple[float | None, str]:
+    """MLUPS of lbmpy's generated D3Q19 TRT kernel (pull, two lattices), or (None, reason)."""
+    try:
+        import pystencils as ps
+        from lbmpy import LBMConfig, LBMOptimisation, LBStencil, Method, Stencil, create_lb_function
+    except Exception as exc:  # not installed / broken install
+        return None, f"lbmpy not available ({type(exc).__name__}: {exc}); install with `pip install lbmpy`"
+    try:
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            dtype = str(np.dtype(dtype))
+            src = ps.fields(f"src(19): {dtype}[3D]", layout="fzyx")
+            dst = ps.fields(f"dst(19): {dtype}[3D]", layout="fzyx")
+            config = LBMConfig(stencil=LBStencil(Stencil.D3Q19), method=Method.TRT,
+                               relaxation_rate=1.0 / 0.8, compressible=True)
+            optimisation = LBMOptimisation(symbolic_field=src, symbolic_temporary_field=dst, cse_global=True)
+            kernel_config = ps.CreateKernelConfig(data_type=dtype, cpu_openmp=_set_threads())
+            kernel = create_lb_function(lbm_config=config, lbm_optimisation=optimisation, config=kernel_config)
+        n = size + 2  # one ghost layer each side
+        # fzyx: population index slowest, x fastest
+        a = np.zeros((19, n, n, n), dtype).transpose(3, 2, 1, 0)
+        a[...] = np.array([1 / 3] + [1 / 18] * 6 + [1 / 36] * 12, dtype=dtype)
+        b = a.copy(order="K")
+        kernel(src=a, dst=b)
+        best = np.inf
+        for _ in range(repeats):
+            t = time.perf_counter()
+            kernel(src=a, dst=b)
+            best = min(best, time.perf_counter() - t)
+            a, b = b, a
+        return size**3 / best / 1e6, "lbmpy kernel (C/OpenMP, SoA, two lattices), timed alone"
+    except Exception as exc:
+        return None, f"lbmpy kernel generation/run failed ({type(exc).__name__}: {exc})"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
+    parser.add_argument("--dtypes", nargs="+", default=["float32", "float64"])
+    parser.add_argument("--no-lbmpy", action="store_true", help="skip the lbmpy comparison")
+    args = parser.parse_args(argv)
+
+    threads = _set_threads()
+    bandwidth = stream_triad_bandwidth()
+    print(f"threads: {threads}   STREAM triad (numba, parallel, 3 x {TRIAD_ELEMENTS * 8 / 2**20:.0f} MiB): "
+          f"{bandwidth:.1f} GB/s")
+    print(f"{'size':>6} {'dtype':>8} {'MLUPS':>8} {'B/update':>9} {'roof MLUPS':>11} {'of roof':>8}")
+    results = {}
+    for size in args.sizes:
+        for dtype in args.dtypes:
+            r = run_benchmark(size, dtype)
+            results[(size, r["dtype"])] = r
+            print(f"{size:>5}^3 {r['dtype']:>8} {r['mlups']:8.1f} {r['bytes_per_update']:9d} "
+                  f"{r['roofline_mlups']:11.1f} {100 * r['roofline_fraction']:7.1f}%")
+    if args.no_lbmpy:
+        print("lbmpy: skipped (--no-lbmpy)")
+    else:
+        mlups, note = time_lbmpy(128, "float32")
+        if mlups is None:
+            print(f"lbmpy: skipped -- {note}")
+        else:
+            ours = results.get((128, "float32")) or run_benchmark(128, "float32")
+            print(f"lbmpy  128^3  float32 {mlups:8.1f} MLUPS ({note}); "
+                  f"elastocell / lbmpy = {ours['mlups'] / mlups:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,251 @@
+"""The Python API: the same names and options as the command line (``elastocell compress`` ->
+``elastocell.compress``), writing the same files.
+
+    import elastocell
+    result = elastocell.compress(out="results/reference")            # the paper's reference cell
+    result = elastocell.compress(out="r/eq", equivalent=True)         # its homogeneous equivalent
+    info = elastocell.equivalent(stiffness_ratio=10, size_ratio=0.5)  # E_eff/E_c of a cell
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .cell import Cell
+from .compression import CompressionResult, compress as compress_cell
+from .io import Stopwatch, software_versions, write_json, write_table, write_vtk_series
+from .parameters import (
+    CellParameters,
+    CompressionParameters,
+    MaterialParameters,
+    MeshParameters,
+    NucleusParameters,
+    RandomParameters,
+    parse_quantity,
+)
+
+
+def cell_parameters(
+    nucleus: str = "sphere",
+    stiffness_ratio: float = 2.0,
+    size_ratio: float = 0.5,
+    offset: float = 0.0,
+    offset_axis: str = "x",
+    semi_axes: tuple[float, float, float] = (0.8, 0.4, 0.4),
+    nucleus_axis: str = "x",
+    random: bool = False,
+    seed: int = 0,
+    mesh_size: float | None = None,
+    pole_size: float | None = None,
+    element: str = "p2",
+    material: str = "neo-hookean",
+    poisson_ratio: float = 0.48,
+    youngs_modulus: float | str = 1.0,
+    radius: float | str = 1.0,
+) -> CellParameters:
+    """Validated :class:`CellParameters` from the flat CELL OPTIONS shared by every scenario.
+
+    With no arguments: the paper's reference cell (spherical nucleus, stiffness ratio 2, size ratio 0.5,
+    centred, nu = 0.48, neo-Hookean). ``radius``/``youngs_modulus`` accept physical units ("8um", "1kPa").
+    """
+    radius_value, radius_physical = parse_quantity(radius, "m", "radius")
+    modulus_value, modulus_physical = parse_quantity(youngs_modulus, "Pa", "youngs_modulus")
+    if random:
+        nucleus = "none"
+    mesh_defaults = MeshParameters(element=element)
+    mesh = MeshParameters(
+        element=element,
+        mesh_size=mesh_defaults.mesh_size if mesh_size is None else mesh_size,
+        pole_size=(None if mesh_size is not None and pole_size is None and mesh_size < mesh_defaults.pole_size
+                   else (mesh_defaults.pole_size if pole_size is None else pole_size)),
+    )
+    return CellParameters(
+        nucleus=NucleusParameters(
+            shape=nucleus, stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, offset=offset,
+            offset_axis=offset_axis, semi_axes=tuple(semi_axes), nucleus_axis=nucleus_axis,
+        ),
+        random=RandomParameters(seed=seed) if random else None,
+        material=MaterialParameters(law=material, poisson_ratio=poisson_ratio),
+        mesh=mesh,
+        radius=radius_value,
+        youngs_modulus=modulus_value,
+        radius_is_physical=radius_physical,
+        youngs_modulus_is_physical=modulus_physical,
+    )
+
+
+def equivalent(cell: CellParameters | None = None, **cell_options) -> dict:
+    """E_eff/E_c (``effective_stiffness_ratio``), volumes and mesh counts of a cell."""
+    cell = cell or cell_parameters(**cell_options)
+    body = Cell.from_parameters(cell)
+    summary = body.summary()
+    summary["effective_stiffness_ratio_analytic"] = (
+        1 + (cell.nucleus.stiffness_ratio - 1) * cell.nucleus.volume_fraction()
+        if cell.random is None else (cell.random.low + cell.random.high) / 2
+    )
+    summary["effective_youngs_modulus"] = summary["effective_stiffness_ratio"] * cell.youngs_modulus
+    summary["mesh_quality"] = body.mesh.quality()
+    return summary
+
+
+def compress(
+    out: str | Path,
+    cell: CellParameters | None = None,
+    delta_max: float = 0.75,
+    steps: int = 40,
+    equivalent: bool = False,
+    compare: bool = False,
+    vtk: bool = True,
+    solver: str = "auto",
+    progress: bool = True,
+    **cell_options,
+) -> dict:
+    """Compress a cell between two plates and write ``out/compression.csv``, ``metadata.json``,
+    ``compression.png`` and VTK files (``out/vtk/compression.pvd``).
+
+    equivalent: simulate the homogeneous equivalent of the described cell instead.
+    compare: also simulate the equivalent (written to ``out/equivalent/``) and draw both in
+    ``out/comparison.png`` with their force ratio in ``out/comparison.csv``.
+    """
+    cell = cell or cell_parameters(**cell_options)
+    scenario = CompressionParameters(delta_max=delta_max, steps=steps)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    body = Cell.from_parameters(cell)
+    primary = body.equivalent() if equivalent else body
+    label = "homogeneous equivalent" if equivalent else _describe(cell)
+    summary = _run_and_write(out, primary, scenario, cell, solver, progress, label)
+    if compare and not equivalent:
+        other = _run_and_write(out / "equivalent", body.equivalent(), scenario, cell, solver, progress,
+                               "homogeneous equivalent")
+        _write_comparison(out, summary, other, cell)
+        summary["equivalent"] = other
+    return summary
+
+
+def _describe(cell: CellParameters) -> str:
+    if cell.random is not None:
+        return f"random cell (seed {cell.random.seed})"
+    n = cell.nucleus
+    if n.shape == "none":
+        return "homogeneous cell"
+    if n.shape == "sphere":
+        text = f"nucleus cell (gamma={n.stiffness_ratio:g}, lambda={n.size_ratio:g}"
+    else:
+        text = f"ellipsoid nucleus cell (gamma={n.stiffness_ratio:g}, axes={n.semi_axes}, along {n.nucleus_axis}"
+    if n.offset:
+        text += f", d={n.offset:g} along {n.offset_axis}"
+    return text + ")"
+
+
+def _progress_bar(enabled: bool, description: str, total: float):
+    from contextlib import nullcontext
+
+    if not enabled:
+        return nullcontext(None)
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    progress = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("delta {task.completed:.3f}"),
+                        TimeElapsedColumn(), TimeRemainingColumn(), transient=False)
+    return progress
+
+
+def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell: CellParameters, solver: str,
+                   show_progress: bool, label: str) -> dict:
+    out.mkdir(parents=True, exist_ok=True)
+    clock = Stopwatch()
+    bar = _progress_bar(show_progress, f"compress {label}", scenario.delta_max)
+    with bar as progress:
+        if progress is not None:
+            task = progress.add_task(f"compress {label}", total=scenario.delta_max)
+            callback = lambda delta: progress.update(task, completed=delta)  # noqa: E731
+        else:
+            callback = None
+        result = compress_cell(body, scenario, solver=solver, progress=callback)
+    gamma_eff = body.effective_stiffness_ratio if not body.is_equivalent else body.youngs_moduli[0]
+    scale = cell.force_scale()
+    table = {
+        "delta": result.delta,
+        "force": result.force * scale,
+        "force_per_Ec_R2": result.force,
+        "force_per_Eeff_R2": result.force / gamma_eff,
+    }
+    write_table(out / "compression.csv", table)
+    from .plotting import plot_compression
+
+    plot_compression(out / "compression.png", [{"label": label, **table}], cell.material.poisson_ratio, title=label)
+    if _vtk_enabled():
+        stresses = [body.element_cauchy_stress(x) for x in result.positions]
+        cell_data = [{
+            "youngs_modulus": body.youngs_moduli * cell.youngs_modulus,
+            "stiffness_ratio": body.youngs_moduli,
+            "region": body.mesh.region.astype(np.int32),
+            "cauchy_stress": s.reshape(-1, 9) * cell.youngs_modulus,
+            "von_mises_stress": _von_mises(s) * cell.youngs_modulus,
+        } for s in stresses]
+        write_vtk_series(out / "vtk", "compression", body.mesh, result.positions * cell.radius, result.delta, cell_data)
+    summary = _metadata(result, body, cell, scenario, label, gamma_eff, clock.elapsed, solver)
+    write_json(out / "metadata.json", summary)
+    return summary
+
+
+def _vtk_enabled() -> bool:
+    import os
+
+    return os.environ.get("ELASTOCELL_NO_VTK", "") == ""
+
+
+def _von_mises(stress: np.ndarray) -> np.ndarray:
+    deviator = stress - np.trace(stress, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
+    return np.sqrt(1.5 * np.sum(deviator * deviator, axis=(1, 2)))
+
+
+def _metadata(result: CompressionResult, body: Cell, cell: CellParameters, scenario: CompressionParameters,
+              label: str, gamma_eff: float, wall_time: float, solver: str) -> dict:
+    return {
+        "scenario": "compression",
+        "label": label,
+        "equivalent": body.is_equivalent,
+        "cell": cell.model_dump(mode="json"),
+        "compression": scenario.model_dump(mode="json"),
+        "effective_stiffness_ratio": float(gamma_eff),
+        "effective_youngs_modulus": float(gamma_eff * cell.youngs_modulus),
+        "units": {
+            "force": "N" if (cell.radius_is_physical and cell.youngs_modulus_is_physical) else "E_c R^2",
+            "radius": cell.radius, "youngs_modulus": cell.youngs_modulus,
+        },
+        "element_order": body.mesh.order,
+        "mesh": {**body.mesh.counts(), **body.mesh.quality(), "volume": body.volume},
+        "solver": {
+            "linear_solver": result.solver,
+            "newton_iterations": result.newton_iterations,
+            "factorisations": result.factorisations,
+            "symbolic_analyses": result.analyses,
+            "substeps": result.substeps,
+            "max_pin_reaction_over_force": float(result.max_rigid_reaction / max(result.force.max(), 1e-300)),
+            "max_plate_force_imbalance": float(np.abs(result.force - result.force_lower).max()),
+            "curve_time_s": result.wall_time,
+        },
+        "wall_time_s": wall_time,
+        "software": software_versions(),
+    }
+
+
+def _write_comparison(out: Path, cell_summary: dict, equivalent_summary: dict, cell: CellParameters) -> None:
+    from .plotting import plot_compression
+
+    a = np.genfromtxt(out / "compression.csv", delimiter=",", names=True)
+    b = np.genfromtxt(out / "equivalent" / "compression.csv", delimiter=",", names=True)
+    ratio = np.divide(a["force"], b["force"], out=np.full_like(a["force"], np.nan), where=b["force"] > 0)
+    write_table(out / "comparison.csv", {"delta": a["delta"], "force_cell": a["force"],
+                                         "force_equivalent": b["force"], "force_ratio": ratio})
+    curves = [
+        {"label": cell_summary["label"], "delta": a["delta"], "force_per_Ec_R2": a["force_per_Ec_R2"],
+         "force_per_Eeff_R2": a["force_per_Eeff_R2"], "style": {"marker": "o", "ms": 3, "ls": "none"}},
+        {"label": "homogeneous equivalent", "delta": b["delta"], "force_per_Ec_R2": b["force_per_Ec_R2"],
+         "force_per_Eeff_R2": b["force_per_Eeff_R2"], "style": {"lw": 1.5}},
+    ]
+    plot_compression(out / "comparison.png", curves, cell.material.poisson_ratio,
+                     title=f"{cell_summary['label']} vs its equivalent (gamma_eff={cell_summary['effective_stiffness_ratio']:.4f})")

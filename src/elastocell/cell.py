@@ -1,0 +1,210 @@
+"""The elastic cell: mesh + per-element moduli + strain-energy law -> energy, forces, stiffness.
+
+Dimensionless throughout: lengths in R, moduli in E_c (the cytoplasm's Young's modulus), forces in E_c R^2.
+The total elastic energy is ``E(x) = sum_e sum_q w_eq W(F_eq(x), p_e)``; nodal forces are ``-dE/dx`` and the
+element stiffness matrices ``d^2 E_e / dx_e^2``, both by automatic differentiation (JAX, float64, jit).
+
+The homogeneous equivalent (the paper's eq. 2-3) replaces every element's modulus by the volume average
+``E_eff = (1/V) sum_e V_e E_e`` over the actual mesh; it keeps the same mesh so that the comparison between a
+cell and its equivalent measures the heterogeneity, not a difference of discretisation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from . import materials  # noqa: F401  (enables float64 in JAX before any array is made)
+from .elements import ElementGeometry, reference_element
+from .materials import Law, law
+from .mesh import NUCLEUS, CellMesh, build_mesh
+from .parameters import CellParameters
+
+import jax  # noqa: E402  (after materials, which sets x64)
+import jax.numpy as jnp  # noqa: E402
+
+
+@dataclass(frozen=True, eq=False)
+class Cell:
+    """An elastic body ready for any scenario.
+
+    youngs_moduli: E_e / E_c per element (the stiffness ratio gamma_e of each element).
+    """
+
+    parameters: CellParameters
+    mesh: CellMesh
+    youngs_moduli: np.ndarray
+    is_equivalent: bool = False
+    _kernels: dict = field(default_factory=dict, repr=False)
+
+    # ---- construction -------------------------------------------------------------------------------
+    @classmethod
+    def from_parameters(cls, parameters: CellParameters, use_cache: bool = True) -> Cell:
+        mesh = build_mesh(parameters, use_cache=use_cache)
+        return cls(parameters, mesh, element_stiffness_ratios(parameters, mesh))
+
+    def equivalent(self) -> Cell:
+        """The homogeneous equivalent: same mesh, every element at E_eff (the volume average)."""
+        moduli = np.full(self.mesh.n_elements, self.effective_stiffness_ratio)
+        return Cell(self.parameters, self.mesh, moduli, is_equivalent=True)
+
+    # ---- geometry and moduli ------------------------------------------------------------------------
+    @cached_property
+    def geometry(self) -> ElementGeometry:
+        return reference_element(self.mesh.order).geometry(self.mesh.nodes, self.mesh.elements)
+
+    @cached_property
+    def element_volumes(self) -> np.ndarray:
+        """V_e (units of R^3), exact for the element's own (possibly curved) map."""
+        return self.geometry.weights.sum(axis=1)
+
+    @property
+    def volume(self) -> float:
+        return float(self.element_volumes.sum())
+
+    @property
+    def nucleus_volume(self) -> float:
+        return float(self.element_volumes[self.mesh.region == NUCLEUS].sum())
+
+    @property
+    def effective_stiffness_ratio(self) -> float:
+        """gamma_eff = E_eff / E_c = (1/V) sum_e V_e E_e / E_c."""
+        return float(np.sum(self.element_volumes * self.youngs_moduli) / self.volume)
+
+    @property
+    def law(self) -> Law:
+        return law(self.parameters.material.law)
+
+    @cached_property
+    def material_parameters(self) -> np.ndarray:
+        """Per-element law parameters (units of E_c), e.g. (mu, kappa) for neo-Hookean."""
+        material = self.parameters.material
+        return self.law.parameters(
+            self.youngs_moduli, material.poisson_ratio, {"mooney_rivlin_mu1_fraction": material.mooney_rivlin_mu1_fraction}
+        )
+
+    # ---- compiled kernels ---------------------------------------------------------------------------
+    def _compiled(self):
+        if self._kernels:
+            return self._kernels
+        elements = jnp.asarray(self.mesh.elements)
+        gradients = jnp.asarray(self.geometry.shape_gradients)
+        weights = jnp.asarray(self.geometry.weights)
+        params = jnp.asarray(self.material_parameters)
+        energy_law = self.law
+
+        def deformation_gradients(x):
+            return jnp.einsum("eki,eqkj->eqij", x[elements], gradients)
+
+        def energy(x):
+            return jnp.sum(weights * energy_law(deformation_gradients(x), params[:, None, :]))
+
+        def element_energy(xe, grad_e, w_e, p_e):
+            f = jnp.einsum("ki,qkj->qij", xe, grad_e)
+            return jnp.sum(w_e * energy_law(f, p_e[None, :]))
+
+        def element_hessians(x):
+            k = elements.shape[1]
+            h = jax.vmap(jax.hessian(element_energy))(x[elements], gradients, weights, params)
+            return h.reshape(-1, 3 * k, 3 * k)
+
+        def min_volume_ratio(x):
+            return jnp.min(jnp.linalg.det(deformation_gradients(x)))
+
+        def stresses(x):
+            f = deformation_gradients(x)
+            piola = jax.vmap(jax.vmap(jax.grad(lambda ff, p: energy_law(ff, p)), in_axes=(0, None)))(f, params)
+            j = jnp.linalg.det(f)
+            sigma = piola @ jnp.swapaxes(f, -1, -2) / j[..., None, None]
+            return jnp.einsum("eq,eqij->eij", weights, sigma) / jnp.sum(weights, axis=1)[:, None, None]
+
+        self._kernels.update(
+            energy=jax.jit(energy),
+            gradient=jax.jit(jax.grad(energy)),
+            hessians=jax.jit(element_hessians),
+            min_volume_ratio=jax.jit(min_volume_ratio),
+            stresses=jax.jit(stresses),
+        )
+        return self._kernels
+
+    def energy(self, x: np.ndarray) -> float:
+        """Total elastic energy E(x) (units of E_c R^3); NaN if an element is inverted."""
+        return float(self._compiled()["energy"](jnp.asarray(x)))
+
+    def internal_forces(self, x: np.ndarray) -> np.ndarray:
+        """dE/dx per node, (n_nodes, 3): minus the elastic force on each node (units of E_c R^2)."""
+        return np.asarray(self._compiled()["gradient"](jnp.asarray(x)))
+
+    def element_stiffness(self, x: np.ndarray) -> np.ndarray:
+        """Element Hessians d^2 E_e / dx_e^2, (n_elements, 3k, 3k), dof order (node, component)."""
+        return np.asarray(self._compiled()["hessians"](jnp.asarray(x)))
+
+    def min_volume_ratio(self, x: np.ndarray) -> float:
+        """Smallest J = det F over all quadrature points (<= 0 means an inverted element)."""
+        return float(self._compiled()["min_volume_ratio"](jnp.asarray(x)))
+
+    def element_cauchy_stress(self, x: np.ndarray) -> np.ndarray:
+        """Volume-averaged Cauchy stress per element, (n_elements, 3, 3), units of E_c."""
+        return np.asarray(self._compiled()["stresses"](jnp.asarray(x)))
+
+    @cached_property
+    def stiffness_pattern(self) -> StiffnessPattern:
+        return StiffnessPattern(self.mesh.elements, self.mesh.n_nodes)
+
+    def stiffness_matrix(self, x: np.ndarray):
+        """Global tangent stiffness K = d^2 E/dx^2 as a CSR matrix (constant sparsity pattern)."""
+        return self.stiffness_pattern.assemble(self.element_stiffness(x))
+
+    def summary(self) -> dict:
+        return {
+            "effective_stiffness_ratio": self.effective_stiffness_ratio,
+            "volume": self.volume,
+            "nucleus_volume": self.nucleus_volume,
+            "volume_exact": 4 / 3 * np.pi,
+            **self.mesh.counts(),
+        }
+
+
+class StiffnessPattern:
+    """CSR sparsity pattern of the global stiffness and the map from element-matrix entries into it."""
+
+    def __init__(self, elements: np.ndarray, n_nodes: int):
+        import scipy.sparse as sp
+
+        k = elements.shape[1]
+        dofs = (3 * elements[:, :, None] + np.arange(3)).reshape(len(elements), 3 * k)
+        rows = np.repeat(dofs, 3 * k, axis=1).ravel()
+        cols = np.tile(dofs, (1, 3 * k)).ravel()
+        n = 3 * n_nodes
+        keys = rows.astype(np.int64) * n + cols
+        unique_keys, self.entry_to_data = np.unique(keys, return_inverse=True)
+        self.rows = (unique_keys // n).astype(np.int64)
+        self.cols = (unique_keys % n).astype(np.int64)
+        self.shape = (n, n)
+        indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(np.bincount(self.rows, minlength=n), out=indptr[1:])
+        self._template = sp.csr_matrix((np.zeros(len(unique_keys)), self.cols, indptr), shape=self.shape)
+        self.diagonal_entries = np.flatnonzero(self.rows == self.cols)
+
+    @property
+    def nnz(self) -> int:
+        return len(self.rows)
+
+    def assemble(self, element_matrices: np.ndarray):
+        data = np.bincount(self.entry_to_data, weights=element_matrices.ravel(), minlength=self.nnz)
+        matrix = self._template.copy()
+        matrix.data = data
+        return matrix
+
+
+def element_stiffness_ratios(parameters: CellParameters, mesh: CellMesh) -> np.ndarray:
+    """gamma_e = E_e / E_c per element: 1 in the cytoplasm, gamma in the nucleus, U[1, 10] for the random cell."""
+    if parameters.random is not None:
+        rng = np.random.default_rng(parameters.random.seed)
+        return rng.uniform(parameters.random.low, parameters.random.high, mesh.n_elements)
+    ratios = np.ones(mesh.n_elements)
+    if parameters.nucleus.shape != "none":
+        ratios[mesh.region == NUCLEUS] = parameters.nucleus.stiffness_ratio
+    return ratios

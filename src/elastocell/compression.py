@@ -1,0 +1,255 @@
+"""Quasistatic compression of a cell between two rigid, frictionless, parallel plates (AFM-like).
+
+Geometry (units of R): the lower plate rests at z = -1, the upper plate at z = 1 - 2 delta, so that
+``delta = 1 - h/(2R)`` with h the gap. Every point of the curve is a static equilibrium: the elastic energy is
+minimised subject to the unilateral constraints ``-1 <= z_i <= 1 - 2 delta`` on every surface node (exact
+frictionless node-to-plate contact: the plates push only along z, tangential motion is free). This is a
+bound-constrained minimisation, solved by a projected Newton method (Bertsekas 1982): the active set is the
+set of surface nodes on a plate whose force pushes into it, Newton steps on the rest with the sparse
+stiffness, a projected Armijo line search on the energy. The contact force on a plate is the sum of the
+Lagrange multipliers, i.e. the internal forces of its active nodes, so ``F`` is exact at convergence.
+
+The frictionless plates leave x- and y-translation and rotation about z free, and for a cell symmetric about
+its centre (homogeneous, centred nucleus) rotating the *material* about any axis through the centre keeps the
+shape and the energy: three more (near-)null modes along which Newton drifts and the discrete answer wanders
+with the faceting. All are held: x, y of the node nearest the centre, x, y of a node on the z axis, y of a node
+on the x axis. Translations cost no force at equilibrium (internal forces sum to zero and the plates push
+only along z); the rotations cost none where the continuum problem is neutral or symmetric. The solver
+reports the largest pin reaction relative to the plate force (``max_rigid_reaction``) so that any force
+the pins add — e.g. a random cell that would tilt — is visible.
+
+Load steps: ``steps`` equal increments of delta (each an output row); a step whose Newton iteration fails is
+subdivided; the predictor extrapolates the previous increment. An element that would invert makes the energy
+undefined and the line search backs off; if no step size is left, :class:`CompressionError` says where.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .cell import Cell
+from .linalg import SparseSolver, constrain
+from .parameters import CompressionParameters
+
+
+import os
+DEBUG = bool(os.environ.get('ELASTOCELL_DEBUG'))
+MAX_NODE_STEP = 0.05  # largest nodal move of one Newton iteration (units of R)
+
+
+class CompressionError(RuntimeError):
+    """The load stepping could not reach the requested deformation."""
+
+
+@dataclass
+class CompressionResult:
+    """A force-deformation curve (dimensionless: lengths in R, forces in E_c R^2).
+
+    delta: deformation of each converged equilibrium, starting at 0.
+    force: F/(E_c R^2), the normal force on the upper plate.
+    force_lower: the normal force on the lower plate (equal and opposite at equilibrium).
+    positions: nodal positions at each row, (n_rows, n_nodes, 3).
+    """
+
+    delta: np.ndarray
+    force: np.ndarray
+    force_lower: np.ndarray
+    positions: np.ndarray
+    contact_nodes_upper: np.ndarray
+    newton_iterations: int
+    factorisations: int
+    analyses: int
+    substeps: int
+    max_rigid_reaction: float
+    wall_time: float
+    solver: str
+    history: list = field(default_factory=list)
+
+
+@dataclass
+class _Problem:
+    cell: Cell
+    surface_z: np.ndarray  # z dof indices of surface nodes
+    pinned: np.ndarray  # dof indices held to remove rigid modes
+    lower: np.ndarray
+    upper: np.ndarray
+
+    def set_delta(self, delta: float) -> None:
+        self.upper[self.surface_z] = 1.0 - 2.0 * delta
+
+    def project(self, x: np.ndarray) -> np.ndarray:
+        return np.clip(x, self.lower, self.upper)
+
+
+def _rigid_mode_pins(nodes: np.ndarray) -> np.ndarray:
+    """Dofs held to remove the modes the plates leave free: x, y of the node nearest the centre
+    (translation), x, y of a node on the z axis (rotation about x and y), y of a node on the x axis
+    (rotation about z)."""
+
+    def nearest(target, exclude):
+        distance = np.linalg.norm(nodes - np.asarray(target), axis=1)
+        distance[list(exclude)] = np.inf
+        return int(np.argmin(distance))
+
+    centre = nearest((0.0, 0.0, 0.0), [])
+    on_z = nearest((0.0, 0.0, 0.5), [centre])
+    on_x = nearest((0.5, 0.0, 0.0), [centre, on_z])
+    return np.array([3 * centre, 3 * centre + 1, 3 * on_z, 3 * on_z + 1, 3 * on_x + 1])
+
+
+def _setup(cell: Cell) -> _Problem:
+    nodes = cell.mesh.nodes
+    n_dof = 3 * len(nodes)
+    surface_z = 3 * cell.mesh.surface_nodes + 2
+    lower = np.full(n_dof, -np.inf)
+    upper = np.full(n_dof, np.inf)
+    lower[surface_z] = -1.0
+    upper[surface_z] = 1.0
+    return _Problem(cell, surface_z, _rigid_mode_pins(nodes), lower, upper)
+
+
+def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: CompressionParameters,
+            pattern) -> tuple[np.ndarray, int, bool, str]:
+    """Projected Newton on E(x) subject to the plate bounds. Returns (x, iterations, converged, reason)."""
+    cell = problem.cell
+    pinned = np.zeros(x.size, dtype=bool)
+    pinned[problem.pinned] = True
+    energy = cell.energy(x.reshape(-1, 3))
+    # round-off of the energy sum: changes below it cannot be resolved by the line search
+    noise = 1e-13 * float(np.sum(cell.element_volumes * cell.youngs_moduli))
+    if not np.isfinite(energy):
+        return x, 0, False, "inverted element in the predictor"
+    for iteration in range(1, parameters.max_newton_iterations + 1):
+        gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
+        at_lower = x <= problem.lower
+        at_upper = x >= problem.upper
+        active = (at_lower & (gradient > 0)) | (at_upper & (gradient < 0)) | pinned
+        residual = np.abs(gradient[~active]).max()
+        if DEBUG:
+            print(f"  it {iteration} residual {residual:.3e} dof {np.argmax(np.where(active, 0, np.abs(gradient)))} "
+                  f"active {active.sum()} energy {energy:.12e}")
+        if residual < parameters.tolerance:
+            return x, iteration - 1, True, ""
+        stiffness = cell.stiffness_pattern.assemble(cell.element_stiffness(x.reshape(-1, 3)))
+        rhs = np.where(active, 0.0, -gradient)
+        # Levenberg-Marquardt safeguard: where the stiffness is indefinite (a faceted surface touching a plate
+        # at a single node can lower its energy by tilting) raise the diagonal shift until the step descends.
+        # The same shift keeps the step inside a trust region of MAX_NODE_STEP per node (a near-singular mode
+        # would otherwise send the Newton step far away).
+        for shift in (1e-9, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 1e1, 1e2):
+            system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, active, shift)
+            direction = solver.solve(system, rhs)
+            if (np.all(np.isfinite(direction))
+                    and rhs @ direction > 1e-12 * np.linalg.norm(rhs) * np.linalg.norm(direction)
+                    and np.abs(direction).max() <= MAX_NODE_STEP):
+                break
+        if not np.all(np.isfinite(direction)) or rhs @ direction <= 0:
+            return x, iteration, False, "no descent direction"
+        largest = np.abs(direction).max()
+        if largest > MAX_NODE_STEP:
+            direction *= MAX_NODE_STEP / largest
+        # projected Armijo line search on the energy
+        step, accepted = 1.0, False
+        for _ in range(30):
+            trial = problem.project(x + step * direction)
+            trial_energy = cell.energy(trial.reshape(-1, 3))
+            if np.isfinite(trial_energy) and trial_energy <= energy + 1e-4 * gradient @ (trial - x) + noise:
+                accepted = True
+                break
+            step *= 0.5
+        if not accepted:
+            return x, iteration, False, "line search failed (an element would invert)"
+        if DEBUG:
+            print(f"     shift {shift:g} step {step:g} max|d| {largest:.3e} clipped {(trial != x + step * direction).sum()}")
+        x, energy = trial, trial_energy
+    return x, parameters.max_newton_iterations, False, f"no convergence in {parameters.max_newton_iterations} iterations"
+
+
+def plate_forces(problem: _Problem, x: np.ndarray) -> tuple[float, float, int, float]:
+    """(F_upper, F_lower, n_upper_contacts, max rigid-pin reaction) from the converged multipliers."""
+    gradient = problem.cell.internal_forces(x.reshape(-1, 3)).ravel()
+    z = problem.surface_z
+    on_upper = z[x[z] >= problem.upper[z]]
+    on_lower = z[x[z] <= problem.lower[z]]
+    force_upper = float(-gradient[on_upper][gradient[on_upper] < 0].sum())
+    force_lower = float(gradient[on_lower][gradient[on_lower] > 0].sum())
+    return force_upper, force_lower, int((gradient[on_upper] < 0).sum()), float(np.abs(gradient[problem.pinned]).max())
+
+
+def compress(cell: Cell, parameters: CompressionParameters | None = None, solver: str = "auto",
+             progress: Callable[[float], None] | None = None) -> CompressionResult:
+    """Force-deformation curve of ``cell`` from delta = 0 to ``parameters.delta_max``."""
+    parameters = parameters or CompressionParameters()
+    start = time.perf_counter()
+    problem = _setup(cell)
+    pattern = cell.stiffness_pattern
+    linear_solver = SparseSolver(solver)
+    x = cell.mesh.nodes.ravel().copy()
+    x_previous, delta_previous = None, None
+    targets = np.linspace(0.0, parameters.delta_max, parameters.steps + 1)
+    rows_delta, rows_force, rows_lower, rows_positions, rows_contacts = [0.0], [0.0], [0.0], [x.copy()], [0]
+    iterations_total, substeps, max_reaction = 0, 0, 0.0
+    history: list = []
+    delta = 0.0
+    try:
+        for target in targets[1:]:
+            increment = target - delta
+            while delta < target - 1e-14:
+                trial_delta = min(target, delta + increment)
+                if x_previous is None:  # first step: shift down by half the gap change
+                    guess = x.copy()
+                    guess[2::3] -= (trial_delta - delta)
+                else:  # secant extrapolation of the last increment
+                    guess = x + (x - x_previous) * (trial_delta - delta) / (delta - delta_previous)
+                problem.set_delta(trial_delta)
+                guess = problem.project(guess)
+                solution, iterations, converged, reason = _newton(problem, guess, linear_solver, parameters, pattern)
+                iterations_total += iterations
+                history.append((trial_delta, iterations, reason))
+                if not converged:
+                    increment /= 2
+                    substeps += 1
+                    if increment < 1e-6:
+                        problem.set_delta(delta)
+                        raise CompressionError(
+                            f"compression stopped at delta={delta:.4f} (target {trial_delta:.4f}): {reason}; "
+                            f"try a finer mesh (mesh_size/pole_size) or more steps"
+                        )
+                    continue
+                x_previous, delta_previous = x, delta
+                x, delta = solution, trial_delta
+            force_upper, force_lower, contacts, reaction = plate_forces(problem, x)
+            max_reaction = max(max_reaction, reaction)
+            rows_delta.append(delta)
+            rows_force.append(force_upper)
+            rows_lower.append(force_lower)
+            rows_positions.append(x.copy())
+            rows_contacts.append(contacts)
+            if progress is not None:
+                progress(delta)
+    finally:
+        linear_solver.close()
+    return CompressionResult(
+        delta=np.array(rows_delta),
+        force=np.array(rows_force),
+        force_lower=np.array(rows_lower),
+        positions=np.array(rows_positions).reshape(len(rows_delta), -1, 3),
+        contact_nodes_upper=np.array(rows_contacts),
+        newton_iterations=iterations_total,
+        factorisations=linear_solver.factorisations,
+        analyses=linear_solver.analyses,
+        substeps=substeps,
+        max_rigid_reaction=max_reaction,
+        wall_time=time.perf_counter() - start,
+        solver=linear_solver.backend,
+        history=history,
+    )
+
+
+def hertz_force(delta, poisson_ratio: float = 0.48):
+    """Hertz's two-contact small-deformation limit F/(E R^2) = 4/(3(1-nu^2)) delta^(3/2)."""
+    return 4.0 / (3.0 * (1.0 - poisson_ratio**2)) * np.asarray(delta) ** 1.5
