@@ -26,6 +26,20 @@ import jax  # noqa: E402  (after materials, which sets x64)
 import jax.numpy as jnp  # noqa: E402
 
 
+def _enable_compilation_cache() -> None:
+    """Reuse compiled kernels across runs (JAX's persistent cache, beside the mesh cache)."""
+    from .mesh import cache_directory
+
+    try:
+        jax.config.update("jax_compilation_cache_dir", str(cache_directory() / "jax"))
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+    except Exception:  # pragma: no cover - older JAX
+        pass
+
+
+_enable_compilation_cache()
+
+
 @dataclass(frozen=True, eq=False)
 class Cell:
     """An elastic body ready for any scenario.
@@ -101,14 +115,14 @@ class Cell:
         def energy(x):
             return jnp.sum(weights * energy_law(deformation_gradients(x), params[:, None, :]))
 
-        def element_energy(xe, grad_e, w_e, p_e):
-            f = jnp.einsum("ki,qkj->qij", xe, grad_e)
-            return jnp.sum(w_e * energy_law(f, p_e[None, :]))
-
         def element_hessians(x):
+            # material tangent d2W/dF2 per quadrature point by autodiff, contracted with dN/dX:
+            # K_e[a i, b k] = sum_q w_q G_qaj C_qijkl G_qbl
+            f = deformation_gradients(x)
+            tangent = jax.vmap(jax.vmap(jax.hessian(lambda ff, p: energy_law(ff, p)), in_axes=(0, None)))(f, params)
+            half = jnp.einsum("eqijkl,eqbl->eqijkb", tangent * weights[:, :, None, None, None, None], gradients)
             k = elements.shape[1]
-            h = jax.vmap(jax.hessian(element_energy))(x[elements], gradients, weights, params)
-            return h.reshape(-1, 3 * k, 3 * k)
+            return jnp.einsum("eqaj,eqijkb->eaibk", gradients, half).reshape(-1, 3 * k, 3 * k)
 
         def min_volume_ratio(x):
             return jnp.min(jnp.linalg.det(deformation_gradients(x)))

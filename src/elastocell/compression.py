@@ -38,6 +38,7 @@ from .parameters import CompressionParameters
 
 import os
 DEBUG = bool(os.environ.get('ELASTOCELL_DEBUG'))
+MIN_SHIFT, MAX_SHIFT = 1e-10, 1e3  # Levenberg-Marquardt diagonal shift relative to the mean diagonal
 MAX_NODE_STEP = 0.05  # largest nodal move of one Newton iteration (units of R)
 
 
@@ -123,6 +124,7 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
     noise = 1e-13 * float(np.sum(cell.element_volumes * cell.youngs_moduli))
     if not np.isfinite(energy):
         return x, 0, False, "inverted element in the predictor"
+    shift = MIN_SHIFT
     for iteration in range(1, parameters.max_newton_iterations + 1):
         gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
         at_lower = x <= problem.lower
@@ -138,17 +140,20 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
         rhs = np.where(active, 0.0, -gradient)
         # Levenberg-Marquardt safeguard: where the stiffness is indefinite (a faceted surface touching a plate
         # at a single node can lower its energy by tilting) raise the diagonal shift until the step descends.
-        # The same shift keeps the step inside a trust region of MAX_NODE_STEP per node (a near-singular mode
-        # would otherwise send the Newton step far away).
-        for shift in (1e-9, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 1e1, 1e2):
+        # Levenberg-Marquardt safeguard: where the stiffness restricted to the free dofs is indefinite (far
+        # from equilibrium, or a faceted surface touching a plate at one node), shift its diagonal until the
+        # factorisation has no negative eigenvalue (or, without inertia, until the step descends).
+        shift = max(MIN_SHIFT, shift / 100)  # adapt from the last accepted shift (cheaper than a fixed ladder)
+        while True:
             system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, active, shift)
-            direction = solver.solve(system, rhs)
-            if (np.all(np.isfinite(direction))
-                    and rhs @ direction > 1e-12 * np.linalg.norm(rhs) * np.linalg.norm(direction)
-                    and np.abs(direction).max() <= MAX_NODE_STEP):
-                break
-        if not np.all(np.isfinite(direction)) or rhs @ direction <= 0:
-            return x, iteration, False, "no descent direction"
+            negative = solver.factorize(system)
+            if not negative:
+                direction = solver.solve(rhs)
+                if np.all(np.isfinite(direction)) and rhs @ direction > 0:
+                    break
+            shift *= 100
+            if shift > MAX_SHIFT:
+                return x, iteration, False, "no descent direction"
         largest = np.abs(direction).max()
         if largest > MAX_NODE_STEP:
             direction *= MAX_NODE_STEP / largest
@@ -164,7 +169,7 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
         if not accepted:
             return x, iteration, False, "line search failed (an element would invert)"
         if DEBUG:
-            print(f"     shift {shift:g} step {step:g} max|d| {largest:.3e} clipped {(trial != x + step * direction).sum()}")
+            print(f"     shift {shift:g} negative {negative} step {step:g} max|d| {largest:.3e} clipped {(trial != x + step * direction).sum()}")
         x, energy = trial, trial_energy
     return x, parameters.max_newton_iterations, False, f"no convergence in {parameters.max_newton_iterations} iterations"
 

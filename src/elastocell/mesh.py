@@ -22,7 +22,7 @@ import numpy as np
 from .parameters import CellParameters, MeshParameters, NucleusParameters
 
 CYTOPLASM, NUCLEUS = 0, 1
-MESH_FORMAT_VERSION = 3
+MESH_FORMAT_VERSION = 6
 
 # Edges of a tetrahedron in VTK order (local corner indices) and gmsh's order for TET10.
 TET10_EDGES = np.array([(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)])
@@ -143,6 +143,7 @@ def build_mesh(cell: CellParameters, use_cache: bool = True) -> CellMesh:
         except (OSError, ValueError, KeyError):
             pass
     mesh = _generate(nucleus, cell.mesh)
+    _check_valid(mesh, cell.mesh)
     if use_cache:
         temporary = path.with_suffix(f".{os.getpid()}.tmp.npz")
         np.savez(temporary, **mesh.__dict__)
@@ -181,6 +182,7 @@ def _generate(nucleus: NucleusParameters, parameters: MeshParameters) -> CellMes
             _set_size_field(parameters)
             gmsh.model.mesh.generate(3)
             if parameters.element == "p2":
+                # curved boundary and interface; untangle curved elements that would be invalid
                 gmsh.model.mesh.setOrder(2)
             element_type = 4 if parameters.element == "p1" else 11
 
@@ -209,9 +211,23 @@ def _generate(nucleus: NucleusParameters, parameters: MeshParameters) -> CellMes
     nodes = coordinates[lookup[used]]
     elements = inverse.reshape(elements_tags.shape).astype(np.int64)
     elements = _orient_positive(nodes, elements)
+    if elements.shape[1] == 10:
+        nodes = _straighten_invalid(nodes, elements)
     surface_faces, surface_nodes = _outer_surface(elements)
     return CellMesh(nodes=nodes, elements=elements, region=region, surface_nodes=surface_nodes,
                     surface_faces=surface_faces)
+
+
+def _check_valid(mesh: CellMesh, parameters: MeshParameters) -> None:
+    from .elements import reference_element
+    from .parameters import ParameterError
+
+    try:
+        reference_element(mesh.order).geometry(mesh.nodes, mesh.elements)
+    except ValueError as error:
+        raise ParameterError(
+            "mesh_size", f"mesh too coarse for the geometry ({error}); use a smaller mesh_size than {parameters.mesh_size}"
+        ) from None
 
 
 def _set_size_field(parameters: MeshParameters) -> None:
@@ -231,6 +247,29 @@ def _set_size_field(parameters: MeshParameters) -> None:
     tag = field.add("MathEval")
     field.setString(tag, "F", expression)
     field.setAsBackgroundMesh(tag)
+
+
+def _straighten_invalid(nodes: np.ndarray, elements: np.ndarray, sweeps: int = 5) -> np.ndarray:
+    """Move the edge nodes of curved 10-node elements whose Jacobian is not positive everywhere back to the
+    straight midpoints (a coarse element with two faces on a curved surface can fold when curved). The
+    boundary is then locally straight there; every other element keeps its exact curved geometry."""
+    from .elements import _local_gradients, reference_element
+
+    check_points = np.vstack([
+        np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, 0, 0], [0.5, 0.5, 0], [0, 0.5, 0],
+                  [0, 0, 0.5], [0.5, 0, 0.5], [0, 0.5, 0.5]], dtype=float),
+        reference_element(2).points,
+    ])
+    gradients = _local_gradients(2, check_points)
+    nodes = nodes.copy()
+    for _ in range(sweeps):
+        jacobian = np.einsum("eki,qkj->eqij", nodes[elements], gradients)
+        invalid = (np.linalg.det(jacobian) <= 0).any(axis=1)
+        if not invalid.any():
+            break
+        bad = elements[invalid]
+        nodes[bad[:, 4:]] = 0.5 * (nodes[bad[:, TET10_EDGES[:, 0]]] + nodes[bad[:, TET10_EDGES[:, 1]]])
+    return nodes
 
 
 def _orient_positive(nodes: np.ndarray, elements: np.ndarray) -> np.ndarray:

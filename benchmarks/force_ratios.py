@@ -1,0 +1,66 @@
+"""Force of a nucleus cell over the force of its homogeneous equivalent (same mesh), at delta = 0.1, 0.3,
+0.5, 0.7, for stiffness ratios 2, 10, 20 (size ratio 0.5), with quadratic (default) and linear elements.
+
+    python benchmarks/force_ratios.py [--element p2 p1] [--steps 40] [--out results/force_ratios.csv]
+
+Prints a table; the ratios are measurements, not assumptions (the paper claims they are close to 1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from elastocell import cell_parameters
+from elastocell.cell import Cell
+from elastocell.compression import CompressionError, compress
+from elastocell.parameters import CompressionParameters
+
+DELTAS = (0.1, 0.3, 0.5, 0.7)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--element", nargs="+", default=["p2", "p1"])
+    parser.add_argument("--stiffness-ratio", nargs="+", type=float, default=[2.0, 10.0, 20.0])
+    parser.add_argument("--steps", type=int, default=40)
+    parser.add_argument("--delta-max", type=float, default=0.75)
+    parser.add_argument("--mesh-size", type=float, default=None)
+    parser.add_argument("--pole-size", type=float, default=None)
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args()
+    rows = []
+    print(f"{'element':>7} {'gamma':>6} {'gamma_eff':>9} {'nodes':>6} " + " ".join(f"F/Feq@{d:<4}" for d in DELTAS) + "  seconds")
+    for element in args.element:
+        for gamma in args.stiffness_ratio:
+            start = time.perf_counter()
+            cell = Cell.from_parameters(cell_parameters(stiffness_ratio=gamma, element=element,
+                                                        mesh_size=args.mesh_size, pole_size=args.pole_size))
+            params = CompressionParameters(delta_max=args.delta_max, steps=args.steps)
+            ratios, note = [], ""
+            try:
+                nucleus = compress(cell, params)
+                equivalent = compress(cell.equivalent(), params)
+                for d in DELTAS:
+                    f_n = np.interp(d, nucleus.delta, nucleus.force, right=np.nan)
+                    f_e = np.interp(d, equivalent.delta, equivalent.force, right=np.nan)
+                    ratios.append(f_n / f_e)
+            except CompressionError as error:
+                note = str(error)
+                ratios = [np.nan] * len(DELTAS)
+            seconds = time.perf_counter() - start
+            rows.append((element, gamma, cell.effective_stiffness_ratio, cell.mesh.n_nodes, *ratios, seconds))
+            print(f"{element:>7} {gamma:>6g} {cell.effective_stiffness_ratio:>9.4f} {cell.mesh.n_nodes:>6} "
+                  + " ".join(f"{r:>10.4f}" for r in ratios) + f"  {seconds:7.1f} {note}", flush=True)
+    if args.out:
+        header = "element,stiffness_ratio,effective_stiffness_ratio,n_nodes," + ",".join(f"ratio_{d}" for d in DELTAS) + ",seconds"
+        with open(args.out, "w") as handle:
+            handle.write(header + "\n")
+            for row in rows:
+                handle.write(",".join(str(v) for v in row) + "\n")
+
+
+if __name__ == "__main__":
+    main()

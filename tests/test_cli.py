@@ -1,0 +1,68 @@
+"""The command-line contract: names, files, columns, and one-line errors (exit code 2) before any meshing."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from elastocell.cli import app
+
+runner = CliRunner()
+
+
+@pytest.mark.parametrize("arguments,parameter", [
+    (["--size-ratio", "1.2"], "--size-ratio"),
+    (["--size-ratio", "0.6", "--offset", "0.45"], "--offset"),
+    (["--poisson-ratio", "0.5"], "--poisson-ratio"),
+    (["--youngs-modulus", "-1kPa"], "--youngs-modulus"),
+    (["--stiffness-ratio", "0"], "--stiffness-ratio"),
+    (["--nucleus", "ellipsoid", "--semi-axes", "0.9", "0.5", "0.5", "--offset", "0.2"], "--semi-axes"),
+    (["--delta-max", "1.0"], "--delta-max"),
+    (["--material", "rubber"], "--material"),
+    (["--element", "p3"], "--element"),
+    (["--radius", "8 parsecs/s"], "--radius"),
+])
+def test_impossible_input_is_one_line_exit_2(tmp_path, arguments, parameter):
+    result = runner.invoke(app, ["compress", "--out", str(tmp_path / "x"), *arguments])
+    assert result.exit_code == 2
+    lines = [line for line in result.output.strip().splitlines() if line]
+    assert len(lines) == 1 and parameter in lines[0] and "Traceback" not in result.output
+    assert not (tmp_path / "x").exists()  # refused before any work
+
+
+def test_equivalent_json_reports_effective_stiffness_ratio():
+    result = runner.invoke(app, ["equivalent", "--stiffness-ratio", "10", "--mesh-size", "0.35", "--json"])
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.output)
+    assert payload["effective_stiffness_ratio"] == pytest.approx(2.125, rel=5e-3)
+    assert payload["n_nodes"] > 0 and payload["volume"] == pytest.approx(4 / 3 * np.pi, rel=1e-3)
+
+
+def test_compress_writes_the_contract_files(tmp_path):
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["compress", "--out", str(out), "--delta-max", "0.1", "--steps", "2",
+                                 "--mesh-size", "0.5", "--pole-size", "0.2", "--radius", "8um",
+                                 "--youngs-modulus", "1kPa", "--compare", "--quiet"])
+    assert result.exit_code == 0, result.output
+    header = (out / "compression.csv").read_text().splitlines()[0]
+    assert header == "delta,force,force_per_Ec_R2,force_per_Eeff_R2"
+    table = np.genfromtxt(out / "compression.csv", delimiter=",", names=True)
+    assert table["delta"][0] == 0 and len(table) == 3
+    np.testing.assert_allclose(table["force"], table["force_per_Ec_R2"] * 1e3 * (8e-6) ** 2, rtol=1e-9)
+    metadata = json.loads((out / "metadata.json").read_text())
+    for key in ("effective_stiffness_ratio", "element_order", "mesh", "software", "wall_time_s", "cell"):
+        assert key in metadata
+    assert metadata["units"]["force"] == "N"
+    assert (out / "compression.png").stat().st_size > 1000
+    assert (out / "vtk" / "compression.pvd").exists() and len(list((out / "vtk").glob("*.vtu"))) == 3
+    assert (out / "equivalent" / "compression.csv").exists() and (out / "comparison.png").exists()
+    ratio = np.genfromtxt(out / "comparison.csv", delimiter=",", names=True)["force_ratio"]
+    assert np.all(np.isfinite(ratio[1:]))
+
+
+def test_module_entry_point_help():
+    completed = subprocess.run([sys.executable, "-m", "elastocell", "--help"], capture_output=True, text=True)
+    assert completed.returncode == 0 and "compress" in completed.stdout

@@ -1,0 +1,106 @@
+"""Plate compression checks (DESIGN.md section 4, item 3).
+
+References: Hertz's two-contact limit F/(E R^2) = 4/(3(1-nu^2)) delta^(3/2); equilibrium (equal and opposite
+plate forces); force-free rigid-mode pins; mesh refinement. Tolerances are the discretisation errors measured
+on these coarse test meshes (see the comments), not the accuracy of the default mesh (benchmarks/)."""
+
+import numpy as np
+import pytest
+
+from elastocell import cell_parameters
+from elastocell.cell import Cell
+from elastocell.compression import CompressionError, compress, hertz_force
+from elastocell.parameters import CompressionParameters
+
+
+def curve(delta_max, steps, **options):
+    cell = Cell.from_parameters(cell_parameters(**options))
+    return cell, compress(cell, CompressionParameters(delta_max=delta_max, steps=steps))
+
+
+@pytest.fixture(scope="module")
+def homogeneous_small_delta():
+    return curve(0.06, 6, nucleus="none", mesh_size=0.4, pole_size=0.04)
+
+
+def test_stiffness_matches_finite_difference_of_forces():
+    cell = Cell.from_parameters(cell_parameters(mesh_size=0.5, pole_size=0.5, stiffness_ratio=5))
+    rng = np.random.default_rng(0)
+    x = cell.mesh.nodes + 0.01 * rng.standard_normal(cell.mesh.nodes.shape)
+    v = rng.standard_normal(x.size)
+    h = 1e-6
+    fd = (cell.internal_forces((x.ravel() + h * v).reshape(-1, 3))
+          - cell.internal_forces((x.ravel() - h * v).reshape(-1, 3))).ravel() / (2 * h)
+    k = cell.stiffness_matrix(x)
+    assert np.abs(k @ v - fd).max() < 1e-6 * np.abs(fd).max()  # central-difference error ~h^2
+    assert abs(k - k.T).max() < 1e-12
+
+
+def test_plate_forces_equal_and_opposite_and_pins_force_free(homogeneous_small_delta):
+    _, result = homogeneous_small_delta
+    np.testing.assert_allclose(result.force_lower, result.force, rtol=1e-6, atol=1e-9)
+    assert result.delta[0] == 0 and result.force[0] == 0
+    assert np.all(np.diff(result.force) > 0)
+    # homogeneous sphere: the rigid-mode pins carry (almost) nothing compared with the plate force
+    assert result.max_rigid_reaction < 0.01 * result.force[-1]
+
+
+def test_hertz_limit_at_small_deformation(homogeneous_small_delta):
+    """F/(E R^2 delta^1.5) -> 4/(3(1-nu^2)) = 1.7325 as delta -> 0.
+
+    Measured refinement study at delta = 0.02 (ratio to Hertz): 1.097 (2,060 nodes, pole size 0.04),
+    1.072 (5,319 nodes), 1.064 (6,390 nodes, pole size 0.025): the excess is mostly the discretisation of a
+    contact patch only a few elements wide, and it shrinks under refinement. On this test mesh the measured
+    ratio is 1.10-1.13 for delta = 0.02-0.06, hence the 14 % bound; the refinement direction is tested too."""
+    _, result = homogeneous_small_delta
+    ratio = result.force[2:] / hertz_force(result.delta[2:])
+    print("Hertz ratios", np.round(ratio, 4))
+    assert np.all(np.abs(ratio - 1) < 0.14)
+    _, coarser = curve(0.02, 1, nucleus="none", mesh_size=0.4, pole_size=0.07)
+    assert coarser.force[1] / hertz_force(0.02) > ratio[0] + 0.01
+
+
+def test_linear_elements_are_stiffer_than_quadratic():
+    """Volumetric locking of linear tetrahedra at nu = 0.48 (measured here: ~15-30 % stiffer at delta 0.1
+    on this coarse mesh)."""
+    _, p1 = curve(0.1, 2, nucleus="none", element="p1", mesh_size=0.3, pole_size=0.08)
+    _, p2 = curve(0.1, 2, nucleus="none", element="p2", mesh_size=0.3, pole_size=0.08)
+    assert p1.force[-1] > 1.05 * p2.force[-1]
+
+
+def test_refinement_changes_force_little_at_moderate_deformation():
+    """F(delta = 0.3), homogeneous cell, on unstructured p2 meshes of 800-5,000 nodes: measured 0.4198,
+    0.4181, 0.4159 (spread 0.9 %; the meshes are not nested, so the differences are not monotone). The test
+    compares the two coarser ones (measured 0.4 % apart) against that 1 % spread."""
+    forces = []
+    for mesh_size, pole_size in ((0.5, 0.2), (0.35, 0.1)):
+        _, result = curve(0.3, 4, nucleus="none", mesh_size=mesh_size, pole_size=pole_size)
+        forces.append(result.force[-1])
+    assert abs(forces[1] - forces[0]) / forces[1] < 0.01
+
+
+def test_stiffer_nucleus_needs_more_force_and_equivalent_is_homogeneous():
+    cell = Cell.from_parameters(cell_parameters(stiffness_ratio=10, mesh_size=0.4, pole_size=0.1))
+    params = CompressionParameters(delta_max=0.2, steps=4)
+    nucleus = compress(cell, params)
+    equivalent = compress(cell.equivalent(), params)
+    soft = compress(Cell(cell.parameters, cell.mesh, np.ones(cell.mesh.n_elements)), params)  # same mesh, E_c
+    assert nucleus.force[-1] > soft.force[-1]
+    assert equivalent.force[-1] > soft.force[-1]
+    # on the same mesh a homogeneous cell's force scales exactly with its modulus (the law is linear in E)
+    ratio = equivalent.force[1:] / soft.force[1:]
+    np.testing.assert_allclose(ratio, cell.effective_stiffness_ratio, rtol=1e-6)
+
+
+def test_offset_random_and_mooney_rivlin_cells_compress():
+    for options in (dict(offset=0.45, offset_axis="x"), dict(random=True, seed=1),
+                    dict(material="mooney-rivlin"), dict(nucleus="ellipsoid", nucleus_axis="z")):
+        _, result = curve(0.15, 3, mesh_size=0.4, pole_size=0.12, **options)
+        assert np.all(np.diff(result.force) > 0), options
+        np.testing.assert_allclose(result.force_lower, result.force, rtol=1e-5, atol=1e-8)
+
+
+def test_unreachable_deformation_is_reported():
+    cell = Cell.from_parameters(cell_parameters(nucleus="none", element="p1", mesh_size=0.6, pole_size=0.6))
+    with pytest.raises(CompressionError, match="delta="):
+        compress(cell, CompressionParameters(delta_max=0.95, steps=2, max_newton_iterations=3))

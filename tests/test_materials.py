@@ -1,0 +1,87 @@
+"""Material law checks (DESIGN.md section 4, item 1). References: closed forms; tolerances are round-off
+(1e-10) for closed forms and the O(h^2) central-difference error (~1e-7) for finite differences."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from elastocell.materials import bulk_modulus, first_piola_stress, law, shear_modulus
+
+NU = 0.48
+E = 1.0
+MU, KAPPA = shear_modulus(E, NU), bulk_modulus(E, NU)
+RNG = np.random.default_rng(1)
+F_RANDOM = np.eye(3) + 0.2 * RNG.standard_normal((3, 3))
+
+
+def neo_hookean_piola_closed_form(f, mu, kappa):
+    """P = mu J^(-2/3) (F - I1/3 F^-T) + kappa (J - 1) J F^-T."""
+    j = np.linalg.det(f)
+    f_inv_t = np.linalg.inv(f).T
+    i1 = np.trace(f.T @ f)
+    return mu * j ** (-2 / 3) * (f - i1 / 3 * f_inv_t) + kappa * (j - 1) * j * f_inv_t
+
+
+def test_neo_hookean_stress_matches_closed_form():
+    p = first_piola_stress(law("neo-hookean"), jnp.asarray(F_RANDOM), jnp.array([MU, KAPPA]))
+    np.testing.assert_allclose(np.asarray(p), neo_hookean_piola_closed_form(F_RANDOM, MU, KAPPA), rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("name,params", [("neo-hookean", [MU, KAPPA]), ("mooney-rivlin", [0.25 * MU, 0.75 * MU, KAPPA])])
+def test_stress_matches_finite_difference(name, params):
+    material, params = law(name), jnp.array(params)
+    p = np.asarray(first_piola_stress(material, jnp.asarray(F_RANDOM), params))
+    h = 1e-6
+    fd = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            dp, dm = F_RANDOM.copy(), F_RANDOM.copy()
+            dp[i, j] += h
+            dm[i, j] -= h
+            fd[i, j] = (float(material(jnp.asarray(dp), params)) - float(material(jnp.asarray(dm), params))) / (2 * h)
+    np.testing.assert_allclose(p, fd, rtol=1e-6, atol=1e-8)
+
+
+@pytest.mark.parametrize("name,params", [("neo-hookean", [MU, KAPPA]), ("mooney-rivlin", [0.25 * MU, 0.75 * MU, KAPPA])])
+def test_linearised_moduli_equal_E_and_nu(name, params):
+    """Small-strain tangent C = d2W/dF2 at F = I is isotropic with Lame mu and lambda of (E, nu)."""
+    material, params = law(name), jnp.array(params)
+    tangent = np.asarray(jax.hessian(lambda f: material(f, params))(jnp.eye(3)))
+    mu_lin = tangent[0, 1, 0, 1] / 2 + tangent[0, 1, 1, 0] / 2
+    lam = tangent[0, 0, 1, 1]
+    youngs = mu_lin * (3 * lam + 2 * mu_lin) / (lam + mu_lin)
+    poisson = lam / (2 * (lam + mu_lin))
+    assert youngs == pytest.approx(E, rel=1e-10)
+    assert poisson == pytest.approx(NU, rel=1e-10)
+
+
+@pytest.mark.parametrize("name,params", [("neo-hookean", [MU, KAPPA]), ("mooney-rivlin", [0.25 * MU, 0.75 * MU, KAPPA])])
+def test_simple_shear_cauchy_stress(name, params):
+    """Isochoric simple shear F = I + g e1 (x) e2: sigma_xy = (mu1 + mu2) g exactly for both laws."""
+    material, params = law(name), jnp.array(params)
+    for g in (0.1, 0.5, 1.0):
+        f = np.eye(3)
+        f[0, 1] = g
+        p = np.asarray(first_piola_stress(material, jnp.asarray(f), params))
+        sigma = p @ f.T / np.linalg.det(f)
+        assert sigma[0, 1] == pytest.approx(MU * g, rel=1e-10)
+
+
+def test_uniaxial_incompressible_limit_stress():
+    """Isochoric uniaxial stretch F = diag(s, s^-1/2, s^-1/2), neo-Hookean: sigma_xx - sigma_yy = mu (s^2 - 1/s)."""
+    material = law("neo-hookean")
+    for s in (0.6, 1.3, 2.0):
+        f = np.diag([s, s**-0.5, s**-0.5])
+        p = np.asarray(first_piola_stress(material, jnp.asarray(f), jnp.array([MU, KAPPA])))
+        sigma = p @ f.T
+        assert sigma[0, 0] - sigma[1, 1] == pytest.approx(MU * (s**2 - 1 / s), rel=1e-10)
+
+
+def test_zero_energy_and_stress_under_rotation():
+    q, _ = np.linalg.qr(RNG.standard_normal((3, 3)))
+    q *= np.sign(np.linalg.det(q))
+    for name, params in (("neo-hookean", [MU, KAPPA]), ("mooney-rivlin", [0.25 * MU, 0.75 * MU, KAPPA])):
+        material = law(name)
+        assert abs(float(material(jnp.asarray(q), jnp.array(params)))) < 1e-13
+        assert np.abs(np.asarray(first_piola_stress(material, jnp.asarray(q), jnp.array(params)))).max() < 1e-12
