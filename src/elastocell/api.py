@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from .cell import Cell
-from .compression import CompressionResult, compress as compress_cell
+from .compression import CompressionResult
+from .compression import compress as compress_cell
 from .io import Stopwatch, software_versions, write_json, write_table, write_vtk_series
 from .parameters import (
     CellParameters,
@@ -140,24 +141,23 @@ def _describe(cell: CellParameters) -> str:
     return text + ")"
 
 
-def _progress_bar(enabled: bool, description: str, total: float):
+def _progress_bar(enabled: bool):
+    """A rich progress bar (delta against delta_max) or nothing."""
     from contextlib import nullcontext
 
     if not enabled:
         return nullcontext(None)
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    progress = Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("delta {task.completed:.3f}"),
-                        TimeElapsedColumn(), TimeRemainingColumn(), transient=False)
-    return progress
+    return Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("delta {task.completed:.3f}"),
+                    TimeElapsedColumn(), TimeRemainingColumn())
 
 
 def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell: CellParameters, solver: str,
                    show_progress: bool, label: str) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     clock = Stopwatch()
-    bar = _progress_bar(show_progress, f"compress {label}", scenario.delta_max)
-    with bar as progress:
+    with _progress_bar(show_progress) as progress:
         if progress is not None:
             task = progress.add_task(f"compress {label}", total=scenario.delta_max)
             callback = lambda delta: progress.update(task, completed=delta)  # noqa: E731

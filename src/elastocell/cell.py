@@ -14,6 +14,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import cached_property
 
+import jax  # noqa: E402  (after materials, which sets x64)
+import jax.numpy as jnp  # noqa: E402
 import numpy as np
 
 from . import materials  # noqa: F401  (enables float64 in JAX before any array is made)
@@ -21,9 +23,6 @@ from .elements import ElementGeometry, reference_element
 from .materials import Law, law
 from .mesh import NUCLEUS, CellMesh, build_mesh
 from .parameters import CellParameters
-
-import jax  # noqa: E402  (after materials, which sets x64)
-import jax.numpy as jnp  # noqa: E402
 
 
 def _enable_compilation_cache() -> None:

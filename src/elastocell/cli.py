@@ -10,7 +10,6 @@ import json
 import sys
 from enum import Enum
 from pathlib import Path
-from typing import Optional
 
 import typer
 
@@ -107,7 +106,7 @@ def compress(
     nucleus: NucleusShape = NUCLEUS, stiffness_ratio: float = STIFFNESS, size_ratio: float = SIZE,
     offset: float = OFFSET, offset_axis: AxisName = OFFSET_AXIS, semi_axes: tuple[float, float, float] = SEMI_AXES,
     nucleus_axis: AxisName = NUCLEUS_AXIS, random: bool = RANDOM, seed: int = SEED,
-    mesh_size: Optional[float] = MESH_SIZE, pole_size: Optional[float] = POLE_SIZE,  # noqa: UP007
+    mesh_size: float | None = MESH_SIZE, pole_size: float | None = POLE_SIZE,  # noqa: UP007
     poisson_ratio: float = POISSON, youngs_modulus: str = MODULUS, radius: str = RADIUS,
     material: str = MATERIAL, element: str = ELEMENT,
     delta_max: float = typer.Option(0.75, "--delta-max", help="Final deformation in (0, 1)."),
@@ -144,7 +143,7 @@ def equivalent_command(
     nucleus: NucleusShape = NUCLEUS, stiffness_ratio: float = STIFFNESS, size_ratio: float = SIZE,
     offset: float = OFFSET, offset_axis: AxisName = OFFSET_AXIS, semi_axes: tuple[float, float, float] = SEMI_AXES,
     nucleus_axis: AxisName = NUCLEUS_AXIS, random: bool = RANDOM, seed: int = SEED,
-    mesh_size: Optional[float] = MESH_SIZE, pole_size: Optional[float] = POLE_SIZE,  # noqa: UP007
+    mesh_size: float | None = MESH_SIZE, pole_size: float | None = POLE_SIZE,  # noqa: UP007
     poisson_ratio: float = POISSON, youngs_modulus: str = MODULUS, radius: str = RADIUS,
     material: str = MATERIAL, element: str = ELEMENT,
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),

@@ -19,12 +19,13 @@ reports the largest pin reaction relative to the plate force (``max_rigid_reacti
 the pins add — e.g. a random cell that would tilt — is visible.
 
 Load steps: ``steps`` equal increments of delta (each an output row); a step whose Newton iteration fails is
-subdivided; the predictor extrapolates the previous increment. An element that would invert makes the energy
+subdivided; the predictor is the linearised response to the plate increment with the current contact set. An element that would invert makes the energy
 undefined and the line search backs off; if no step size is left, :class:`CompressionError` says where.
 """
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -35,8 +36,6 @@ from .cell import Cell
 from .linalg import SparseSolver, constrain
 from .parameters import CompressionParameters
 
-
-import os
 DEBUG = bool(os.environ.get('ELASTOCELL_DEBUG'))
 MIN_SHIFT, MAX_SHIFT = 1e-10, 1e3  # Levenberg-Marquardt diagonal shift relative to the mean diagonal
 MAX_NODE_STEP = 0.05  # largest nodal move of one Newton iteration (units of R)
@@ -124,7 +123,7 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
     noise = 1e-13 * float(np.sum(cell.element_volumes * cell.youngs_moduli))
     if not np.isfinite(energy):
         return x, 0, False, "inverted element in the predictor"
-    shift = MIN_SHIFT
+    shift = MIN_SHIFT * 1e4
     for iteration in range(1, parameters.max_newton_iterations + 1):
         gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
         at_lower = x <= problem.lower
@@ -143,13 +142,13 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
         # Levenberg-Marquardt safeguard: where the stiffness restricted to the free dofs is indefinite (far
         # from equilibrium, or a faceted surface touching a plate at one node), shift its diagonal until the
         # factorisation has no negative eigenvalue (or, without inertia, until the step descends).
-        shift = max(MIN_SHIFT, shift / 100)  # adapt from the last accepted shift (cheaper than a fixed ladder)
+        shift = max(MIN_SHIFT, shift * 1e-4)  # start near the last accepted shift
         while True:
             system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, active, shift)
             negative = solver.factorize(system)
             if not negative:
                 direction = solver.solve(rhs)
-                if np.all(np.isfinite(direction)) and rhs @ direction > 0:
+                if np.all(np.isfinite(direction)) and rhs @ direction > 1e-8 * np.linalg.norm(rhs) * np.linalg.norm(direction):
                     break
             shift *= 100
             if shift > MAX_SHIFT:
@@ -174,6 +173,25 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
     return x, parameters.max_newton_iterations, False, f"no convergence in {parameters.max_newton_iterations} iterations"
 
 
+def _tangent_predictor(problem: _Problem, x: np.ndarray, increment: float, solver: SparseSolver, pattern) -> np.ndarray:
+    """Linearised response to moving the upper plate by -2 increment with the current contact set held:
+    K_ff du_f = -K_fc du_c, du = -2 increment on upper contacts, 0 on lower contacts and pins."""
+    cell = problem.cell
+    gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
+    upper = (x >= problem.upper) & (gradient < 0)
+    lower = (x <= problem.lower) & (gradient > 0)
+    held = upper | lower
+    held[problem.pinned] = True
+    prescribed = np.where(upper, -2.0 * increment, 0.0)
+    stiffness = cell.stiffness_pattern.assemble(cell.element_stiffness(x.reshape(-1, 3)))
+    rhs = -(stiffness @ prescribed)
+    rhs[held] = 0.0
+    system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, held, MIN_SHIFT)
+    if solver.factorize(system):
+        return x + prescribed  # indefinite: fall back to moving only the contacts
+    return x + solver.solve(rhs) + prescribed
+
+
 def plate_forces(problem: _Problem, x: np.ndarray) -> tuple[float, float, int, float]:
     """(F_upper, F_lower, n_upper_contacts, max rigid-pin reaction) from the converged multipliers."""
     gradient = problem.cell.internal_forces(x.reshape(-1, 3)).ravel()
@@ -194,7 +212,6 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
     pattern = cell.stiffness_pattern
     linear_solver = SparseSolver(solver)
     x = cell.mesh.nodes.ravel().copy()
-    x_previous, delta_previous = None, None
     targets = np.linspace(0.0, parameters.delta_max, parameters.steps + 1)
     rows_delta, rows_force, rows_lower, rows_positions, rows_contacts = [0.0], [0.0], [0.0], [x.copy()], [0]
     iterations_total, substeps, max_reaction = 0, 0, 0.0
@@ -205,11 +222,11 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
             increment = target - delta
             while delta < target - 1e-14:
                 trial_delta = min(target, delta + increment)
-                if x_previous is None:  # first step: shift down by half the gap change
+                if delta == 0.0:  # first step: shift down by half the gap change
                     guess = x.copy()
                     guess[2::3] -= (trial_delta - delta)
-                else:  # secant extrapolation of the last increment
-                    guess = x + (x - x_previous) * (trial_delta - delta) / (delta - delta_previous)
+                else:  # linearised response with the current contact set
+                    guess = _tangent_predictor(problem, x, trial_delta - delta, linear_solver, pattern)
                 problem.set_delta(trial_delta)
                 guess = problem.project(guess)
                 solution, iterations, converged, reason = _newton(problem, guess, linear_solver, parameters, pattern)
@@ -225,7 +242,6 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
                             f"try a finer mesh (mesh_size/pole_size) or more steps"
                         )
                     continue
-                x_previous, delta_previous = x, delta
                 x, delta = solution, trial_delta
             force_upper, force_lower, contacts, reaction = plate_forces(problem, x)
             max_reaction = max(max_reaction, reaction)

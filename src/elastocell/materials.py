@@ -12,8 +12,8 @@ differentiation (JAX, float64). A new law is one new function plus its entry in 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import jax
 
@@ -96,13 +96,3 @@ def law(name: str) -> Law:
 def first_piola_stress(material: Law, deformation_gradient, params):
     """P = dW/dF (units of E)."""
     return jax.grad(lambda f: material(f, params))(deformation_gradient)
-
-
-def cauchy_stress(material: Law, deformation_gradient, params):
-    """sigma = P F^T / J for a batch of deformation gradients (..., 3, 3)."""
-    piola = jax.vmap(lambda f, p: first_piola_stress(material, f, p))(
-        deformation_gradient.reshape(-1, 3, 3), jnp.broadcast_to(params, deformation_gradient.shape[:-2] + params.shape[-1:]).reshape(-1, params.shape[-1])
-    )
-    cauchy = piola @ jnp.swapaxes(deformation_gradient.reshape(-1, 3, 3), -1, -2)
-    cauchy = cauchy / jnp.linalg.det(deformation_gradient.reshape(-1, 3, 3))[:, None, None]
-    return cauchy.reshape(deformation_gradient.shape)

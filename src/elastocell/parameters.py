@@ -297,11 +297,6 @@ class CellParameters(_Model):
         return self.youngs_modulus * self.radius**2
 
 
-def reference_cell(**changes) -> CellParameters:
-    """The paper's reference cell: spherical nucleus, stiffness ratio 2, size ratio 0.5, centred."""
-    return CellParameters(**changes)
-
-
 class CompressionParameters(_Model):
     """Quasistatic compression between two rigid frictionless plates (normal along z).
 

@@ -1,0 +1,112 @@
+"""Compression benchmark: accuracy and cost of a full curve against mesh size and element order, and the
+same problem solved by FElupe (a peer FE code, if installed) in the same run.
+
+    python benchmarks/compression.py [--cell homogeneous|reference] [--quick] [--no-peer]
+
+For each mesh: nodes, wall time of a full curve (0 -> 0.75, 40 steps; meshes and compiled code cached, i.e.
+a warm-up run first), Newton iterations, factorisations, and F at delta = 0.1, 0.3, 0.5, 0.7 with its error
+against the finest p2 mesh (the mesh-converged reference; its own error is estimated from the next-finest).
+Prints a table; timings are measurements of this machine, never asserted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from elastocell import cell_parameters
+from elastocell.cell import Cell
+from elastocell.compression import compress
+from elastocell.parameters import CompressionParameters
+
+DELTAS = np.array([0.1, 0.3, 0.5, 0.7])
+MESHES = [  # (element, mesh_size, pole_size)
+    ("p1", 0.2, 0.05),
+    ("p1", 0.12, 0.03),
+    ("p2", 0.5, 0.15),
+    ("p2", 0.35, 0.1),
+    ("p2", 0.3, 0.07),
+    ("p2", 0.2, 0.05),
+    ("p2", 0.15, 0.035),
+]
+QUICK_MESHES = [("p1", 0.3, 0.08), ("p2", 0.5, 0.15), ("p2", 0.35, 0.1), ("p2", 0.25, 0.06)]
+
+
+def run(element: str, mesh_size: float, pole_size: float, cell_kind: str, steps: int) -> dict:
+    options = dict(element=element, mesh_size=mesh_size, pole_size=pole_size)
+    if cell_kind == "homogeneous":
+        options["nucleus"] = "none"
+    cell = Cell.from_parameters(cell_parameters(**options))
+    params = CompressionParameters(delta_max=0.75, steps=steps)
+    compress(cell, CompressionParameters(delta_max=0.02, steps=1))  # compile (cached afterwards)
+    start = time.perf_counter()
+    result = compress(cell, params)
+    seconds = time.perf_counter() - start
+    return {
+        "element": element, "mesh_size": mesh_size, "pole_size": pole_size, "nodes": cell.mesh.n_nodes,
+        "seconds": seconds, "newton": result.newton_iterations, "factorisations": result.factorisations,
+        "force": np.interp(DELTAS, result.delta, result.force), "curve": (result.delta, result.force),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--cell", choices=["homogeneous", "reference"], default="homogeneous")
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--no-peer", action="store_true")
+    parser.add_argument("--steps", type=int, default=40)
+    args = parser.parse_args()
+    meshes = QUICK_MESHES if args.quick else MESHES
+    rows = []
+    for element, mesh_size, pole_size in meshes:
+        row = run(element, mesh_size, pole_size, args.cell, args.steps)
+        rows.append(row)
+        print(f"  done {element} h={mesh_size} hp={pole_size}: {row['nodes']} nodes, {row['seconds']:.1f} s", flush=True)
+    quadratic = [r for r in rows if r["element"] == "p2"]
+    reference = max(quadratic, key=lambda r: r["nodes"])
+    second = sorted(quadratic, key=lambda r: r["nodes"])[-2]
+    ref_error = np.abs(second["force"] / reference["force"] - 1)
+    print(f"\nCompression benchmark, {args.cell} cell, {args.steps} steps to delta 0.75")
+    print(f"reference: p2 {reference['nodes']} nodes; its next-finest differs by "
+          + ", ".join(f"{e:.2%}" for e in ref_error) + " at delta " + ", ".join(f"{d:g}" for d in DELTAS))
+    header = f"{'element':>7} {'h':>5} {'h_pole':>6} {'nodes':>6} {'time_s':>7} {'newton':>6} {'factor':>6} " + " ".join(
+        f"err@{d:<4g}" for d in DELTAS)
+    print(header)
+    for r in rows:
+        errors = r["force"] / reference["force"] - 1
+        print(f"{r['element']:>7} {r['mesh_size']:>5g} {r['pole_size']:>6g} {r['nodes']:>6} {r['seconds']:>7.1f} "
+              f"{r['newton']:>6} {r['factorisations']:>6} " + " ".join(f"{e:>+8.2%}" for e in errors))
+    if args.no_peer or args.cell != "homogeneous":
+        return
+    try:
+        from felupe_peer import felupe_compression_curve
+    except Exception as error:  # pragma: no cover - optional peer
+        print(f"FElupe peer skipped: {error}")
+        return
+    print("\nFElupe (same problem: full ball, quadratic tets, rigid-plate contact, PARDISO)")
+    print(f"{'h':>5} {'h_pole':>6} {'nodes':>6} {'time_s':>7} " + " ".join(f"err@{d:<4g}" for d in DELTAS))
+    peer_rows = []
+    for _, mesh_size, pole_size in [m for m in meshes if m[0] == "p2"][:-1]:
+        try:
+            peer = felupe_compression_curve(mesh_size, pole_size, delta_max=0.75, n_steps=args.steps)
+        except Exception as error:  # pragma: no cover
+            print(f"{mesh_size:>5g} {pole_size:>6g} failed: {error}")
+            continue
+        force = np.interp(DELTAS, peer["delta"], peer["force_per_E_R2"], right=np.nan)
+        errors = force / reference["force"] - 1
+        peer_rows.append((peer["wall_time_s"], np.nanmax(np.abs(errors))))
+        print(f"{mesh_size:>5g} {pole_size:>6g} {peer['n_nodes']:>6} {peer['wall_time_s']:>7.1f} "
+              + " ".join(f"{e:>+8.2%}" for e in errors), flush=True)
+    ours = [(r["seconds"], np.max(np.abs(r["force"] / reference["force"] - 1))) for r in quadratic if r is not reference]
+    if peer_rows and ours:
+        print("\nTime at equal accuracy (max error over the four deltas), elastocell vs FElupe:")
+        for target in (0.03, 0.02, 0.01):
+            t_ours = min((t for t, e in ours if e <= target), default=np.nan)
+            t_peer = min((t for t, e in peer_rows if e <= target), default=np.nan)
+            print(f"  error <= {target:.0%}: elastocell {t_ours:.1f} s, FElupe {t_peer:.1f} s, ratio {t_peer / t_ours:.2f}")
+
+
+if __name__ == "__main__":
+    main()
