@@ -55,13 +55,11 @@ def cell_parameters(
     modulus_value, modulus_physical = parse_quantity(youngs_modulus, "Pa", "youngs_modulus")
     if random:
         nucleus = "none"
-    mesh_defaults = MeshParameters(element=element)
-    mesh = MeshParameters(
-        element=element,
-        mesh_size=mesh_defaults.mesh_size if mesh_size is None else mesh_size,
-        pole_size=(None if mesh_size is not None and pole_size is None and mesh_size < mesh_defaults.pole_size
-                   else (mesh_defaults.pole_size if pole_size is None else pole_size)),
-    )
+    defaults = MeshParameters.default_for(element) if element in ("p1", "p2") else MeshParameters()
+    mesh_size = defaults.mesh_size if mesh_size is None else mesh_size
+    if pole_size is None:  # keep the default pole refinement unless the bulk size is already finer
+        pole_size = defaults.pole_size if defaults.pole_size < mesh_size else None
+    mesh = MeshParameters(element=element, mesh_size=mesh_size, pole_size=pole_size)
     return CellParameters(
         nucleus=NucleusParameters(
             shape=nucleus, stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, offset=offset,

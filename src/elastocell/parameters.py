@@ -233,6 +233,12 @@ class MeshParameters(_Model):
     pole_size: float | None = 0.1
     pole_radius: float = 0.9
 
+    @classmethod
+    def default_for(cls, element: str) -> MeshParameters:
+        """Default sizes per element order: p2 (1,663 nodes for the reference cell) and p1 (3,861 nodes;
+        linear tetrahedra need a finer mesh and still lock, see the benchmarks)."""
+        return cls(**DEFAULT_MESH_SIZES.get(element, {}), element=element)
+
     @field_validator("element", mode="before")
     @classmethod
     def _element(cls, value):
@@ -251,6 +257,9 @@ class MeshParameters(_Model):
             )
         _require(0 < self.pole_radius <= 2, "pole_radius", f"must be in (0, 2], got {self.pole_radius}")
         return self
+
+
+DEFAULT_MESH_SIZES = {"p2": {"mesh_size": 0.35, "pole_size": 0.1}, "p1": {"mesh_size": 0.12, "pole_size": 0.04}}
 
 
 class CellParameters(_Model):

@@ -28,7 +28,7 @@ from .stability import (
     check_stability,
     mach_number,
 )
-from .stencil import OPPOSITE, Q, SOUND_SPEED_SQUARED, VELOCITIES, WEIGHTS
+from .stencil import OPPOSITE, SOUND_SPEED_SQUARED, VELOCITIES, WEIGHTS, Q
 
 __all__ = [
     "DEFAULT_MAGIC",

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .stencil import Q, VELOCITIES
+from .stencil import VELOCITIES, Q
 
 
 @dataclass(frozen=True)

@@ -14,13 +14,27 @@ compile-time-constant offsets ``row * BLOCK``: LLVM then knows exactly how rows 
 spaced, proves the collision loops free of aliasing and vectorises them (no runtime
 alias checks, no divisions but one reciprocal per node, no branches inside).
 
+Details that were measured to matter (2-core AVX-512 machine, float32, 128^3):
+
+* ``error_model="numpy"``: with Python's error model the reciprocal 1/rho carries a
+  ZeroDivisionError branch and the moment loop stays scalar (~2x slower step);
+* z indices go through ``U`` (uint64) where LLVM cannot prove them non-negative;
+  Numba's negative-index wrap-around otherwise turns contiguous copies into
+  gathers/scatters (copy loops 3-4x slower);
+* the block buffer is 64-byte aligned and offset against 4K aliasing with the rows
+  of A (``_block_buffer``; the odd step ~1.5x faster);
+* shifted (c_z = +-1) copies run over whole rows and fix the periodic seam value
+  afterwards instead of running n - 1 iterations, so LLVM's wide vector loop covers
+  them (odd step at 64^3 ~1.3x faster). The one out-of-row read lands in the
+  neighbouring row or in the margin the solver leaves around the storage.
+
 Streaming: the in-place AA pattern
 ----------------------------------
 (Bailey et al. 2009) -- one array, no second lattice:
 
-* even step (``_step_even``): at node x read ``f_i = A[x, i]``, collide, write the
+* even step (``MODE_EVEN``): at node x read ``f_i = A[x, i]``, collide, write the
   post-collision ``f*_i`` to ``A[x, opp(i)]`` (purely local);
-* odd step (``_step_odd``): read ``f_i = A[x - c_i, opp(i)]`` (the post-collision value
+* odd step (``MODE_ODD``): read ``f_i = A[x - c_i, opp(i)]`` (the post-collision value
   the neighbour stored in reversed order), collide, write ``f*_i`` to
   ``A[x + c_i, i]``. After an odd step the array is back in natural order,
   ``A[x, i] = f_i(x)`` (pre-collision, streamed).
@@ -98,6 +112,16 @@ U = np.uint64
 wrap-around select for unsigned indices, which otherwise turns the contiguous copy
 loops into gathers/scatters."""
 
+# Visiting order of the 19 rows in the odd-step gather / scatter: sorted by the address
+# of the row touched, (x -+ c_x, y -+ c_y, row), so each neighbour line is read or
+# written in ascending memory order (friendlier to the hardware prefetchers).
+GATHER_ORDER = np.array(
+    sorted(range(19), key=lambda i: (-VELOCITIES[i, 0], -VELOCITIES[i, 1], OPPOSITE[i])), dtype=np.int64
+)
+SCATTER_ORDER = np.array(
+    sorted(range(19), key=lambda i: (VELOCITIES[i, 0], VELOCITIES[i, 1], i)), dtype=np.int64
+)
+
 
 def make_consts(omega_plus, omega_minus, body_force, dtype):
     """Pack the scalar constants of the kernels into an array of the storage dtype."""
@@ -146,25 +170,17 @@ def _load_force(buf, force, has_field, x, y, z0, nb, consts):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def _collide_block(buf, nb, weights, cvel, consts):
-    """TRT/BGK collision with Guo forcing of the nb nodes held in buf, in place.
+def _moments_block(buf, nb, consts):
+    """Moments of the nb nodes held in buf (rows 0..18: f~_i; R_FX..R_FZ: force F).
 
-    buf rows 0..18 hold f~_i = f_i - w_i (pre-collision on entry, post-collision on
-    exit); rows R_FX..R_FZ must hold the force density F.
+    Writes rho - 1, rho, u = (sum c_i f_i + F/2)/rho, 3/2 u.u and 3 u.F to the
+    scratch rows R_DRHO .. R_UF.
     """
     half = consts[K_HALF]
     one = consts[K_ONE]
     three = consts[K_THREE]
-    nine_halves = consts[K_NINE_HALVES]
     three_halves = consts[K_THREE_HALVES]
-    nine = consts[K_NINE]
-    omega_p = consts[K_OMEGA_PLUS]
-    omega_m = consts[K_OMEGA_MINUS]
-    source_p = consts[K_SOURCE_PLUS]
-    source_m = consts[K_SOURCE_MINUS]
     B = BLOCK
-
-    # 1) moments: density and the half-force corrected velocity
     for k in range(nb):
         f0 = buf[0 * B + k]
         f1 = buf[1 * B + k]
@@ -185,8 +201,18 @@ def _collide_block(buf, nb, weights, cvel, consts):
         f16 = buf[16 * B + k]
         f17 = buf[17 * B + k]
         f18 = buf[18 * B + k]
-        drho = (f0 + (f1 + f2) + (f3 + f4) + (f5 + f6) + (f7 + f8) + (f9 + f10)
-                + (f11 + f12) + (f13 + f14) + (f15 + f16) + (f17 + f18))
+        drho = (
+            f0
+            + (f1 + f2)
+            + (f3 + f4)
+            + (f5 + f6)
+            + (f7 + f8)
+            + (f9 + f10)
+            + (f11 + f12)
+            + (f13 + f14)
+            + (f15 + f16)
+            + (f17 + f18)
+        )
         # momentum sum_i c_i f_i, grouped by opposite pairs (i, i+1); see stencil.py
         jx = (f1 - f2) + (f7 - f8) + (f9 - f10) + (f11 - f12) + (f13 - f14)
         jy = (f3 - f4) + (f7 - f8) - (f9 - f10) + (f15 - f16) + (f17 - f18)
@@ -206,6 +232,27 @@ def _collide_block(buf, nb, weights, cvel, consts):
         buf[R_UZ * B + k] = uz
         buf[R_USQ * B + k] = three_halves * (ux * ux + uy * uy + uz * uz)
         buf[R_UF * B + k] = three * (ux * fx + uy * fy + uz * fz)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _collide_block(buf, nb, weights, cvel, consts):
+    """TRT/BGK collision with Guo forcing of the nb nodes held in buf, in place.
+
+    buf rows 0..18 hold f~_i = f_i - w_i (pre-collision on entry, post-collision on
+    exit); rows R_FX..R_FZ must hold the force density F.
+    """
+    half = consts[K_HALF]
+    three = consts[K_THREE]
+    nine_halves = consts[K_NINE_HALVES]
+    nine = consts[K_NINE]
+    omega_p = consts[K_OMEGA_PLUS]
+    omega_m = consts[K_OMEGA_MINUS]
+    source_p = consts[K_SOURCE_PLUS]
+    source_m = consts[K_SOURCE_MINUS]
+    B = BLOCK
+
+    # 1) moments: density and the half-force corrected velocity
+    _moments_block(buf, nb, consts)
 
     # 2) rest population (symmetric part only)
     w0 = weights[0]
@@ -263,14 +310,16 @@ def _scatter_local(A, buf, x, y, z0, nb, line, run_ptr, run_lo, run_hi, opp):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def _gather_neighbours(A, buf, x, y, z0, nb, nz, line, has_walls, wall_corr,
-                       link_ptr, link_z, link_q, cint, opp):
+def _gather_neighbours(
+    A, buf, x, y, z0, nb, nz, line, has_walls, wall_corr, link_ptr, link_z, link_q, cint, opp
+):
     """Odd step: pull f_i(x) = A[x - c_i, opp(i)] (periodic) for the block, then replace
     pulls out of a y-wall or a solid node by the bounce-back value A[x, i] + wall_corr."""
     nx = A.shape[0]
     ny = A.shape[1]
     z1 = z0 + nb
-    for i in range(19):
+    for n in range(19):
+        i = GATHER_ORDER[n]
         xs = x - cint[i, 0]
         if xs < 0:
             xs += nx
@@ -284,23 +333,23 @@ def _gather_neighbours(A, buf, x, y, z0, nb, nz, line, has_walls, wall_corr,
         j = opp[i]
         base = i * BLOCK - z0  # buf index of node z is base + z
         cz = cint[i, 2]
+        # Full-length copies (nb values, so LLVM's wide vector loop covers them); at the
+        # periodic z seam one value is read from just outside the row (valid memory:
+        # the neighbouring row or the margin around the storage, see ``solver``) and
+        # then overwritten with the periodic image.
         if cz == 0:
             for z in range(z0, z1):
                 buf[U(base + z)] = A[xs, ys, j, U(z)]
         elif cz == 1:  # comes from z - 1
-            start = z0
+            for z in range(z0, z1):
+                buf[U(base + z)] = A[xs, ys, j, U(z - 1)]
             if z0 == 0:
                 buf[U(base)] = A[xs, ys, j, U(nz - 1)]
-                start = 1
-            for z in range(start, z1):
-                buf[U(base + z)] = A[xs, ys, j, U(z - 1)]
         else:  # comes from z + 1
-            stop = z1
+            for z in range(z0, z1):
+                buf[U(base + z)] = A[xs, ys, j, U(z + 1)]
             if z1 == nz:
                 buf[U(base + nz - 1)] = A[xs, ys, j, U(0)]
-                stop = nz - 1
-            for z in range(z0, stop):
-                buf[U(base + z)] = A[xs, ys, j, U(z + 1)]
     if has_walls and (y == 0 or y == ny - 1):
         for i in range(19):
             cy = cint[i, 1]
@@ -317,14 +366,33 @@ def _gather_neighbours(A, buf, x, y, z0, nb, nz, line, has_walls, wall_corr,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def _scatter_neighbours(A, buf, x, y, z0, nb, nz, line, run_ptr, run_lo, run_hi, has_walls,
-                        wall_corr, link_ptr, link_z, link_q, cint, opp):
+def _scatter_neighbours(
+    A,
+    buf,
+    x,
+    y,
+    z0,
+    nb,
+    nz,
+    line,
+    run_ptr,
+    run_lo,
+    run_hi,
+    has_walls,
+    wall_corr,
+    link_ptr,
+    link_z,
+    link_q,
+    cint,
+    opp,
+):
     """Odd step: push A[x + c_i, i] = f*_i from the fluid nodes of the block; links into a
     y-wall or a solid node bounce back into A[x, opp(i)] (+ moving-wall term)."""
     nx = A.shape[0]
     ny = A.shape[1]
     z1 = z0 + nb
-    for i in range(19):
+    for n in range(19):
+        i = SCATTER_ORDER[n]
         cy = cint[i, 1]
         base = i * BLOCK - z0
         if has_walls and ((y == 0 and cy == -1) or (y == ny - 1 and cy == 1)):
@@ -353,6 +421,18 @@ def _scatter_neighbours(A, buf, x, y, z0, nb, nz, line, run_ptr, run_lo, run_hi,
             if cz == 0:
                 for z in range(lo, hi):
                     A[xd, yd, i, U(z)] = buf[U(base + z)]
+            elif lo == 0 and hi == nz:
+                # whole periodic line in this block: full-length shifted copy whose one
+                # out-of-row read (buffer margin / next buffer row) lands on the seam
+                # value, which is then overwritten with its periodic image
+                if cz == 1:
+                    for z in range(nz):
+                        A[xd, yd, i, U(z)] = buf[U(base + z - 1)]
+                    A[xd, yd, i, U(0)] = buf[U(base + nz - 1)]
+                else:
+                    for z in range(nz):
+                        A[xd, yd, i, U(z)] = buf[U(base + z + 1)]
+                    A[xd, yd, i, U(nz - 1)] = buf[U(base)]
             elif cz == 1:  # goes to z + 1
                 stop = hi
                 if hi == nz:
@@ -374,82 +454,213 @@ def _scatter_neighbours(A, buf, x, y, z0, nb, nz, line, run_ptr, run_lo, run_hi,
             A[x, y, opp[i], U(z)] = buf[U(i * BLOCK + z - z0)]
 
 
-# --------------------------------------------------------------------------- full steps
-@njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
-def _step_even(A, nz, force, has_field, run_ptr, run_lo, run_hi, consts, weights, cvel, opp):
-    """AA even step: local collision, f*_i written to A[x, opp(i)]."""
-    nx = A.shape[0]
-    ny = A.shape[1]
-    for x in prange(nx):
-        buf = np.empty(BUFFER_LENGTH, dtype=A.dtype)
-        for y in range(ny):
-            line = x * ny + y
-            if run_ptr[line + 1] == run_ptr[line]:
-                continue  # all solid
-            for z0 in range(0, nz, BLOCK):
-                nb = min(BLOCK, nz - z0)
-                _gather_local(A, buf, x, y, z0, nb)
-                _load_force(buf, force, has_field, x, y, z0, nb, consts)
-                _collide_block(buf, nb, weights, cvel, consts)
-                _scatter_local(A, buf, x, y, z0, nb, line, run_ptr, run_lo, run_hi, opp)
-
-
-@njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
-def _step_odd(A, nz, force, has_field, run_ptr, run_lo, run_hi, has_walls, wall_corr,
-              link_ptr, link_z, link_q, consts, weights, cvel, cint, opp):
-    """AA odd step: gather from the neighbours, collide, scatter back (natural order)."""
-    nx = A.shape[0]
-    ny = A.shape[1]
-    for x in prange(nx):
-        buf = np.empty(BUFFER_LENGTH, dtype=A.dtype)
-        for y in range(ny):
-            line = x * ny + y
-            if run_ptr[line + 1] == run_ptr[line]:
-                continue  # all solid
-            for z0 in range(0, nz, BLOCK):
-                nb = min(BLOCK, nz - z0)
-                _gather_neighbours(A, buf, x, y, z0, nb, nz, line, has_walls, wall_corr,
-                                   link_ptr, link_z, link_q, cint, opp)
-                _load_force(buf, force, has_field, x, y, z0, nb, consts)
-                _collide_block(buf, nb, weights, cvel, consts)
-                _scatter_neighbours(A, buf, x, y, z0, nb, nz, line, run_ptr, run_lo, run_hi,
-                                    has_walls, wall_corr, link_ptr, link_z, link_q, cint, opp)
+# --------------------------------------------------------------------------- block buffer
+@njit(cache=True, error_model="numpy")
+def _gcd(a, b):
+    while b:
+        a, b = b, a % b
+    return a
 
 
 @njit(cache=True, error_model="numpy")
-def run_steps(A, n_steps, parity, nz, force, has_field, run_ptr, run_lo, run_hi, has_walls,
-              wall_corr, link_ptr, link_z, link_q, consts, weights, cvel, cint, opp):
+def _block_buffer(A):
+    """A per-thread block buffer (BUFFER_LENGTH values), cache-line aligned and placed
+    against 4K aliasing.
+
+    The copy loops load from rows of A and store to rows of the buffer (or the
+    reverse). A buffer that is not 64-byte aligned splits every vector access over two
+    cache lines (measured: the whole step ~1.4x slower); a load that shares its low 12
+    address bits with an earlier store is held back by the CPU (4K aliasing; measured
+    up to 3-6x slower copies for short rows). Rows of A sit at multiples of ``g`` bytes
+    modulo 4096 and so do the buffer rows, so the buffer is placed half a period (g/2,
+    a multiple of 64 bytes) away from every row of A."""
+    itemsize = A.itemsize
+    g = _gcd(_gcd(A.shape[3] * itemsize, 4096), BLOCK * itemsize)
+    margin = 64 // itemsize  # valid memory before the buffer (seam reads)
+    big = np.empty(BUFFER_LENGTH + 4096 // itemsize + 2 * margin, dtype=A.dtype)
+    shift = g // 2 if g >= 128 else 0  # keep the buffer 64-byte aligned
+    target = (A.ctypes.data + shift) % g
+    offset = (target - (big.ctypes.data + 64) % g) % g
+    start = margin + offset // itemsize
+    return big[start : start + BUFFER_LENGTH]
+
+
+# --------------------------------------------------------------------------- full sweeps
+MODE_EVEN = 0  # AA even step: local collision, f*_i written to A[x, opp(i)]
+MODE_ODD = 1  # AA odd step: gather from neighbours, collide, scatter back (natural order)
+MODE_EXPORT_EVEN = 2  # copy natural-order populations to ``out`` (A after an odd step)
+MODE_EXPORT_ODD = 3  # stream the pending post-collision values into ``out`` (A after an even step)
+MODE_MOMENTS_EVEN = 4  # out[0] = rho - 1, out[1:4] = u, A in natural order
+MODE_MOMENTS_ODD = 5  # the same, A after an even step (pending streaming done on the fly)
+
+
+@njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
+def _sweep(
+    A,
+    mode,
+    nz,
+    force,
+    has_field,
+    run_ptr,
+    run_lo,
+    run_hi,
+    has_walls,
+    wall_corr,
+    link_ptr,
+    link_z,
+    link_q,
+    consts,
+    weights,
+    cvel,
+    cint,
+    opp,
+    out,
+):
+    """One parallel pass over the lattice, by x-planes and z-blocks (see MODE_*).
+
+    A single compiled function serves both AA steps and the exports (populations or
+    moments) so that Numba compiles (and caches) one parallel region per dtype."""
+    nx = A.shape[0]
+    ny = A.shape[1]
+    local = mode == MODE_EVEN or mode == MODE_EXPORT_EVEN or mode == MODE_MOMENTS_EVEN
+    export = mode >= MODE_EXPORT_EVEN
+    moments = mode >= MODE_MOMENTS_EVEN
+    for x in prange(nx):
+        buf = _block_buffer(A)
+        for y in range(ny):
+            line = x * ny + y
+            if not export and run_ptr[line + 1] == run_ptr[line]:
+                continue  # all solid: nothing to update
+            for z0 in range(0, nz, BLOCK):
+                nb = min(BLOCK, nz - z0)
+                if local:
+                    _gather_local(A, buf, x, y, z0, nb)
+                else:
+                    _gather_neighbours(
+                        A,
+                        buf,
+                        x,
+                        y,
+                        z0,
+                        nb,
+                        nz,
+                        line,
+                        has_walls,
+                        wall_corr,
+                        link_ptr,
+                        link_z,
+                        link_q,
+                        cint,
+                        opp,
+                    )
+                if moments:
+                    _load_force(buf, force, has_field, x, y, z0, nb, consts)
+                    _moments_block(buf, nb, consts)
+                    for k in range(nb):
+                        out[0, x, y, U(z0 + k)] = buf[R_DRHO * BLOCK + k]
+                        out[1, x, y, U(z0 + k)] = buf[R_UX * BLOCK + k]
+                        out[2, x, y, U(z0 + k)] = buf[R_UY * BLOCK + k]
+                        out[3, x, y, U(z0 + k)] = buf[R_UZ * BLOCK + k]
+                    continue
+                if export:
+                    for i in range(19):
+                        for k in range(nb):
+                            out[i, x, y, U(z0 + k)] = buf[i * BLOCK + k]
+                    continue
+                _load_force(buf, force, has_field, x, y, z0, nb, consts)
+                _collide_block(buf, nb, weights, cvel, consts)
+                if local:
+                    _scatter_local(A, buf, x, y, z0, nb, line, run_ptr, run_lo, run_hi, opp)
+                else:
+                    _scatter_neighbours(
+                        A,
+                        buf,
+                        x,
+                        y,
+                        z0,
+                        nb,
+                        nz,
+                        line,
+                        run_ptr,
+                        run_lo,
+                        run_hi,
+                        has_walls,
+                        wall_corr,
+                        link_ptr,
+                        link_z,
+                        link_q,
+                        cint,
+                        opp,
+                    )
+
+
+@njit(cache=True, error_model="numpy")
+def run_steps(
+    A,
+    n_steps,
+    parity,
+    nz,
+    force,
+    has_field,
+    run_ptr,
+    run_lo,
+    run_hi,
+    has_walls,
+    wall_corr,
+    link_ptr,
+    link_z,
+    link_q,
+    consts,
+    weights,
+    cvel,
+    cint,
+    opp,
+    out,
+):
     """Advance n_steps time steps inside compiled code; returns the new AA parity
-    (0: A in natural order, 1: A holds post-collision values in reversed order)."""
+    (0: A in natural order, 1: A holds post-collision values in reversed order).
+    ``out`` is unused here (any (19, 1, 1, 1) array of the storage dtype)."""
     for _ in range(n_steps):
-        if parity == 0:
-            _step_even(A, nz, force, has_field, run_ptr, run_lo, run_hi, consts, weights, cvel, opp)
-            parity = 1
-        else:
-            _step_odd(A, nz, force, has_field, run_ptr, run_lo, run_hi, has_walls, wall_corr,
-                      link_ptr, link_z, link_q, consts, weights, cvel, cint, opp)
-            parity = 0
+        _sweep(
+            A,
+            parity,
+            nz,
+            force,
+            has_field,
+            run_ptr,
+            run_lo,
+            run_hi,
+            has_walls,
+            wall_corr,
+            link_ptr,
+            link_z,
+            link_q,
+            consts,
+            weights,
+            cvel,
+            cint,
+            opp,
+            out,
+        )
+        parity = 1 - parity
     return parity
 
 
-@njit(parallel=True, cache=True, error_model="numpy")
-def natural_populations(A, parity, nz, has_walls, wall_corr, link_ptr, link_z, link_q, cint, opp, out):
+def moments(A, parity, nz, force, has_field, tables, out):
+    """Write rho - 1 to out[0] and u = (sum c_i f_i + F/2)/rho to out[1:4] (out: (4, nx, ny, nz)),
+    from the pre-collision populations, in the storage dtype.
+
+    tables = (run_ptr, run_lo, run_hi, has_walls, wall_corr, link_ptr, link_z, link_q,
+    consts, weights, cvel, cint, opp), as for ``run_steps``."""
+    mode = MODE_MOMENTS_ODD if parity else MODE_MOMENTS_EVEN
+    _sweep(A, mode, nz, force, has_field, *tables, out)
+
+
+def natural_populations(A, parity, nz, tables, out):
     """Write the pre-collision populations f~_i(x) in natural order into out (19, nx, ny, nz).
 
     For parity 1 this performs the pending streaming (with bounce-back) without
-    modifying A."""
-    nx = A.shape[0]
-    ny = A.shape[1]
-    for x in prange(nx):
-        buf = np.empty(BUFFER_LENGTH, dtype=A.dtype)
-        for y in range(ny):
-            for z0 in range(0, nz, BLOCK):
-                nb = min(BLOCK, nz - z0)
-                if parity == 0:
-                    _gather_local(A, buf, x, y, z0, nb)
-                else:
-                    _gather_neighbours(A, buf, x, y, z0, nb, nz, x * ny + y, has_walls, wall_corr,
-                                       link_ptr, link_z, link_q, cint, opp)
-                for i in range(19):
-                    for k in range(nb):
-                        out[i, x, y, U(z0 + k)] = buf[i * BLOCK + k]
+    modifying A. ``tables`` as for :func:`moments`."""
+    mode = MODE_EXPORT_ODD if parity else MODE_EXPORT_EVEN
+    no_force = np.zeros((3, 1, 1, 1), dtype=A.dtype)
+    _sweep(A, mode, nz, no_force, False, *tables, out)

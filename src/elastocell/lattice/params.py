@@ -39,9 +39,7 @@ def _as_wall_vector(value, name: str) -> tuple[float, float, float]:
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be a finite scalar (x-velocity) or a 3-vector, got {value!r}")
     if arr[1] != 0.0:
-        raise ValueError(
-            f"{name} must be tangential to the y-walls (y-component 0), got {tuple(arr)}"
-        )
+        raise ValueError(f"{name} must be tangential to the y-walls (y-component 0), got {tuple(arr)}")
     return (float(arr[0]), float(arr[1]), float(arr[2]))
 
 
@@ -95,13 +93,12 @@ class LatticeParams:
         set_ = object.__setattr__
         # --- shape
         try:
-            shape = tuple(int(n) for n in self.shape)
-        except TypeError as exc:
-            raise ValueError(f"shape must be three positive integers (nx, ny, nz), got {self.shape!r}") from exc
-        if len(shape) != 3 or any(n < 1 for n in shape) or any(
-            int(n) != n for n in np.asarray(self.shape, dtype=float)
-        ):
+            ok = len(self.shape) == 3 and all(float(n) == int(n) and int(n) >= 1 for n in self.shape)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
             raise ValueError(f"shape must be three positive integers (nx, ny, nz), got {self.shape!r}")
+        shape = tuple(int(n) for n in self.shape)
         set_(self, "shape", shape)
         # --- velocity guard
         limit = float(self.velocity_limit)
@@ -112,7 +109,9 @@ class LatticeParams:
         set_(self, "velocity_limit", limit)
         # --- relaxation time / viscosity
         if (self.relaxation_time is None) == (self.kinematic_viscosity is None):
-            raise ValueError("give exactly one of relaxation_time (tau > 0.5) and kinematic_viscosity (nu > 0)")
+            raise ValueError(
+                "give exactly one of relaxation_time (tau > 0.5) and kinematic_viscosity (nu > 0)"
+            )
         if self.relaxation_time is not None:
             tau = float(self.relaxation_time)
             if not (math.isfinite(tau) and tau > 0.5):
@@ -151,9 +150,11 @@ class LatticeParams:
                 raise ValueError(
                     f"wall_velocity must be None or a pair (bottom, top), got {self.wall_velocity!r}"
                 ) from exc
-            walls = (_as_wall_vector(bottom, "wall_velocity[0] (bottom)"),
-                     _as_wall_vector(top, "wall_velocity[1] (top)"))
-            for name, w in zip(("wall_velocity[0] (bottom)", "wall_velocity[1] (top)"), walls):
+            walls = (
+                _as_wall_vector(bottom, "wall_velocity[0] (bottom)"),
+                _as_wall_vector(top, "wall_velocity[1] (top)"),
+            )
+            for name, w in zip(("wall_velocity[0] (bottom)", "wall_velocity[1] (top)"), walls, strict=True):
                 speed = math.sqrt(sum(c * c for c in w))
                 if speed >= limit:
                     raise ValueError(

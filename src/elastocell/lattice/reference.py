@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .params import LatticeParams
-from .stencil import OPPOSITE, Q, SOUND_SPEED_SQUARED, VELOCITIES, WEIGHTS
+from .stencil import OPPOSITE, SOUND_SPEED_SQUARED, VELOCITIES, WEIGHTS, Q
 
 
 def _bcast(weights_like, ndim):
@@ -66,15 +66,21 @@ def reference_stream(f_post: np.ndarray, params: LatticeParams) -> np.ndarray:
         for i in range(Q):
             ci = VELOCITIES[i].astype(np.float64)
             if VELOCITIES[i, 1] == 1:  # leaves the bottom wall into y = 0
-                f_new[i][:, 0, :] = f_post[OPPOSITE[i]][:, 0, :] + 2 * WEIGHTS[i] * (ci @ bottom) / SOUND_SPEED_SQUARED
+                f_new[i][:, 0, :] = (
+                    f_post[OPPOSITE[i]][:, 0, :] + 2 * WEIGHTS[i] * (ci @ bottom) / SOUND_SPEED_SQUARED
+                )
             elif VELOCITIES[i, 1] == -1:  # leaves the top wall into y = ny - 1
-                f_new[i][:, ny - 1, :] = f_post[OPPOSITE[i]][:, ny - 1, :] + 2 * WEIGHTS[i] * (ci @ top) / SOUND_SPEED_SQUARED
+                f_new[i][:, ny - 1, :] = (
+                    f_post[OPPOSITE[i]][:, ny - 1, :] + 2 * WEIGHTS[i] * (ci @ top) / SOUND_SPEED_SQUARED
+                )
     if solid is not None:
         f_new[:, solid] = WEIGHTS[:, None]
     return f_new
 
 
-def reference_step(f: np.ndarray, params: LatticeParams, force_density: np.ndarray | None = None) -> np.ndarray:
+def reference_step(
+    f: np.ndarray, params: LatticeParams, force_density: np.ndarray | None = None
+) -> np.ndarray:
     """One time step (collide, then stream + bounce-back) of absolute populations f (float64).
 
     force_density : (3, nx, ny, nz) field added to ``params.body_force`` (or None).

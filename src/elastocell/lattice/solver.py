@@ -8,17 +8,18 @@ from . import kernels
 from .geometry import build_line_geometry
 from .params import LatticeParams
 from .stability import StabilityReport, check_stability
-from .stencil import Q, VELOCITIES, WEIGHTS
+from .stencil import VELOCITIES, WEIGHTS, Q
 
 _ALIGN_BYTES = 64
 
 
-def _aligned_zeros(shape, dtype, align=_ALIGN_BYTES):
-    """Zero array whose first element sits on an ``align``-byte boundary."""
+def _aligned_zeros(shape, dtype, align=_ALIGN_BYTES, margin=_ALIGN_BYTES):
+    """Zero array whose first element sits on an ``align``-byte boundary, with at least
+    ``margin`` bytes of valid memory before and after it (the kernels' seam reads)."""
     dtype = np.dtype(dtype)
     nbytes = int(np.prod(shape)) * dtype.itemsize
-    raw = np.zeros(nbytes + align, dtype=np.uint8)
-    offset = (-raw.ctypes.data) % align
+    raw = np.zeros(nbytes + align + 2 * margin, dtype=np.uint8)
+    offset = margin + (-(raw.ctypes.data + margin)) % align
     return raw[offset : offset + nbytes].view(dtype).reshape(shape)
 
 
@@ -90,7 +91,8 @@ class Lattice:
             for side, u_wall in enumerate(params.wall_velocity):
                 wall_corr[side] = 6.0 * WEIGHTS * (VELOCITIES @ np.asarray(u_wall))
         self._wall_corr = wall_corr.astype(self.dtype)
-        self._no_field = np.zeros((3, 1, 1, 1), dtype=self.dtype)
+        self._no_field = np.zeros((3, 1, 1, 1), dtype=self.dtype)  # placeholder: no force field
+        self._no_output = np.zeros((Q, 1, 1, 1), dtype=self.dtype)  # placeholder: no export
         self._force_field: np.ndarray | None = None
         self.initialize(density, velocity)
 
@@ -175,11 +177,7 @@ class Lattice:
         Solid nodes read as rest (0)."""
         nx, ny, nz = self.shape
         out = np.empty((Q, nx, ny, nz), dtype=self.dtype)
-        g = self._geometry
-        kernels.natural_populations(
-            self._storage, self._parity, nz, self.params.has_walls, self._wall_corr,
-            g.link_ptr, g.link_z, g.link_q, self._cint, self._opp, out,
-        )
+        kernels.natural_populations(self._storage, self._parity, nz, self._tables(), out)
         if self._solid is not None:
             out[:, self._solid] = 0
         return out
@@ -214,6 +212,21 @@ class Lattice:
             return g
         return g + self._force_field.astype(np.float64)
 
+    def _force_arguments(self) -> tuple[np.ndarray, bool]:
+        """(force field or placeholder, has_field) for the kernels."""
+        if self._force_field is None:
+            return self._no_field, False
+        return self._force_field, True
+
+    def _tables(self) -> tuple:
+        """Geometry and constant tables in the order the kernels take them."""
+        g = self._geometry
+        return (
+            g.run_ptr, g.run_lo, g.run_hi, self.params.has_walls, self._wall_corr,
+            g.link_ptr, g.link_z, g.link_q,
+            self._consts, self._weights, self._cvel, self._cint, self._opp,
+        )  # fmt: skip
+
     # ------------------------------------------------------------------ time stepping
     def step(self, n: int = 1) -> None:
         """Advance n time steps (one compiled call; stream + collide + force + bounce-back)."""
@@ -222,33 +235,43 @@ class Lattice:
         n = int(n)
         if n == 0:
             return
-        g = self._geometry
-        field = self._force_field
-        has_field = field is not None
         self._parity = kernels.run_steps(
-            self._storage, n, self._parity, self.shape[2],
-            field if has_field else self._no_field, has_field,
-            g.run_ptr, g.run_lo, g.run_hi, self.params.has_walls, self._wall_corr,
-            g.link_ptr, g.link_z, g.link_q,
-            self._consts, self._weights, self._cvel, self._cint, self._opp,
+            self._storage,
+            n,
+            self._parity,
+            self.shape[2],
+            *self._force_arguments(),
+            *self._tables(),
+            self._no_output,
         )
         self.time_step += n
 
     # ------------------------------------------------------------------ observables
+    def _moments(self) -> tuple[np.ndarray, np.ndarray]:
+        """(rho - 1, u) from one compiled pass, storage dtype, solid nodes not yet masked."""
+        nx, ny, nz = self.shape
+        out = np.empty((4, nx, ny, nz), dtype=self.dtype)
+        kernels.moments(self._storage, self._parity, nz, *self._force_arguments(), self._tables(), out)
+        return out[0], out[1:]
+
     def density(self) -> np.ndarray:
-        """rho = sum_i f_i (rho0 = 1), shape (nx, ny, nz), float64; solid nodes read 1."""
-        f = self.population_deviations()
-        return 1.0 + f.sum(axis=0, dtype=np.float64)
+        """rho = sum_i f_i (rho0 = 1), shape (nx, ny, nz), float64; solid nodes read 1.
+
+        Computed (compiled) as 1 + sum_i (f_i - w_i) in the storage precision."""
+        drho, _ = self._moments()
+        rho = 1.0 + drho.astype(np.float64)
+        if self._solid is not None:
+            rho[self._solid] = 1.0
+        return rho
 
     def velocity(self) -> np.ndarray:
         """u = (sum_i c_i f_i + F/2) / rho in dx/dt, shape (3, nx, ny, nz), float64.
 
-        The half-force term (Guo) uses the current force (body force + field).
-        Solid nodes read 0."""
-        f = self.population_deviations().astype(np.float64)
-        rho = 1.0 + f.sum(axis=0)
-        momentum = np.einsum("ia,i...->a...", VELOCITIES.astype(np.float64), f)
-        u = (momentum + 0.5 * self._total_force()) / rho
+        The half-force term (Guo) uses the current force (body force + field), i.e. the
+        force the next step will apply. Computed in the storage precision by one compiled
+        pass. Solid nodes read 0."""
+        _, u = self._moments()
+        u = u.astype(np.float64)
         if self._solid is not None:
             u[:, self._solid] = 0.0
         return u
@@ -273,4 +296,3 @@ class Lattice:
             f"dtype={p.dtype}, walls={p.has_walls}, solid_nodes="
             f"{0 if self._solid is None else int(self._solid.sum())}, time_step={self.time_step})"
         )
-
