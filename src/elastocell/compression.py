@@ -130,10 +130,12 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
         at_upper = x >= problem.upper
         active = (at_lower & (gradient > 0)) | (at_upper & (gradient < 0)) | pinned
         residual = np.abs(gradient[~active]).max()
+        # unbalanced force relative to the plate force (or to E_c R^2 before the plates carry any)
+        force_scale = max(1.0, float(np.abs(gradient[(at_lower | at_upper) & active]).sum()) / 2)
         if DEBUG:
             print(f"  it {iteration} residual {residual:.3e} dof {np.argmax(np.where(active, 0, np.abs(gradient)))} "
                   f"active {active.sum()} energy {energy:.12e}")
-        if residual < parameters.tolerance:
+        if residual < parameters.tolerance * force_scale:
             return x, iteration - 1, True, ""
         stiffness = cell.stiffness_pattern.assemble(cell.element_stiffness(x.reshape(-1, 3)))
         rhs = np.where(active, 0.0, -gradient)
@@ -143,16 +145,18 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
         # from equilibrium, or a faceted surface touching a plate at one node), shift its diagonal until the
         # factorisation has no negative eigenvalue (or, without inertia, until the step descends).
         shift = max(MIN_SHIFT, shift * 1e-4)  # start near the last accepted shift
-        while True:
-            system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, active, shift)
-            negative = solver.factorize(system)
-            if not negative:
-                direction = solver.solve(rhs)
-                if np.all(np.isfinite(direction)) and rhs @ direction > 1e-8 * np.linalg.norm(rhs) * np.linalg.norm(direction):
-                    break
-            shift *= 100
-            if shift > MAX_SHIFT:
+        for _ in range(4):
+            direction, shift = _shifted_newton_direction(solver, stiffness, pattern, active, rhs, shift)
+            if direction is None:
                 return x, iteration, False, "no descent direction"
+            # A node on a plate with a tensile force is free, but the coupled Newton step may still push it
+            # into the plate; the projection would then clip it at every iteration and stall the solver.
+            # Hold such nodes for this iteration and solve again.
+            blocked = ((at_lower & (direction < 0)) | (at_upper & (direction > 0))) & ~active
+            if not blocked.any():
+                break
+            active = active | blocked
+            rhs = np.where(active, 0.0, -gradient)
         largest = np.abs(direction).max()
         if largest > MAX_NODE_STEP:
             direction *= MAX_NODE_STEP / largest
@@ -168,9 +172,23 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
         if not accepted:
             return x, iteration, False, "line search failed (an element would invert)"
         if DEBUG:
-            print(f"     shift {shift:g} negative {negative} step {step:g} max|d| {largest:.3e} clipped {(trial != x + step * direction).sum()}")
+            print(f"     shift {shift:g} step {step:g} max|d| {largest:.3e} clipped {(trial != x + step * direction).sum()}")
         x, energy = trial, trial_energy
     return x, parameters.max_newton_iterations, False, f"no convergence in {parameters.max_newton_iterations} iterations"
+
+
+def _shifted_newton_direction(solver: SparseSolver, stiffness, pattern, active: np.ndarray, rhs: np.ndarray,
+                              shift: float):
+    """Newton direction with the smallest Levenberg-Marquardt shift (x100 ladder from ``shift``) for which the
+    factorised free-dof stiffness has no negative eigenvalue and the direction descends."""
+    while shift <= MAX_SHIFT:
+        system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, active, shift)
+        if not solver.factorize(system):
+            direction = solver.solve(rhs)
+            if np.all(np.isfinite(direction)) and rhs @ direction > 1e-8 * np.linalg.norm(rhs) * np.linalg.norm(direction):
+                return direction, shift
+        shift *= 100
+    return None, shift
 
 
 def _tangent_predictor(problem: _Problem, x: np.ndarray, increment: float, solver: SparseSolver, pattern) -> np.ndarray:

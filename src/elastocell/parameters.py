@@ -312,7 +312,8 @@ class CompressionParameters(_Model):
     delta_max: final deformation delta = 1 - h/(2R), in (0, 1).
     steps: number of equal load increments from 0 to ``delta_max`` (each is one output row; the solver
     subdivides an increment when Newton needs it).
-    tolerance: Newton stops when the largest unbalanced nodal force is below ``tolerance * E_c R^2``.
+    tolerance: Newton stops when the largest unbalanced nodal force is below ``tolerance`` times the plate
+    force (or times E_c R^2 while the plate force is smaller).
     """
 
     delta_max: float = 0.75
