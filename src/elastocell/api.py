@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .cell import Cell
-from .compression import CompressionResult
+from .compression import CompressionError, CompressionResult
 from .compression import compress as compress_cell
 from .io import Stopwatch, software_versions, write_json, write_table, write_vtk_series
 from .parameters import (
@@ -161,7 +161,13 @@ def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell:
             callback = lambda delta: progress.update(task, completed=delta)  # noqa: E731
         else:
             callback = None
-        result = compress_cell(body, scenario, solver=solver, progress=callback)
+        try:
+            result = compress_cell(body, scenario, solver=solver, progress=callback)
+            failure = None
+        except CompressionError as error:  # keep every converged row, then report
+            if error.partial is None or len(error.partial.delta) < 2:
+                raise
+            result, failure = error.partial, error
     gamma_eff = body.effective_stiffness_ratio if not body.is_equivalent else body.youngs_moduli[0]
     scale = cell.force_scale()
     table = {
@@ -185,7 +191,13 @@ def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell:
         } for s in stresses]
         write_vtk_series(out / "vtk", "compression", body.mesh, result.positions * cell.radius, result.delta, cell_data)
     summary = _metadata(result, body, cell, scenario, label, gamma_eff, clock.elapsed, solver)
+    summary["complete"] = failure is None
+    summary["delta_reached"] = float(result.delta[-1])
+    if failure is not None:
+        summary["error"] = str(failure)
     write_json(out / "metadata.json", summary)
+    if failure is not None:
+        raise CompressionError(f"{failure} (rows up to delta={result.delta[-1]:.4f} written to {out})", None)
     return summary
 
 

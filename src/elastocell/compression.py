@@ -42,7 +42,11 @@ MAX_NODE_STEP = 0.05  # largest nodal move of one Newton iteration (units of R)
 
 
 class CompressionError(RuntimeError):
-    """The load stepping could not reach the requested deformation."""
+    """The load stepping could not reach the requested deformation; ``partial`` holds the converged rows."""
+
+    def __init__(self, message: str, partial: CompressionResult | None = None):
+        super().__init__(message)
+        self.partial = partial
 
 
 @dataclass
@@ -234,7 +238,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
     rows_delta, rows_force, rows_lower, rows_positions, rows_contacts = [0.0], [0.0], [0.0], [x.copy()], [0]
     iterations_total, substeps, max_reaction = 0, 0, 0.0
     history: list = []
-    delta = 0.0
+    delta, failure = 0.0, None
     try:
         for target in targets[1:]:
             increment = target - delta
@@ -255,12 +259,13 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
                     substeps += 1
                     if increment < 1e-6:
                         problem.set_delta(delta)
-                        raise CompressionError(
-                            f"compression stopped at delta={delta:.4f} (target {trial_delta:.4f}): {reason}; "
-                            f"try a finer mesh (mesh_size/pole_size) or more steps"
-                        )
+                        failure = (f"compression stopped at delta={delta:.4f} (target {trial_delta:.4f}): {reason}; "
+                                   f"try a finer mesh (mesh_size/pole_size) or more steps")
+                        break
                     continue
                 x, delta = solution, trial_delta
+            if failure:
+                break
             force_upper, force_lower, contacts, reaction = plate_forces(problem, x)
             max_reaction = max(max_reaction, reaction)
             rows_delta.append(delta)
@@ -272,7 +277,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
                 progress(delta)
     finally:
         linear_solver.close()
-    return CompressionResult(
+    result = CompressionResult(
         delta=np.array(rows_delta),
         force=np.array(rows_force),
         force_lower=np.array(rows_lower),
@@ -287,6 +292,9 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
         solver=linear_solver.backend,
         history=history,
     )
+    if failure:
+        raise CompressionError(failure, result)
+    return result
 
 
 def hertz_force(delta, poisson_ratio: float = 0.48):
