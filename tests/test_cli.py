@@ -66,3 +66,15 @@ def test_compress_writes_the_contract_files(tmp_path):
 def test_module_entry_point_help():
     completed = subprocess.run([sys.executable, "-m", "elastocell", "--help"], capture_output=True, text=True)
     assert completed.returncode == 0 and "compress" in completed.stdout
+
+
+def test_equivalent_run_prints_summary_and_conflicting_flags_are_refused(tmp_path):
+    result = runner.invoke(app, ["compress", "--out", str(tmp_path / "eq"), "--equivalent", "--delta-max", "0.05",
+                                 "--steps", "1", "--mesh-size", "0.5", "--pole-size", "0.25"])
+    assert result.exit_code == 0, result.output
+    metadata = json.loads((tmp_path / "eq" / "metadata.json").read_text())
+    assert metadata["equivalent"] is True and metadata["complete"] is True
+    table = np.genfromtxt(tmp_path / "eq" / "compression.csv", delimiter=",", names=True)
+    np.testing.assert_allclose(table["force_per_Eeff_R2"], table["force_per_Ec_R2"] / metadata["effective_stiffness_ratio"])
+    refused = runner.invoke(app, ["compress", "--out", str(tmp_path / "x"), "--equivalent", "--compare"])
+    assert refused.exit_code == 2 and "--compare" in refused.output

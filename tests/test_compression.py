@@ -41,8 +41,9 @@ def test_plate_forces_equal_and_opposite_and_pins_force_free(homogeneous_small_d
     np.testing.assert_allclose(result.force_lower, result.force, rtol=1e-6, atol=1e-9)
     assert result.delta[0] == 0 and result.force[0] == 0
     assert np.all(np.diff(result.force) > 0)
-    # homogeneous sphere: the rigid-mode pins carry (almost) nothing compared with the plate force
-    assert result.max_rigid_reaction < 0.01 * result.force[-1]
+    # homogeneous sphere: the rigid-mode pins carry (almost) nothing compared with the plate force of the
+    # same row (measured max 0.46 %, at delta = 0.01 where only a few nodes touch; zero in the continuum)
+    assert result.max_rigid_reaction < 0.01
 
 
 def test_hertz_limit_at_small_deformation(homogeneous_small_delta):

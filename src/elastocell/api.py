@@ -23,6 +23,7 @@ from .parameters import (
     MaterialParameters,
     MeshParameters,
     NucleusParameters,
+    ParameterError,
     RandomParameters,
     parse_quantity,
 )
@@ -108,6 +109,10 @@ def compress(
     compare: also simulate the equivalent (written to ``out/equivalent/``) and draw both in
     ``out/comparison.png`` with their force ratio in ``out/comparison.csv``.
     """
+    if cell is not None and cell_options:
+        raise ParameterError("cell", f"give either cell= or cell options, not both ({', '.join(cell_options)})")
+    if compare and equivalent:
+        raise ParameterError("compare", "--compare already runs the equivalent; do not combine it with --equivalent")
     cell = cell or cell_parameters(**cell_options)
     scenario = CompressionParameters(delta_max=delta_max, steps=steps)
     out = Path(out)
@@ -120,7 +125,7 @@ def compress(
         other = _run_and_write(out / "equivalent", body.equivalent(), scenario, cell, solver, progress,
                                "homogeneous equivalent")
         _write_comparison(out, summary, other, cell)
-        summary["equivalent"] = other
+        summary["equivalent_summary"] = other
     return summary
 
 
@@ -223,7 +228,8 @@ def _metadata(result: CompressionResult, body: Cell, cell: CellParameters, scena
         "effective_stiffness_ratio": float(gamma_eff),
         "effective_youngs_modulus": float(gamma_eff * cell.youngs_modulus),
         "units": {
-            "force": "N" if (cell.radius_is_physical and cell.youngs_modulus_is_physical) else "E_c R^2",
+            "force": {(True, True): "N", (True, False): "E_c m^2", (False, True): "Pa R^2",
+                      (False, False): "E_c R^2"}[(cell.radius_is_physical, cell.youngs_modulus_is_physical)],
             "radius": cell.radius, "youngs_modulus": cell.youngs_modulus,
         },
         "element_order": body.mesh.order,
@@ -234,7 +240,7 @@ def _metadata(result: CompressionResult, body: Cell, cell: CellParameters, scena
             "factorisations": result.factorisations,
             "symbolic_analyses": result.analyses,
             "substeps": result.substeps,
-            "max_pin_reaction_over_force": float(result.max_rigid_reaction / max(result.force.max(), 1e-300)),
+            "max_pin_reaction_over_force": float(result.max_rigid_reaction),
             "max_plate_force_imbalance": float(np.abs(result.force - result.force_lower).max()),
             "curve_time_s": result.wall_time,
         },

@@ -123,9 +123,6 @@ class Cell:
             k = elements.shape[1]
             return jnp.einsum("eqaj,eqijkb->eaibk", gradients, half).reshape(-1, 3 * k, 3 * k)
 
-        def min_volume_ratio(x):
-            return jnp.min(jnp.linalg.det(deformation_gradients(x)))
-
         def stresses(x):
             f = deformation_gradients(x)
             piola = jax.vmap(jax.vmap(jax.grad(lambda ff, p: energy_law(ff, p)), in_axes=(0, None)))(f, params)
@@ -137,7 +134,6 @@ class Cell:
             energy=jax.jit(energy),
             gradient=jax.jit(jax.grad(energy)),
             hessians=jax.jit(element_hessians),
-            min_volume_ratio=jax.jit(min_volume_ratio),
             stresses=jax.jit(stresses),
         )
         return self._kernels
@@ -153,10 +149,6 @@ class Cell:
     def element_stiffness(self, x: np.ndarray) -> np.ndarray:
         """Element Hessians d^2 E_e / dx_e^2, (n_elements, 3k, 3k), dof order (node, component)."""
         return np.asarray(self._compiled()["hessians"](jnp.asarray(x)))
-
-    def min_volume_ratio(self, x: np.ndarray) -> float:
-        """Smallest J = det F over all quadrature points (<= 0 means an inverted element)."""
-        return float(self._compiled()["min_volume_ratio"](jnp.asarray(x)))
 
     def element_cauchy_stress(self, x: np.ndarray) -> np.ndarray:
         """Volume-averaged Cauchy stress per element, (n_elements, 3, 3), units of E_c."""

@@ -22,6 +22,7 @@ _OPTION_NAMES = {
     "semi_axes": "--semi-axes", "poisson_ratio": "--poisson-ratio", "youngs_modulus": "--youngs-modulus",
     "radius": "--radius", "mesh_size": "--mesh-size", "pole_size": "--pole-size", "delta_max": "--delta-max",
     "steps": "--steps", "material": "--material", "element": "--element", "random": "--random",
+    "compare": "--compare",
 }
 
 
@@ -63,6 +64,17 @@ def _user_errors(function):
                 _fail(f"{_OPTION_NAMES.get(cause.parameter, cause.parameter)}: {str(cause).split(': ', 1)[1]}")
             location = ".".join(str(p) for p in first.get("loc", ()))
             _fail(f"{location or 'input'}: {first.get('msg')}")
+        except OSError as error:
+            _fail(f"cannot write or read {error.filename or ''}: {error.strerror or error}")
+        except typer.Exit:
+            raise
+        except Exception as error:  # anything unforeseen: one line, not a traceback (ELASTOCELL_DEBUG shows it)
+            import os
+
+            if os.environ.get("ELASTOCELL_DEBUG"):
+                raise
+            typer.echo(f"elastocell: error: {type(error).__name__}: {error}", err=True)
+            raise typer.Exit(code=1) from None
 
     return wrapper
 
@@ -132,8 +144,8 @@ def compress(
     if not quiet:
         typer.echo(f"{summary['label']}: gamma_eff = {summary['effective_stiffness_ratio']:.4f}, "
                    f"{summary['mesh']['n_nodes']} nodes, curve in {summary['solver']['curve_time_s']:.1f} s -> {out}")
-        if "equivalent" in summary:
-            typer.echo(f"equivalent: curve in {summary['equivalent']['solver']['curve_time_s']:.1f} s; "
+        if "equivalent_summary" in summary:
+            typer.echo(f"equivalent: curve in {summary['equivalent_summary']['solver']['curve_time_s']:.1f} s; "
                        f"force ratios in {out / 'comparison.csv'}, plot {out / 'comparison.png'}")
 
 

@@ -68,7 +68,7 @@ class CompressionResult:
     factorisations: int
     analyses: int
     substeps: int
-    max_rigid_reaction: float
+    max_rigid_reaction: float  # largest pin reaction over the plate force of the same row
     wall_time: float
     solver: str
     history: list = field(default_factory=list)
@@ -127,7 +127,7 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
     noise = 1e-13 * float(np.sum(cell.element_volumes * cell.youngs_moduli))
     if not np.isfinite(energy):
         return x, 0, False, "inverted element in the predictor"
-    shift = MIN_SHIFT * 1e4
+    shift = MIN_SHIFT
     for iteration in range(1, parameters.max_newton_iterations + 1):
         gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
         at_lower = x <= problem.lower
@@ -143,8 +143,6 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
             return x, iteration - 1, True, ""
         stiffness = cell.stiffness_pattern.assemble(cell.element_stiffness(x.reshape(-1, 3)))
         rhs = np.where(active, 0.0, -gradient)
-        # Levenberg-Marquardt safeguard: where the stiffness is indefinite (a faceted surface touching a plate
-        # at a single node can lower its energy by tilting) raise the diagonal shift until the step descends.
         # Levenberg-Marquardt safeguard: where the stiffness restricted to the free dofs is indefinite (far
         # from equilibrium, or a faceted surface touching a plate at one node), shift its diagonal until the
         # factorisation has no negative eigenvalue (or, without inertia, until the step descends).
@@ -187,7 +185,11 @@ def _shifted_newton_direction(solver: SparseSolver, stiffness, pattern, active: 
     factorised free-dof stiffness has no negative eigenvalue and the direction descends."""
     while shift <= MAX_SHIFT:
         system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, active, shift)
-        if not solver.factorize(system):
+        try:
+            negative = solver.factorize(system)
+        except Exception:  # a singular or failed factorisation: shift more
+            negative = 1
+        if not negative:
             direction = solver.solve(rhs)
             if np.all(np.isfinite(direction)) and rhs @ direction > 1e-8 * np.linalg.norm(rhs) * np.linalg.norm(direction):
                 return direction, shift
@@ -209,8 +211,12 @@ def _tangent_predictor(problem: _Problem, x: np.ndarray, increment: float, solve
     rhs = -(stiffness @ prescribed)
     rhs[held] = 0.0
     system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, held, MIN_SHIFT)
-    if solver.factorize(system):
-        return x + prescribed  # indefinite: fall back to moving only the contacts
+    try:
+        indefinite = solver.factorize(system)
+    except Exception:
+        indefinite = 1
+    if indefinite:
+        return x + prescribed  # fall back to moving only the contacts
     return x + solver.solve(rhs) + prescribed
 
 
@@ -257,8 +263,8 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
                 if not converged:
                     increment /= 2
                     substeps += 1
+                    problem.set_delta(delta)  # back to the last converged plate position
                     if increment < 1e-6:
-                        problem.set_delta(delta)
                         failure = (f"compression stopped at delta={delta:.4f} (target {trial_delta:.4f}): {reason}; "
                                    f"try a finer mesh (mesh_size/pole_size) or more steps")
                         break
@@ -267,7 +273,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
             if failure:
                 break
             force_upper, force_lower, contacts, reaction = plate_forces(problem, x)
-            max_reaction = max(max_reaction, reaction)
+            max_reaction = max(max_reaction, reaction / max(force_upper, 1e-12))
             rows_delta.append(delta)
             rows_force.append(force_upper)
             rows_lower.append(force_lower)

@@ -63,13 +63,6 @@ class CellMesh:
     def n_elements(self) -> int:
         return self.elements.shape[0]
 
-    def element_volumes(self) -> np.ndarray:
-        """Exact volume of each element (curved quadratic elements integrated with their own map)."""
-        from .elements import reference_element
-
-        geometry = reference_element(self.order).geometry(self.nodes, self.elements)
-        return geometry.weights.sum(axis=1)
-
     def quality(self) -> dict:
         """Mesh quality of the corner tetrahedra: normalised radius ratio 3 r_in / r_circ in (0, 1]."""
         corners = self.nodes[self.elements[:, :4]]

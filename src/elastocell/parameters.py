@@ -297,10 +297,6 @@ class CellParameters(_Model):
             )
         return self
 
-    @property
-    def is_homogeneous(self) -> bool:
-        return self.random is None and (self.nucleus.shape == "none" or self.nucleus.stiffness_ratio == 1.0)
-
     def force_scale(self) -> float:
         """E_c R^2: the force unit (N when both are physical)."""
         return self.youngs_modulus * self.radius**2
