@@ -21,6 +21,15 @@ from elastocell.parameters import CompressionParameters
 DELTAS = (0.1, 0.3, 0.5, 0.7)
 
 
+def _curve(body: Cell, params: CompressionParameters, notes: list[str]):
+    """The curve of ``body``; where it stops early, its converged part (and a note)."""
+    try:
+        return compress(body, params)
+    except CompressionError as error:
+        notes.append(str(error).split(":")[0])
+        return error.partial
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--element", nargs="+", default=["p2", "p1"])
@@ -39,17 +48,11 @@ def main() -> None:
             cell = Cell.from_parameters(cell_parameters(stiffness_ratio=gamma, element=element,
                                                         mesh_size=args.mesh_size, pole_size=args.pole_size))
             params = CompressionParameters(delta_max=args.delta_max, steps=args.steps)
-            ratios, note = [], ""
-            try:
-                nucleus = compress(cell, params)
-                equivalent = compress(cell.equivalent(), params)
-                for d in DELTAS:
-                    f_n = np.interp(d, nucleus.delta, nucleus.force, right=np.nan)
-                    f_e = np.interp(d, equivalent.delta, equivalent.force, right=np.nan)
-                    ratios.append(f_n / f_e)
-            except CompressionError as error:
-                note = str(error)
-                ratios = [np.nan] * len(DELTAS)
+            notes: list[str] = []
+            nucleus, equivalent = _curve(cell, params, notes), _curve(cell.equivalent(), params, notes)
+            ratios = [np.interp(d, nucleus.delta, nucleus.force, right=np.nan)
+                      / np.interp(d, equivalent.delta, equivalent.force, right=np.nan) for d in DELTAS]
+            note = "; ".join(notes)
             seconds = time.perf_counter() - start
             rows.append((element, gamma, cell.effective_stiffness_ratio, cell.mesh.n_nodes, *ratios, seconds))
             print(f"{element:>7} {gamma:>6g} {cell.effective_stiffness_ratio:>9.4f} {cell.mesh.n_nodes:>6} "
