@@ -51,17 +51,6 @@ def _barycentric_gradients() -> np.ndarray:
     return np.array([[-1.0, -1.0, -1.0], [1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]])
 
 
-def shape_functions(order: int, points: np.ndarray) -> np.ndarray:
-    """N_k at reference points, (n_points, n_nodes)."""
-    points = np.atleast_2d(points)
-    barycentric = np.column_stack([1 - points.sum(axis=1), points])
-    if order == 1:
-        return barycentric
-    corners = barycentric * (2 * barycentric - 1)
-    edges = 4 * barycentric[:, TET10_EDGES[:, 0]] * barycentric[:, TET10_EDGES[:, 1]]
-    return np.hstack([corners, edges])
-
-
 def _local_gradients(order: int, points: np.ndarray) -> np.ndarray:
     grad_l = _barycentric_gradients()
     if order == 1:

@@ -14,8 +14,6 @@ e.g. ``radius="8um"``, ``youngs_modulus="1kPa"``; the simulation itself always r
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 from functools import lru_cache
 from typing import Literal
@@ -69,11 +67,6 @@ def parse_quantity(value: float | str, unit: str, parameter: str) -> tuple[float
 
 class _Model(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
-
-    def digest(self) -> str:
-        """Stable hash of the parameters (for on-disk caches)."""
-        payload = json.dumps(self.model_dump(mode="json"), sort_keys=True)
-        return hashlib.sha256(payload.encode()).hexdigest()[:16]
 
 
 def _require(condition: bool, parameter: str, message: str) -> None:
