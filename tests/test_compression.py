@@ -44,6 +44,24 @@ def test_plate_forces_equal_and_opposite_and_pins_force_free(homogeneous_small_d
     # homogeneous sphere: the rigid-mode pins carry (almost) nothing compared with the plate force of the
     # same row (measured max 0.46 %, at delta = 0.01 where only a few nodes touch; zero in the continuum)
     assert result.max_rigid_reaction < 0.01
+    # a homogeneous sphere squeezed a little is a minimum of the energy, never a saddle (PARDISO's inertia)
+    assert result.unstable.shape == result.delta.shape and not result.unstable.any()
+
+
+def test_folded_mesh_is_detected():
+    """An interior node beyond a plate while the surface nodes are within them is a folded (non one-to-one)
+    state; the solver refuses it instead of reporting its force."""
+    from elastocell.compression import _folded, _setup
+
+    cell = Cell.from_parameters(cell_parameters(nucleus="none", mesh_size=0.5, pole_size=0.5))
+    problem = _setup(cell)
+    problem.set_delta(0.3)  # upper plate at z = 0.4
+    x = cell.mesh.nodes.copy()
+    x[:, 2] = np.clip(x[:, 2], -1.0, 0.4)  # everything within the plates
+    assert not _folded(problem, x.ravel())
+    interior = np.setdiff1d(np.arange(cell.mesh.n_nodes), cell.mesh.surface_nodes)
+    x[interior[0], 2] = 0.41
+    assert _folded(problem, x.ravel())
 
 
 def test_hertz_limit_at_small_deformation(homogeneous_small_delta):

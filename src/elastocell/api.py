@@ -243,6 +243,11 @@ def _metadata(result: CompressionResult, body: Cell, cell: CellParameters, scena
             "max_pin_reaction_over_force": float(result.max_rigid_reaction),
             "max_plate_force_imbalance": float(np.abs(result.force - result.force_lower).max()),
             "curve_time_s": result.wall_time,
+            # rows whose equilibrium is a saddle of the discrete energy (the branch from delta = 0 has lost
+            # stability; a refined mesh may stay stable longer). None: every row is a minimum.
+            "unstable_rows": int(result.unstable.sum()),
+            "first_unstable_delta": (float(result.delta[np.argmax(result.unstable)])
+                                     if result.unstable.any() else None),
         },
         "wall_time_s": wall_time,
         "software": software_versions(),

@@ -64,6 +64,7 @@ class CompressionResult:
     force_lower: np.ndarray
     positions: np.ndarray
     contact_nodes_upper: np.ndarray
+    unstable: np.ndarray  # per row: the equilibrium is a saddle of the discrete energy (see ``is_saddle``)
     newton_iterations: int
     factorisations: int
     analyses: int
@@ -116,6 +117,31 @@ def _setup(cell: Cell) -> _Problem:
     return _Problem(cell, surface_z, _rigid_mode_pins(nodes), lower, upper)
 
 
+def _active_set(problem: _Problem, x: np.ndarray, gradient: np.ndarray, pinned: np.ndarray):
+    """(active dofs, largest free force, force scale): a dof is active when pinned or on a plate that pushes it."""
+    at_lower = x <= problem.lower
+    at_upper = x >= problem.upper
+    active = (at_lower & (gradient > 0)) | (at_upper & (gradient < 0)) | pinned
+    residual = float(np.abs(gradient[~active]).max())
+    # unbalanced force relative to the plate force (or to E_c R^2 before the plates carry any)
+    force_scale = max(1.0, float(np.abs(gradient[(at_lower | at_upper) & active]).sum()) / 2)
+    return active, at_lower, at_upper, residual, force_scale
+
+
+FOLDED = ("the mesh folded: a node lies beyond a plate although every surface node is within them (curved "
+          "elements too distorted in a thin layer)")
+
+
+def _folded(problem: _Problem, x: np.ndarray) -> bool:
+    """True when any node lies outside the slab between the plates. Only surface nodes are bounded by the
+    contact; an interior node outside the slab means the map from the reference cell is no longer one-to-one
+    (a quadratic element folded with det F > 0 at its quadrature points), an equilibrium of the discrete energy
+    that no body can reach."""
+    z = x[2::3]
+    slack = 1e-9
+    return bool((z > problem.upper[problem.surface_z[0]] + slack).any() or (z < -1.0 - slack).any())
+
+
 def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: CompressionParameters,
             pattern) -> tuple[np.ndarray, int, bool, str]:
     """Projected Newton on E(x) subject to the plate bounds. Returns (x, iterations, converged, reason)."""
@@ -128,18 +154,15 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
     if not np.isfinite(energy):
         return x, 0, False, "inverted element in the predictor"
     shift = MIN_SHIFT
+    gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
     for iteration in range(1, parameters.max_newton_iterations + 1):
-        gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
-        at_lower = x <= problem.lower
-        at_upper = x >= problem.upper
-        active = (at_lower & (gradient > 0)) | (at_upper & (gradient < 0)) | pinned
-        residual = np.abs(gradient[~active]).max()
-        # unbalanced force relative to the plate force (or to E_c R^2 before the plates carry any)
-        force_scale = max(1.0, float(np.abs(gradient[(at_lower | at_upper) & active]).sum()) / 2)
+        active, at_lower, at_upper, residual, force_scale = _active_set(problem, x, gradient, pinned)
         if DEBUG:
             print(f"  it {iteration} residual {residual:.3e} dof {np.argmax(np.where(active, 0, np.abs(gradient)))} "
                   f"active {active.sum()} energy {energy:.12e}")
         if residual < parameters.tolerance * force_scale:
+            if _folded(problem, x):
+                return x, iteration - 1, False, FOLDED
             return x, iteration - 1, True, ""
         stiffness = cell.stiffness_pattern.assemble(cell.element_stiffness(x.reshape(-1, 3)))
         rhs = np.where(active, 0.0, -gradient)
@@ -176,7 +199,25 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
         if DEBUG:
             print(f"     shift {shift:g} step {step:g} max|d| {largest:.3e} clipped {(trial != x + step * direction).sum()}")
         x, energy = trial, trial_energy
+        gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
     return x, parameters.max_newton_iterations, False, f"no convergence in {parameters.max_newton_iterations} iterations"
+
+
+def is_saddle(problem: _Problem, x: np.ndarray, solver: SparseSolver, pattern) -> bool:
+    """True when the equilibrium ``x`` is a saddle of the discrete energy: the stiffness restricted to the free
+    dofs (contacts and rigid-mode pins held) has a negative eigenvalue, counted by PARDISO's inertia (SciPy's
+    fallback cannot count and reports False)."""
+    cell = problem.cell
+    pinned = np.zeros(x.size, dtype=bool)
+    pinned[problem.pinned] = True
+    gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
+    active = _active_set(problem, x, gradient, pinned)[0]
+    stiffness = cell.stiffness_pattern.assemble(cell.element_stiffness(x.reshape(-1, 3)))
+    system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, active, MIN_SHIFT)
+    try:
+        return bool(solver.factorize(system))
+    except Exception:
+        return False
 
 
 def _shifted_newton_direction(solver: SparseSolver, stiffness, pattern, active: np.ndarray, rhs: np.ndarray,
@@ -242,6 +283,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
     x = cell.mesh.nodes.ravel().copy()
     targets = np.linspace(0.0, parameters.delta_max, parameters.steps + 1)
     rows_delta, rows_force, rows_lower, rows_positions, rows_contacts = [0.0], [0.0], [0.0], [x.copy()], [0]
+    rows_unstable = [False]
     iterations_total, substeps, max_reaction = 0, 0, 0.0
     history: list = []
     delta, failure = 0.0, None
@@ -266,7 +308,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
                     problem.set_delta(delta)  # back to the last converged plate position
                     if increment < 1e-6:
                         failure = (f"compression stopped at delta={delta:.4f} (target {trial_delta:.4f}): {reason}; "
-                                   f"try a finer mesh (mesh_size/pole_size) or more steps")
+                                   f"try a finer mesh (mesh_size/pole_size), more steps, or linear elements (element p1)")
                         break
                     continue
                 x, delta = solution, trial_delta
@@ -279,6 +321,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
             rows_lower.append(force_lower)
             rows_positions.append(x.copy())
             rows_contacts.append(contacts)
+            rows_unstable.append(is_saddle(problem, x, linear_solver, pattern))
             if progress is not None:
                 progress(delta)
     finally:
@@ -289,6 +332,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
         force_lower=np.array(rows_lower),
         positions=np.array(rows_positions).reshape(len(rows_delta), -1, 3),
         contact_nodes_upper=np.array(rows_contacts),
+        unstable=np.array(rows_unstable),
         newton_iterations=iterations_total,
         factorisations=linear_solver.factorisations,
         analyses=linear_solver.analyses,

@@ -1,0 +1,67 @@
+"""Does a full compression curve reach delta_max = 0.75 for every cell the compression issue names?
+
+    python benchmarks/compression_reach.py [--element p2] [--only NAME ...] [--out results/reach.csv]
+
+One row per cell: the delta reached, F/(E_c R^2) there, the rows whose equilibrium is a saddle of the discrete
+energy (the symmetric branch lost stability), Newton iterations, substeps and wall time. A curve that stops
+early is a measurement too: the row says where and why.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from elastocell import cell_parameters
+from elastocell.cell import Cell
+from elastocell.compression import CompressionError, compress
+from elastocell.parameters import CompressionParameters
+
+CELLS = {
+    "homogeneous": dict(nucleus="none"),
+    **{f"gamma-{g:g}": dict(stiffness_ratio=g) for g in (2.0, 5.0, 10.0, 20.0)},
+    **{f"size-{s:g}": dict(size_ratio=s) for s in (0.1, 0.3, 0.7, 0.9)},
+    **{f"offset-0.45-{a}": dict(offset=0.45, offset_axis=a) for a in ("x", "y", "z")},
+    **{f"ellipsoid-{a}": dict(nucleus="ellipsoid", nucleus_axis=a) for a in ("x", "y", "z")},
+    "random": dict(random=True, seed=0),
+    "mooney-rivlin": dict(material="mooney-rivlin"),
+}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--element", default="p2", choices=["p1", "p2"])
+    parser.add_argument("--only", nargs="+", default=None)
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args()
+    names = args.only or list(CELLS)
+    rows = []
+    print(f"{'cell':>18} {'nodes':>6} {'delta':>7} {'F/EcR2':>8} {'saddles':>7} {'first':>6} {'newton':>6} "
+          f"{'subst':>5} {'s':>6}  note")
+    for name in names:
+        cell = Cell.from_parameters(cell_parameters(element=args.element, **CELLS[name]))
+        start = time.perf_counter()
+        note = ""
+        try:
+            result = compress(cell, CompressionParameters())
+        except CompressionError as error:
+            result, note = error.partial, str(error).split(";")[0]
+        seconds = time.perf_counter() - start
+        saddles = int(result.unstable.sum())
+        first = float(result.delta[np.argmax(result.unstable)]) if saddles else float("nan")
+        row = dict(cell=name, element=args.element, nodes=cell.mesh.n_nodes, delta_reached=float(result.delta[-1]),
+                   force_per_Ec_R2=float(result.force[-1]), saddle_rows=saddles, first_saddle_delta=first,
+                   newton_iterations=result.newton_iterations, substeps=result.substeps, seconds=seconds, note=note)
+        rows.append(row)
+        print(f"{name:>18} {row['nodes']:>6} {row['delta_reached']:>7.4f} {row['force_per_Ec_R2']:>8.4f} {saddles:>7} "
+              f"{first:>6.3f} {row['newton_iterations']:>6} {row['substeps']:>5} {seconds:>6.1f}  {note}", flush=True)
+    if args.out:
+        import pandas as pd
+
+        pd.DataFrame(rows).to_csv(args.out, index=False)
+
+
+if __name__ == "__main__":
+    main()
