@@ -20,7 +20,8 @@ Everything is measured in the same run:
   layout) at 128^3 in float32, timed alone (no ghost-layer exchange), if lbmpy
   imports; otherwise a note is printed.
 
-``run_benchmark(size, dtype)`` returns the numbers as a dict for the CLI.
+The measurements live in :mod:`elastocell.benchmark` (also behind ``elastocell bench lattice``); this
+script adds the table over sizes and precisions and the peer (lbmpy) in the same run.
 """
 
 from __future__ import annotations
@@ -34,105 +35,18 @@ from pathlib import Path
 import numpy as np
 
 try:
-    from elastocell.lattice import Lattice, LatticeParams
+    import elastocell  # noqa: F401
 except ImportError:  # running from a source checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
-    from elastocell.lattice import Lattice, LatticeParams
 
-import numba
-from numba import njit, prange
+from elastocell.benchmark import TRIAD_ELEMENTS, run_benchmark, set_threads, stream_triad_bandwidth
 
 THREADS = 2
 THREADS_SETTING = {"threads": THREADS}  # changed by --threads
-TRIAD_ELEMENTS = 1 << 25
-_bandwidth_cache: dict[int, float] = {}
-_last_cpu_utilisation = [float("nan")]  # process CPU seconds per wall second of the best run
 
 
-def _set_threads(threads: int | None = None) -> int:
-    threads = THREADS_SETTING["threads"] if threads is None else threads
-    threads = max(1, min(threads, numba.config.NUMBA_NUM_THREADS))
-    numba.set_num_threads(threads)
-    return threads
-
-
-@njit(parallel=True, cache=True)
-def _triad(a, b, c, scalar):
-    for i in prange(a.size):
-        a[i] = b[i] + scalar * c[i]
-
-
-def stream_triad_bandwidth(elements: int = TRIAD_ELEMENTS, repeats: int = 8) -> float:
-    """Best STREAM-triad bandwidth in GB/s (1e9 B/s), 24 B per element, float64."""
-    if elements in _bandwidth_cache:
-        return _bandwidth_cache[elements]
-    _set_threads()
-    a = np.zeros(elements)
-    b = np.ones(elements)
-    c = np.full(elements, 2.0)
-    _triad(a, b, c, 3.0)  # compile + first touch
-    best = np.inf
-    for _ in range(repeats):
-        t = time.perf_counter()
-        _triad(a, b, c, 3.0)
-        best = min(best, time.perf_counter() - t)
-    gbs = 24.0 * elements / best / 1e9
-    _bandwidth_cache[elements] = gbs
-    return gbs
-
-
-def bytes_per_update(dtype) -> int:
-    """Minimum memory traffic of one D3Q19 node update: load + store 19 populations."""
-    return 2 * 19 * np.dtype(dtype).itemsize
-
-
-def time_fused_kernel(size: int, dtype="float32", repeats: int = 5, target_seconds: float = 0.5) -> float:
-    """Best MLUPS of ``Lattice.step(n)`` on a periodic size^3 lattice (TRT, no force)."""
-    _set_threads()
-    lattice = Lattice(
-        LatticeParams((size, size, size), relaxation_time=0.8, dtype=str(np.dtype(dtype))),
-        velocity=(0.01, 0.0, 0.0),
-    )
-    lattice.step(2)  # compile (or load from cache) and warm up
-    t = time.perf_counter()
-    lattice.step(2)
-    per_step = max(time.perf_counter() - t, 1e-6) / 2
-    steps = max(2, 2 * int(target_seconds / per_step / 2))
-    best, cpu_at_best = np.inf, 0.0
-    for _ in range(repeats):
-        t, c = time.perf_counter(), time.process_time()
-        lattice.step(steps)
-        wall, cpu = time.perf_counter() - t, time.process_time() - c
-        if wall < best:
-            best, cpu_at_best = wall, cpu
-    _last_cpu_utilisation[0] = cpu_at_best / best
-    return size**3 * steps / best / 1e6
-
-
-def run_benchmark(size: int = 128, dtype="float32") -> dict:
-    """Measure the fused kernel at size^3 and the memory bandwidth in the same process.
-
-    Returns a dict with ``mlups`` (million node updates / s), ``bandwidth_gbs`` (STREAM
-    triad, GB/s), ``roofline_fraction`` (mlups / (bandwidth / bytes per update)), plus
-    ``roofline_mlups``, ``bytes_per_update``, ``size``, ``dtype``, ``threads`` and
-    ``cpu_utilisation`` (CPU seconds per wall second of the best run; below ``threads``
-    when other processes competed for the cores, as on a shared machine).
-    """
-    bandwidth = stream_triad_bandwidth()
-    mlups = time_fused_kernel(size, dtype)
-    nbytes = bytes_per_update(dtype)
-    roofline = bandwidth * 1e9 / nbytes / 1e6
-    return {
-        "size": int(size),
-        "dtype": str(np.dtype(dtype)),
-        "threads": numba.get_num_threads(),
-        "mlups": mlups,
-        "bandwidth_gbs": bandwidth,
-        "bytes_per_update": nbytes,
-        "roofline_mlups": roofline,
-        "roofline_fraction": mlups / roofline,
-        "cpu_utilisation": _last_cpu_utilisation[0],
-    }
+def _set_threads() -> int:
+    return set_threads(THREADS_SETTING["threads"])
 
 
 def time_lbmpy(size: int = 128, dtype="float32", repeats: int = 5) -> tuple[float | None, str]:
@@ -183,6 +97,7 @@ def main(argv=None) -> int:
     parser.add_argument("--sizes", type=int, nargs="+", default=[64, 128])
     parser.add_argument("--dtypes", nargs="+", default=["float32", "float64"])
     parser.add_argument("--no-lbmpy", action="store_true", help="skip the lbmpy comparison")
+    parser.add_argument("--no-cell", action="store_true", help="skip the runs with an immersed cell")
     parser.add_argument("--threads", type=int, default=THREADS, help="Numba threads (default 2)")
     args = parser.parse_args(argv)
 
@@ -193,16 +108,19 @@ def main(argv=None) -> int:
     print(f"threads: {threads}   load average (1 min) before the run: {load:.2f} on {os.cpu_count()} CPUs")
     print(f"STREAM triad (numba, parallel, 3 x {TRIAD_ELEMENTS * 8 / 2**20:.0f} MiB): {bandwidth:.1f} GB/s")
     print(
-        f"{'size':>6} {'dtype':>8} {'MLUPS':>8} {'B/update':>9} {'roof MLUPS':>11} {'of roof':>8} {'CPU use':>8}"
+        f"{'size':>6} {'dtype':>8} {'MLUPS':>8} {'B/update':>9} {'roof MLUPS':>11} {'of roof':>8} {'CPU use':>8} "
+        f"{'+cell MLUPS':>11} {'markers':>7} {'slowdown':>8}"
     )
     results = {}
     for size in args.sizes:
         for dtype in args.dtypes:
-            r = run_benchmark(size, dtype)
+            r = run_benchmark(size, dtype, with_cell=not args.no_cell, threads=threads)
             results[(size, r["dtype"])] = r
+            cell = (f"{r['mlups_with_cell']:11.1f} {r['markers']:7d} {r['with_cell_slowdown']:7.2f}x"
+                    if r["mlups_with_cell"] is not None else "")
             print(
                 f"{size:>5}^3 {r['dtype']:>8} {r['mlups']:8.1f} {r['bytes_per_update']:9d} "
-                f"{r['roofline_mlups']:11.1f} {100 * r['roofline_fraction']:7.1f}% {r['cpu_utilisation']:7.2f}x"
+                f"{r['roofline_mlups']:11.1f} {100 * r['roofline_fraction']:7.1f}% {r['cpu_utilisation']:7.2f}x {cell}"
             )
     if args.no_lbmpy:
         print("lbmpy: skipped (--no-lbmpy)")
@@ -211,7 +129,7 @@ def main(argv=None) -> int:
         if mlups is None:
             print(f"lbmpy: skipped -- {note}")
         else:
-            ours = results.get((128, "float32")) or run_benchmark(128, "float32")
+            ours = results.get((128, "float32")) or run_benchmark(128, "float32", with_cell=False, threads=threads)
             print(
                 f"lbmpy  128^3  float32 {mlups:8.1f} MLUPS ({note}); "
                 f"elastocell / lbmpy = {ours['mlups'] / mlups:.2f}"

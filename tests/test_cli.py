@@ -78,3 +78,18 @@ def test_equivalent_run_prints_summary_and_conflicting_flags_are_refused(tmp_pat
     np.testing.assert_allclose(table["force_per_Eeff_R2"], table["force_per_Ec_R2"] / metadata["effective_stiffness_ratio"])
     refused = runner.invoke(app, ["compress", "--out", str(tmp_path / "x"), "--equivalent", "--compare"])
     assert refused.exit_code == 2 and "--compare" in refused.output
+
+
+def test_bench_lattice_json_contract():
+    """`elastocell bench lattice --json`: the last line is JSON with the contract keys, the roofline fraction
+    is MLUPS over bandwidth / bytes per update (a consistency check; speed itself is never asserted)."""
+    result = runner.invoke(app, ["bench", "lattice", "--size", "16", "--json"])
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.output.strip().splitlines()[-1])
+    for key in ("mlups", "mlups_with_cell", "bandwidth_gbs", "roofline_fraction"):
+        assert payload[key] > 0
+    assert payload["roofline_fraction"] == pytest.approx(
+        payload["mlups"] / (payload["bandwidth_gbs"] * 1e3 / payload["bytes_per_update"]), rel=1e-9)
+    assert payload["markers"] > 0
+    refused = runner.invoke(app, ["bench", "lattice", "--size", "4"])
+    assert refused.exit_code == 2 and "--size" in refused.output

@@ -9,4 +9,13 @@ __version__ = "0.1.0"
 from .api import cell_parameters, compress, equivalent  # noqa: E402
 from .parameters import ParameterError  # noqa: E402
 
-__all__ = ["cell_parameters", "compress", "equivalent", "ParameterError", "__version__"]
+
+def __getattr__(name: str):
+    """Flow scenarios load their compiled kernels (Numba) only when first used."""
+    if name == "shear":
+        from .runner import shear
+
+        return shear
+    raise AttributeError(f"module 'elastocell' has no attribute {name!r}")
+
+__all__ = ["cell_parameters", "compress", "equivalent", "shear", "ParameterError", "__version__"]

@@ -23,6 +23,12 @@ _OPTION_NAMES = {
     "radius": "--radius", "mesh_size": "--mesh-size", "pole_size": "--pole-size", "delta_max": "--delta-max",
     "steps": "--steps", "material": "--material", "element": "--element", "random": "--random",
     "compare": "--compare",
+    # shear
+    "capillary_number": "--capillary-number", "resolution": "--resolution", "duration": "--duration",
+    "confinement": "--confinement", "resume": "--resume", "wall_clock": "--wall-clock",
+    "stationary_tolerance": "--stationary-tolerance", "record_interval": "--record-interval",
+    "checkpoint_every": "--checkpoint-every", "vtk_interval": "--vtk-interval", "viscosity": "--viscosity",
+    "shear_rate": "--shear-rate", "size": "--size", "threads": "--threads",
 }
 
 
@@ -149,6 +155,82 @@ def compress(
                        f"force ratios in {out / 'comparison.csv'}, plot {out / 'comparison.png'}")
 
 
+@app.command()
+@_user_errors
+def shear(
+    out: Path = typer.Option(..., "--out", help="Output directory."),
+    capillary_number: float | None = typer.Option(  # noqa: UP007
+        None, "--capillary-number", help="Ca = eta*shear_rate/mu_c (mu_eff with --equivalent)."),
+    nucleus: NucleusShape = NUCLEUS, stiffness_ratio: float = STIFFNESS, size_ratio: float = SIZE,
+    offset: float = OFFSET, offset_axis: AxisName = OFFSET_AXIS, semi_axes: tuple[float, float, float] = SEMI_AXES,
+    nucleus_axis: AxisName = NUCLEUS_AXIS, random: bool = RANDOM, seed: int = SEED,
+    mesh_size: float | None = typer.Option(None, "--mesh-size", help="Element size (units of R); default: 2 dx, uniform."),  # noqa: UP007
+    pole_size: float | None = typer.Option(None, "--pole-size", help="Element size at the poles; default: uniform."),  # noqa: UP007
+    poisson_ratio: float = POISSON, youngs_modulus: str = MODULUS, radius: str = RADIUS,
+    material: str = MATERIAL,
+    element: str = typer.Option("p1", "--element", help="p1 (4-node, the paper's; shear default) | p2 (10-node)."),
+    equivalent: bool = typer.Option(False, "--equivalent", help="Simulate the homogeneous equivalent (Ca with mu_eff)."),
+    resolution: float = typer.Option(8.0, "--resolution", help="R/dx, lattice nodes per cell radius."),
+    duration: float = typer.Option(6.0, "--duration", help="Run length in strain units shear_rate*t."),
+    confinement: float = typer.Option(0.2, "--confinement", help="2R/H, cell diameter over the wall distance."),
+    viscosity: str | None = typer.Option(None, "--viscosity", help="Physical eta (e.g. 1mPa*s), with --shear-rate and a physical --youngs-modulus instead of --capillary-number."),  # noqa: UP007
+    shear_rate: str | None = typer.Option(None, "--shear-rate", help="Physical shear rate (e.g. 100/s)."),  # noqa: UP007
+    wall_clock: float | None = typer.Option(None, "--wall-clock", help="Stop after this many seconds."),  # noqa: UP007
+    stationary_tolerance: float | None = typer.Option(  # noqa: UP007
+        None, "--stationary-tolerance", help="Stop when the running mean of D changes less than this fraction."),
+    record_interval: float = typer.Option(0.05, "--record-interval", help="Strain between records."),
+    checkpoint_every: int = typer.Option(20, "--checkpoint-every", help="Records between checkpoints."),
+    vtk_interval: float = typer.Option(1.0, "--vtk-interval", help="Strain between VTK snapshots."),
+    resume: bool = typer.Option(False, "--resume", help="Continue from DIR/checkpoint.npz (same options)."),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress bar, no summary."),
+):
+    """A cell in plane Couette (shear) flow: lattice Boltzmann fluid + immersed boundary."""
+    from .flow import FlowError, ShearFlowParameters
+    from .parameters import ParameterError, parse_quantity
+    from .runner import StopCriteria
+    from .runner import shear as run
+
+    mesh_size = mesh_size if mesh_size is not None else _shear_mesh(resolution)
+    pole_size = pole_size if pole_size is not None else mesh_size  # uniform: no plate contacts to refine for
+    cell = _cell_options(nucleus, stiffness_ratio, size_ratio, offset, offset_axis, semi_axes, nucleus_axis, random,
+                         seed, mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius)
+    if (viscosity is None) != (shear_rate is None):
+        raise ParameterError("viscosity", "give both --viscosity and --shear-rate, or neither")
+    if viscosity is not None:
+        if capillary_number is not None:
+            raise ParameterError("capillary_number", "give --capillary-number or --viscosity/--shear-rate, not both")
+        eta, _ = parse_quantity(viscosity, "Pa*s", "viscosity")
+        rate, _ = parse_quantity(shear_rate, "1/s", "shear_rate")
+        if not cell.youngs_modulus_is_physical:
+            raise ParameterError("youngs_modulus", "give a physical --youngs-modulus (e.g. 1kPa) with --viscosity")
+        capillary_number = 2 * (1 + poisson_ratio) * eta * rate / cell.youngs_modulus  # Ca with mu_c
+    if capillary_number is None:
+        raise ParameterError("capillary_number", "required (or --viscosity with --shear-rate)")
+    flow_options = {"confinement": confinement}
+    ShearFlowParameters(capillary_number=capillary_number, resolution=resolution, **flow_options)  # validate early
+    StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance)
+    try:
+        summary = run(out, capillary_number, cell=cell, equivalent=equivalent, resolution=resolution,
+                      duration=duration, resume=resume, progress=not quiet and sys.stderr.isatty(),
+                      wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
+                      record_interval=record_interval, checkpoint_every=checkpoint_every, vtk_interval=vtk_interval,
+                      flow_options=flow_options)
+    except FlowError as error:
+        typer.echo(f"elastocell: shear flow failed: {error}", err=True)
+        raise typer.Exit(code=1) from None
+    if not quiet:
+        typer.echo(f"{summary['label']}: Ca = {capillary_number:g}, D = {summary['taylor_deformation_mean']:.4f} "
+                   f"+- {summary['taylor_deformation_std']:.1e}, inclination {summary['inclination_deg_mean']:.1f} deg, "
+                   f"tank treading {summary['tank_treading_frequency']:.3f} shear_rate, strain "
+                   f"{summary['duration_strain']:.2f} in {summary['wall_time_s']:.1f} s -> {out}")
+
+
+def _shear_mesh(resolution: float) -> float:
+    from .flow import shear_mesh_size
+
+    return shear_mesh_size(resolution) if resolution > 0 else 0.5
+
+
 @app.command("equivalent")
 @_user_errors
 def equivalent_command(
@@ -171,6 +253,122 @@ def equivalent_command(
         return
     for key, value in summary.items():
         typer.echo(f"{key}: {value}")
+
+
+_OPTION_NAMES.update({
+    "capillary_number_wall": "--capillary-number-wall", "channel_radius_ratio": "--channel-radius-ratio",
+    "start_offset": "--start-offset", "pressure_gradient": "--pressure-gradient",
+})
+
+
+@app.command()
+@_user_errors
+def pipe(
+    out: Path = typer.Option(..., "--out", help="Output directory."),
+    capillary_number_wall: float | None = typer.Option(  # noqa: UP007
+        None, "--capillary-number-wall", help="Ca_w = G*R_ch/(2*mu_c) (mu_eff with --equivalent)."),
+    nucleus: NucleusShape = NUCLEUS, stiffness_ratio: float = STIFFNESS, size_ratio: float = SIZE,
+    offset: float = OFFSET, offset_axis: AxisName = OFFSET_AXIS, semi_axes: tuple[float, float, float] = SEMI_AXES,
+    nucleus_axis: AxisName = NUCLEUS_AXIS, random: bool = RANDOM, seed: int = SEED,
+    mesh_size: float | None = typer.Option(None, "--mesh-size", help="Element size (units of R); default: 2 dx, uniform."),  # noqa: UP007
+    pole_size: float | None = typer.Option(None, "--pole-size", help="Element size at the poles; default: uniform."),  # noqa: UP007
+    poisson_ratio: float = POISSON, youngs_modulus: str = MODULUS, radius: str = RADIUS,
+    material: str = MATERIAL,
+    element: str = typer.Option("p1", "--element", help="p1 (4-node, the paper's; flow default) | p2 (10-node)."),
+    equivalent: bool = typer.Option(False, "--equivalent", help="Simulate the homogeneous equivalent (Ca_w with mu_eff)."),
+    channel_radius_ratio: float = typer.Option(2.0, "--channel-radius-ratio", help="R_ch/R, channel over cell radius (> 1)."),
+    start_offset: float = typer.Option(0.0, "--start-offset", help="r0/R_ch, initial distance of the cell from the axis."),
+    resolution: float = typer.Option(8.0, "--resolution", help="R/dx, lattice nodes per cell radius."),
+    duration: float = typer.Option(10.0, "--duration", help="Run length in units of 1/gdot_w (wall shear rate)."),
+    pressure_gradient: str | None = typer.Option(None, "--pressure-gradient", help="Physical G (e.g. 1e5Pa/m), with a physical --radius and --youngs-modulus instead of --capillary-number-wall."),  # noqa: UP007
+    wall_clock: float | None = typer.Option(None, "--wall-clock", help="Stop after this many seconds."),  # noqa: UP007
+    record_interval: float = typer.Option(0.1, "--record-interval", help="Time between records (1/gdot_w)."),
+    checkpoint_every: int = typer.Option(20, "--checkpoint-every", help="Records between checkpoints."),
+    vtk_interval: float = typer.Option(1.0, "--vtk-interval", help="Time between VTK snapshots (1/gdot_w)."),
+    resume: bool = typer.Option(False, "--resume", help="Continue from DIR/checkpoint.npz (same options)."),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress bar, no summary."),
+):
+    """A cell in pressure-driven flow through a cylindrical capillary: migration and bullet shape."""
+    from .flow import FlowError
+    from .parameters import ParameterError, parse_quantity
+    from .pipe import PipeFlowParameters
+    from .pipe import pipe as run
+
+    mesh_size = mesh_size if mesh_size is not None else _shear_mesh(resolution)
+    pole_size = pole_size if pole_size is not None else mesh_size  # uniform: no plate contacts to refine for
+    cell = _cell_options(nucleus, stiffness_ratio, size_ratio, offset, offset_axis, semi_axes, nucleus_axis, random,
+                         seed, mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius)
+    if pressure_gradient is not None:
+        if capillary_number_wall is not None:
+            raise ParameterError("capillary_number_wall", "give --capillary-number-wall or --pressure-gradient, not both")
+        g, _ = parse_quantity(pressure_gradient, "Pa/m", "pressure_gradient")
+        if not (cell.youngs_modulus_is_physical and cell.radius_is_physical):
+            raise ParameterError("pressure_gradient", "needs a physical --radius and --youngs-modulus (e.g. 8um, 1kPa)")
+        # Ca_w = G R_ch / (2 mu_c), mu_c = E_c / (2 (1 + nu))
+        capillary_number_wall = g * channel_radius_ratio * cell.radius * (1 + poisson_ratio) / cell.youngs_modulus
+        if equivalent:  # the same G on the equivalent: Ca_w with mu_eff = gamma_eff mu_c
+            from .api import equivalent as effective
+
+            capillary_number_wall /= effective(cell)["effective_stiffness_ratio"]
+    if capillary_number_wall is None:
+        raise ParameterError("capillary_number_wall", "required (or --pressure-gradient)")
+    flow_options = {"channel_radius_ratio": channel_radius_ratio, "start_offset": start_offset, "resolution": resolution}
+    PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)  # validate early
+    try:
+        summary = run(out, capillary_number_wall, cell=cell, equivalent=equivalent, duration=duration, resume=resume,
+                      progress=not quiet and sys.stderr.isatty(), wall_clock=wall_clock,
+                      record_interval=record_interval, checkpoint_every=checkpoint_every, vtk_interval=vtk_interval,
+                      flow_options=flow_options)
+    except FlowError as error:
+        typer.echo(f"elastocell: pipe flow failed: {error}", err=True)
+        raise typer.Exit(code=1) from None
+    if not quiet:
+        typer.echo(f"{summary['label']}: Ca_w = {capillary_number_wall:g}, eps_x = {summary['strain_axial_mean']:.4f} "
+                   f"+- {summary['strain_axial_std']:.1e}, eps_r = {summary['strain_radial_mean']:.4f} "
+                   f"+- {summary['strain_radial_std']:.1e}, r/R_ch {summary['radial_position_initial']:.3f} -> "
+                   f"{summary['radial_position']:.3f}, t = {summary['duration']:.2f}/gdot_w in "
+                   f"{summary['wall_time_s']:.1f} s -> {out}")
+
+
+bench_app = typer.Typer(no_args_is_help=True, help="Measure this machine: lattice-Boltzmann throughput.")
+app.add_typer(bench_app, name="bench")
+
+
+class Precision(str, Enum):
+    float32 = "float32"
+    float64 = "float64"
+
+
+@bench_app.command("lattice")
+@_user_errors
+def bench_lattice(
+    size: int = typer.Option(128, "--size", help="Lattice size N (N^3 nodes, periodic)."),
+    dtype: Precision = typer.Option(Precision.float32, "--dtype", help="Population storage precision."),
+    no_cell: bool = typer.Option(False, "--no-cell", help="Skip the run with an immersed cell."),
+    threads: int | None = typer.Option(None, "--threads", help="Numba threads (default: all)."),  # noqa: UP007
+    as_json: bool = typer.Option(False, "--json", help="Print the figures as one JSON line (last line)."),
+):
+    """MLUPS of the fused D3Q19 step, with and without a cell, against the memory roofline measured in the
+    same run (STREAM-like triad)."""
+    from .benchmark import run_benchmark
+    from .parameters import ParameterError
+
+    if not 8 <= size <= 1024:
+        raise ParameterError("size", f"must be in [8, 1024] lattice nodes per side, got {size}")
+    if threads is not None and threads < 1:
+        raise ParameterError("threads", f"must be >= 1, got {threads}")
+    result = run_benchmark(size, dtype.value, with_cell=not no_cell, threads=threads)
+    if as_json:
+        typer.echo(json.dumps(result))
+        return
+    typer.echo(f"{result['size']}^3 {result['dtype']}, {result['threads']} threads: STREAM triad "
+               f"{result['bandwidth_gbs']:.1f} GB/s -> roofline {result['roofline_mlups']:.1f} MLUPS "
+               f"({result['bytes_per_update']} B/update)")
+    typer.echo(f"pure LB: {result['mlups']:.1f} MLUPS = {100 * result['roofline_fraction']:.1f} % of the roofline "
+               f"(CPU use {result['cpu_utilisation']:.2f} x)")
+    if result["mlups_with_cell"] is not None:
+        typer.echo(f"with a cell ({result['markers']} markers): {result['mlups_with_cell']:.1f} MLUPS, "
+                   f"{result['with_cell_slowdown']:.2f} x slower than pure LB")
 
 
 if __name__ == "__main__":  # pragma: no cover
