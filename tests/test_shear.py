@@ -84,6 +84,31 @@ def test_rotation_tracker_recovers_a_rigid_rotation():
     assert restored.angular_velocity(start=10.0) == pytest.approx(-0.5, rel=1e-12)
 
 
+def test_rotation_tracker_recovers_tank_treading_on_an_ellipse():
+    """Reference: material points of a fixed ellipsoid (a, b, c) = (1.4, 0.7, 1) inclined at 30 degrees whose
+    phases advance at omega = -0.5 (x = a cos(phi0 + omega t) in the body frame) give -0.5 to round-off for any
+    window. The polar angles alone would give 2ab/(a^2 + b^2) omega = -0.4 over a full period and depend on the
+    window (measured 0.452 instead of 0.5 at D = 0.3 over 3 strain units before the phase angles)."""
+    rng = np.random.default_rng(1)
+    directions = rng.standard_normal((300, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    phi0 = np.arctan2(directions[:, 1], directions[:, 0])
+    rho, height = np.hypot(directions[:, 0], directions[:, 1]), directions[:, 2]
+    a, b, incline = 1.4, 0.7, np.radians(30.0)
+    rotation = np.array([[np.cos(incline), -np.sin(incline)], [np.sin(incline), np.cos(incline)]])
+    # second moment of the solid ellipsoid: V/5 diag(a^2, b^2, c^2), rotated in the plane
+    second = np.diag([a * a, b * b, 1.0]) * (4 * np.pi / 3 * a * b) / 5
+    second[:2, :2] = rotation @ second[:2, :2] @ rotation.T
+    for window in (3.0, 7.0):
+        tracker = observables.RotationTracker()
+        for t in np.arange(0.0, window, 0.05):
+            phase = phi0 - 0.5 * t
+            body = np.column_stack([a * rho * np.cos(phase), b * rho * np.sin(phase)])
+            x = np.column_stack([body @ rotation.T, height])
+            tracker.record(t, x, np.zeros(3), second)
+        assert tracker.angular_velocity() == pytest.approx(-0.5, rel=1e-9)
+
+
 # --------------------------------------------------------------------------- lattice units and guards
 def test_lattice_units_respect_every_limit_and_give_the_capillary_number(coarse_cell):
     params = flow.ShearFlowParameters(capillary_number=0.1, resolution=4)
@@ -262,6 +287,24 @@ def test_cli_shear_writes_the_contract_files_and_resumes(tmp_path):
     longer = np.genfromtxt(out / "timeseries.csv", delimiter=",", names=True)
     assert len(longer) == 6 and json.loads((out / "summary.json").read_text())["resumed"] is True
     np.testing.assert_array_equal(longer[:4]["taylor_deformation"], table["taylor_deformation"])
+
+
+def test_cli_shear_physical_input_with_equivalent_keeps_the_physical_shear_rate(tmp_path):
+    """eta = 15 mPa s, shear rate 1000/s, E_c = 300 Pa: Ca against mu_c = 2(1 + nu) eta rate / E_c = 0.148
+    (exact arithmetic); the equivalent has mu_eff = gamma_eff mu_c, so it runs at Ca_eff = 0.148/gamma_eff."""
+    import json
+
+    quick = [option for option in _QUICK if option != "none"]
+    quick.remove("--nucleus")
+    out = tmp_path / "eq"
+    result = _cli("--out", str(out), "--viscosity", "15mPa*s", "--shear-rate", "1000/s", "--youngs-modulus",
+                  "300Pa", "--radius", "8um", "--equivalent", "--duration", "0.1", *quick)
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    gamma_eff = summary["effective_stiffness_ratio"]
+    assert gamma_eff > 1.05  # the reference cell's nucleus is stiffer
+    assert summary["capillary_number_mu_c"] == pytest.approx(0.148, rel=1e-12)
+    assert summary["capillary_number"] == pytest.approx(0.148 / gamma_eff, rel=1e-12)
 
 
 @pytest.mark.parametrize("arguments, option", [

@@ -214,7 +214,7 @@ def shear(
                       duration=duration, resume=resume, progress=not quiet and sys.stderr.isatty(),
                       wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                       record_interval=record_interval, checkpoint_every=checkpoint_every, vtk_interval=vtk_interval,
-                      flow_options=flow_options)
+                      flow_options=flow_options, capillary_number_modulus="mu_c" if viscosity is not None else "reference")
     except FlowError as error:
         typer.echo(f"elastocell: shear flow failed: {error}", err=True)
         raise typer.Exit(code=1) from None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import platform
 import time
 from pathlib import Path
@@ -33,8 +34,35 @@ def software_versions() -> dict:
     }
 
 
+def _replace_atomically(path: Path, write) -> None:
+    """``write(temporary_path)``, then rename over ``path``: a killed run leaves the old file or the new one,
+    never a truncated one."""
+    path = Path(path)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        write(temporary)
+        os.replace(temporary, path)
+    finally:
+        if temporary.exists():
+            temporary.unlink()
+
+
+def _finite_or_null(value):
+    """NaN and infinities become null: strict JSON has no NaN."""
+    if isinstance(value, dict):
+        return {key: _finite_or_null(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_or_null(item) for item in value]
+    if isinstance(value, (float, np.floating)) and not np.isfinite(value):
+        return None
+    return value
+
+
 def write_json(path: Path, payload: dict) -> None:
-    path.write_text(json.dumps(payload, indent=2, sort_keys=False, default=_json_default) + "\n")
+    """JSON (indented; NaN written as null), replaced atomically."""
+    text = json.dumps(_finite_or_null(json.loads(json.dumps(payload, default=_json_default))), indent=2,
+                      allow_nan=False) + "\n"
+    _replace_atomically(path, lambda temporary: temporary.write_text(text))
 
 
 def _json_default(value):
@@ -49,7 +77,8 @@ def write_table(path: Path, columns: dict[str, np.ndarray]) -> None:
     """CSV with a header row, full float precision."""
     names = list(columns)
     data = np.column_stack([np.asarray(columns[name], dtype=float) for name in names])
-    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
+    _replace_atomically(path, lambda temporary: np.savetxt(temporary, data, delimiter=",", header=",".join(names),
+                                                          comments="", fmt="%.10g"))
 
 
 def write_vtk_series(directory: Path, stem: str, mesh: CellMesh, positions: np.ndarray, times: np.ndarray,

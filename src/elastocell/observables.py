@@ -174,7 +174,7 @@ def inclination_deg(second_moment: np.ndarray, plane: tuple[int, int] = (0, 1)) 
 @dataclass(frozen=True)
 class ShapeObservables:
     """One snapshot: volume V, centre (3,), semi-axes (a, b, c), Taylor deformation D, inclination (deg),
-    nucleus centre (3,) or None."""
+    nucleus centre (3,) or None, second moment M about the centre (3, 3)."""
 
     volume: float
     centre: np.ndarray
@@ -182,6 +182,7 @@ class ShapeObservables:
     taylor_deformation: float
     inclination_deg: float
     nucleus_centre: np.ndarray | None
+    second_moment: np.ndarray | None = None
 
 
 def shape_observables(x: np.ndarray, elements: np.ndarray, nucleus_mask: np.ndarray | None = None,
@@ -199,15 +200,34 @@ def shape_observables(x: np.ndarray, elements: np.ndarray, nucleus_mask: np.ndar
         taylor_deformation=ellipsoid.taylor_deformation,
         inclination_deg=inclination_deg(m.second_moment, plane),
         nucleus_centre=nucleus_centre,
+        second_moment=m.second_moment,
     )
 
 
 # --------------------------------------------------------------------------- tank treading
-def inplane_angles(x: np.ndarray, centre: np.ndarray, plane: tuple[int, int] = (0, 1)) -> tuple[np.ndarray, np.ndarray]:
-    """Angle atan2(r_y, r_x) of every point about ``centre`` in the plane, and the squared in-plane distance."""
+def inplane_angles(x: np.ndarray, centre: np.ndarray, plane: tuple[int, int] = (0, 1),
+                   second_moment: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """In-plane angle of every point about ``centre`` and its squared in-plane distance.
+
+    Without ``second_moment``: the polar angle atan2(r_y, r_x). With the body's second moment M (3, 3): the
+    angle theta + phi, theta the in-plane long-axis angle of M and phi = atan2(v/b, u/a) the phase of the point
+    in the principal frame scaled by the in-plane semi-axes (a, b proportional to the square roots of the
+    eigenvalues of M's in-plane block). A point tank-treading on an ellipse, x = a cos(omega t), advances its
+    phase uniformly at omega, whereas its polar angle does not (its r^2-weighted rate is 2ab/(a^2+b^2) omega);
+    for a circle or a rigid rotation both angles agree."""
     i, j = plane
     r = np.asarray(x) - np.asarray(centre)
-    return np.arctan2(r[:, j], r[:, i]), r[:, i] ** 2 + r[:, j] ** 2
+    radius2 = r[:, i] ** 2 + r[:, j] ** 2
+    if second_moment is None:
+        return np.arctan2(r[:, j], r[:, i]), radius2
+    block = np.asarray(second_moment)[np.ix_([i, j], [i, j])]
+    eigenvalues, vectors = np.linalg.eigh(block)  # ascending
+    long_axis, short_axis = vectors[:, 1], np.array([-vectors[1, 1], vectors[0, 1]])  # short = long rotated +90
+    theta = np.arctan2(long_axis[1], long_axis[0])
+    planar = np.column_stack([r[:, i], r[:, j]])
+    u = planar @ long_axis / np.sqrt(max(eigenvalues[1], 1e-300))
+    v = planar @ short_axis / np.sqrt(max(eigenvalues[0], 1e-300))
+    return theta + np.arctan2(v, u), radius2
 
 
 class RotationTracker:
@@ -223,8 +243,10 @@ class RotationTracker:
         self._angles: list[np.ndarray] = []
         self._radii2: list[np.ndarray] = []
 
-    def record(self, time: float, x: np.ndarray, centre: np.ndarray) -> None:
-        angle, radius2 = inplane_angles(x, centre, self.plane)
+    def record(self, time: float, x: np.ndarray, centre: np.ndarray, second_moment: np.ndarray | None = None) -> None:
+        """Add a record; with the body's ``second_moment`` the angles are ellipse phases (see
+        :func:`inplane_angles`), which advance uniformly for tank treading."""
+        angle, radius2 = inplane_angles(x, centre, self.plane, second_moment)
         if self._angles:
             previous = self._angles[-1]
             angle = previous + (angle - previous + np.pi) % (2 * np.pi) - np.pi

@@ -158,7 +158,7 @@ class ShearRun:
         }  # fmt: skip
         for name in SERIES_COLUMNS:
             self.series[name].append(float(row[name]))
-        self.tracker.record(strain, self.system.positions_in_radii()[self._surface], obs.centre)
+        self.tracker.record(strain, self.system.positions_in_radii()[self._surface], obs.centre, obs.second_moment)
         return row
 
     # ------------------------------------------------------------------ guards
@@ -257,6 +257,8 @@ class ShearRun:
         digest.update(np.ascontiguousarray(self.cell.mesh.nodes).tobytes())
         digest.update(np.ascontiguousarray(self.cell.mesh.elements).tobytes())
         digest.update(np.ascontiguousarray(self.cell.youngs_moduli, dtype=np.float64).tobytes())
+        digest.update(self.cell.law.name.encode())
+        digest.update(np.ascontiguousarray(self.cell.material_parameters, dtype=np.float64).tobytes())
         digest.update(str(self.steps_per_record).encode())
         return digest.hexdigest()
 
@@ -329,7 +331,7 @@ class VTKWriter:
         self.interval = float(interval)
 
     def __call__(self, row: dict, run: ShearRun) -> None:
-        index = int(round(row["strain"] / self.interval, 9))
+        index = round(row["strain"] / self.interval)
         if abs(row["strain"] - index * self.interval) > 0.5 * run.record_interval:
             return
         self.write(index, run)
@@ -424,6 +426,7 @@ def shear(
     checkpoint_every: int = 20,
     vtk_interval: float | None = 1.0,
     flow_options: dict | None = None,
+    capillary_number_modulus: str = "reference",
     **cell_options,
 ) -> dict:
     """A cell in plane Couette flow; writes ``out/timeseries.csv``, ``summary.json``,
@@ -433,6 +436,9 @@ def shear(
     cell: :class:`~elastocell.parameters.CellParameters` or the CELL OPTIONS of ``cell_parameters``; without
     an explicit mesh size the mesh is uniform with edges of 2 dx (``flow.shear_mesh_size``) and linear
     tetrahedra (``element="p1"``) unless another element is given.
+    capillary_number_modulus: "reference" (Ca against the simulated cell's mu: mu_eff with ``equivalent``) or
+    "mu_c" (Ca against the described cell's mu_c, as physical eta, shear rate and E_c give it; with
+    ``equivalent`` the run then uses Ca_eff = Ca / gamma_eff, the same physical shear rate).
     resolution: R/dx (default 8). duration: strain shear_rate * t. resume: continue from
     ``out/checkpoint.npz`` (same options) if it exists. flow_options: further :class:`ShearFlowParameters`.
     """
@@ -462,8 +468,14 @@ def shear(
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     body = Cell.from_parameters(cell)
+    if capillary_number_modulus not in ("reference", "mu_c"):
+        raise ParameterError("capillary_number_modulus", f"must be 'reference' or 'mu_c', got {capillary_number_modulus!r}")
+    capillary_number_mu_c = capillary_number if capillary_number_modulus == "mu_c" else None
     if equivalent:
         body = body.equivalent()
+        if capillary_number_modulus == "mu_c":  # same physical shear rate: Ca_eff = eta shear_rate / mu_eff
+            capillary_number = capillary_number / body.effective_stiffness_ratio
+            params = ShearFlowParameters(**{**params.model_dump(), "capillary_number": capillary_number})
     run = ShearRun(body, params, record_interval=record_interval)
     checkpoint = out / "checkpoint.npz"
     resumed = False
@@ -489,7 +501,11 @@ def shear(
                                 d=run.series["taylor_deformation"][-1])
             observers.append(lambda row, current: bar.update(task, completed=row["strain"],
                                                              d=row["taylor_deformation"]))
-        run.run(stop, observers=tuple(observers), checkpoint=checkpoint, checkpoint_every=checkpoint_every)
+        try:
+            run.run(stop, observers=tuple(observers), checkpoint=checkpoint, checkpoint_every=checkpoint_every)
+        except FlowError:
+            write_table(out / "timeseries.csv", run.arrays())  # keep every record up to the failure
+            raise
     series = run.arrays()
     write_table(out / "timeseries.csv", series)
     summary = {"scenario": "shear", "label": label}
@@ -497,6 +513,8 @@ def shear(
     summary.update({
         "effective_stiffness_ratio": body.effective_stiffness_ratio,
         "reference_modulus": "mu_eff" if equivalent else "mu_c",
+        "capillary_number_mu_c": capillary_number_mu_c if capillary_number_mu_c is not None else (
+            capillary_number * body.effective_stiffness_ratio if equivalent else capillary_number),
         "resumed": resumed,
         "wall_time_s": clock.elapsed,
         "cell": cell.model_dump(mode="json"),
