@@ -1,0 +1,184 @@
+"""The cell in a capillary (pressure-driven Poiseuille flow through a cylinder): accuracy of the empty channel,
+stationary strains of the reference cell and its homogeneous equivalent, migration, and the cost of a coupled
+step against pure lattice Boltzmann in the same channel.
+
+Run::
+
+    python benchmarks/pipe.py                          # everything below
+    python benchmarks/pipe.py --only poiseuille        # Poiseuille error against R_ch/dx and its order (~1 min)
+    python benchmarks/pipe.py --only mlups             # MLUPS with the cell against pure LB (~1 min)
+    python benchmarks/pipe.py --only reference         # nucleus cell (gamma = 2, lambda = 0.5) and equivalent
+    python benchmarks/pipe.py --only migration         # off-axis start, time to halve the offset
+
+Defaults (``PipeFlowParameters``): R/dx = 8, R_ch/R = 2, box 8R, tau = 1, particle Reynolds number 0.1 (with
+the wall shear rate), trilinear kernel, uniform p1 mesh with edges of 2 dx; Ca_w = 0.2
+(``pipe.DEFAULT_CAPILLARY_NUMBER_WALL``). Time is in units of the inverse wall shear rate 1/gdot_w.
+Stationary values are means over the second half of each run. The equivalent runs at the same pressure
+gradient G and E_c (the paper's "same flow conditions"), i.e. at Ca_w(mu_eff) = Ca_w/gamma_eff.
+MLUPS = all lattice nodes (fluid and solid) x steps / second; the fluid fraction is printed beside it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+try:
+    import elastocell
+except ImportError:  # a source checkout without installing
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
+    import elastocell
+
+import numba
+
+from elastocell import flow, pipe
+from elastocell.cell import Cell
+
+
+def make_cell(resolution: float, nucleus: str = "sphere") -> Cell:
+    size = flow.shear_mesh_size(resolution)
+    return Cell.from_parameters(elastocell.cell_parameters(nucleus=nucleus, stiffness_ratio=2.0, size_ratio=0.5,
+                                                           element="p1", mesh_size=size, pole_size=size))
+
+
+def print_table(rows: list[dict], title: str) -> None:
+    print(f"\n{title}")
+    if not rows:
+        return
+    names = list(rows[0])
+    print(" | ".join(names))
+    for row in rows:
+        cells = []
+        for name in names:
+            value = row[name]
+            cells.append(f"{value:.5g}" if isinstance(value, float) else str(value))
+        print(" | ".join(cells))
+    sys.stdout.flush()
+
+
+def poiseuille(radii) -> list[dict]:
+    rows = []
+    for radius in radii:
+        start = time.perf_counter()
+        e = pipe.poiseuille_error(float(radius))
+        rows.append({"R_ch/dx": float(radius), "Q_err": e["flow_rate_error"], "L2_err": e["profile_l2_error"],
+                     "max_err/u_max": e["profile_max_error"], "centre_err": e["centre_speed_error"],
+                     "steps": e["steps"], "wall_s": time.perf_counter() - start})
+    print_table(rows, "Empty channel (float64, tau = 1, steady) against u(r) = G (R_ch^2 - r^2)/(4 eta)")
+    r = np.array([row["R_ch/dx"] for row in rows])
+    for name in ("Q_err", "L2_err", "max_err/u_max"):
+        err = np.abs([row[name] for row in rows])
+        slope = np.polyfit(np.log(r), np.log(err), 1)[0]
+        print(f"least-squares order of |{name}| over R_ch/dx = {r.min():g}..{r.max():g}: {-slope:.2f}")
+    return rows
+
+
+def run_case(cell: Cell, ca: float, duration: float, **overrides) -> dict:
+    params = pipe.PipeFlowParameters(capillary_number_wall=ca, **overrides)
+    start = time.perf_counter()
+    result = pipe.run_pipe(cell, params, duration=duration, record_interval=0.1)
+    s = result.summary
+    return {
+        "cell": "equivalent" if cell.is_equivalent else ("homogeneous" if cell.effective_stiffness_ratio == 1 else
+                                                         f"nucleus g_eff={cell.effective_stiffness_ratio:.4f}"),
+        "Ca_w": ca, "R/dx": params.resolution, "R_ch/R": params.channel_radius_ratio, "r0/R_ch": params.start_offset,
+        "nodes": cell.mesh.n_nodes,
+        "eps_x": s["strain_axial_mean"], "eps_x_std": s["strain_axial_std"],
+        "eps_r": s["strain_radial_mean"], "eps_r_std": s["strain_radial_std"],
+        "eps_z": s["strain_transverse_mean"],
+        "deformation": s["deformation_mean"], "deformation_t0": s["deformation_initial"],
+        "area/R^2": s["projected_area_mean"], "u/u_max": s["axial_velocity_mean"],
+        "r_end/R_ch": s["radial_position"], "t_half": s["migration_half_time"],
+        "max|dV/V|": s["volume_change_max_abs"], "t_end": s["duration"],
+        "lattice": "x".join(str(n) for n in result.units.shape), "steps": s["steps"],
+        "limit": result.units.limiting, "wall_s": time.perf_counter() - start,
+        "_series": {k: v.tolist() for k, v in result.series.items()},
+    }
+
+
+def reference(resolution: float, duration: float, ca: float) -> list[dict]:
+    cell = make_cell(resolution)
+    equivalent = cell.equivalent()
+    rows = [run_case(cell, ca, duration, resolution=resolution)]
+    print_table([{k: v for k, v in rows[-1].items() if not k.startswith("_")}], "reference nucleus cell")
+    rows.append(run_case(equivalent, ca / cell.effective_stiffness_ratio, duration, resolution=resolution))
+    print_table([{k: v for k, v in row.items() if not k.startswith("_")} for row in rows],
+                f"Centred cell, gamma = 2, lambda = 0.5, and its equivalent at the same G (Ca_w = {ca:g} with mu_c)")
+    return rows
+
+
+def migration(resolution: float, duration: float, ca: float, offset: float) -> list[dict]:
+    cell = make_cell(resolution)
+    rows = [run_case(cell, ca, duration, resolution=resolution, start_offset=offset)]
+    row = rows[0]
+    print_table([{k: v for k, v in row.items() if not k.startswith("_")}],
+                f"Migration of the reference cell from r0/R_ch = {offset:g} (Ca_w = {ca:g})")
+    t = np.asarray(row["_series"]["time"])
+    r = np.asarray(row["_series"]["radial_position"])
+    for mark in np.linspace(0, t[-1], 9):
+        i = int(np.argmin(abs(t - mark)))
+        print(f"  t = {t[i]:7.2f}/gdot_w  r/R_ch = {r[i]:.4f}")
+    return rows
+
+
+def mlups(resolution: float, steps: int, ca: float) -> dict:
+    cell = make_cell(resolution)
+    params = pipe.PipeFlowParameters(capillary_number_wall=ca, resolution=resolution)
+    units = pipe.pipe_lattice_units(cell, params)
+    system = pipe.pipe_setup(cell, params, units)
+    system.advance(10)  # compile / warm
+    start = time.perf_counter()
+    system.advance(steps)
+    with_cell = time.perf_counter() - start
+    lattice = pipe.pipe_setup(cell, params, units).lattice  # same channel, no cell
+    lattice.set_force_density(None)
+    lattice.step(10)
+    start = time.perf_counter()
+    lattice.step(steps)
+    pure = time.perf_counter() - start
+    n = int(np.prod(units.shape))
+    fluid = 1.0 - float(lattice.solid.mean())
+    out = {"lattice": "x".join(str(v) for v in units.shape), "fluid_fraction": fluid, "markers": cell.mesh.n_nodes,
+           "steps": steps, "threads": numba.get_num_threads(),
+           "MLUPS_pure": n * steps / pure / 1e6, "MLUPS_cell": n * steps / with_cell / 1e6,
+           "slowdown": with_cell / pure, "ms/step_pure": 1e3 * pure / steps, "ms/step_cell": 1e3 * with_cell / steps}
+    print_table([out], "Cost of a step in the default channel (all nodes counted; solid nodes are skipped by the kernel)")
+    return out
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--only", choices=("poiseuille", "mlups", "reference", "migration"), action="append")
+    parser.add_argument("--radii", type=float, nargs="+", default=[4, 6, 8, 12, 16, 24, 32])
+    parser.add_argument("--resolution", type=float, default=8.0)
+    parser.add_argument("--capillary-number-wall", type=float, default=pipe.DEFAULT_CAPILLARY_NUMBER_WALL)
+    parser.add_argument("--duration", type=float, default=8.0, help="reference runs (1/gdot_w)")
+    parser.add_argument("--migration-resolution", type=float, default=4.0)
+    parser.add_argument("--migration-duration", type=float, default=60.0)
+    parser.add_argument("--start-offset", type=float, default=0.25)
+    parser.add_argument("--mlups-steps", type=int, default=2000)
+    parser.add_argument("--json", type=Path, help="write every figure to this file")
+    args = parser.parse_args(argv)
+    only = set(args.only or ("poiseuille", "mlups", "reference", "migration"))
+    print(f"elastocell {elastocell.__version__}, numba threads {numba.get_num_threads()}")
+    results = {}
+    if "poiseuille" in only:
+        results["poiseuille"] = poiseuille(args.radii)
+    if "mlups" in only:
+        results["mlups"] = mlups(args.resolution, args.mlups_steps, args.capillary_number_wall)
+    if "reference" in only:
+        results["reference"] = reference(args.resolution, args.duration, args.capillary_number_wall)
+    if "migration" in only:
+        results["migration"] = migration(args.migration_resolution, args.migration_duration,
+                                         args.capillary_number_wall, args.start_offset)
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=1, default=float))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,231 @@
+"""Pipe (capillary) flow: the empty channel against Poiseuille, and a cell carried through it.
+
+Tiny lattices (R = 4 dx, R_ch = 10 dx, 24 x 22 x 22 nodes) and a coarse p1 mesh (49 nodes) keep every
+coupled run to a few seconds; the physics figures at the default resolution are in benchmarks/pipe.py.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from elastocell import cell_parameters
+from elastocell.cell import Cell
+from elastocell.parameters import ParameterError
+from elastocell.pipe import (
+    PIPE_COLUMNS,
+    PipeFlowParameters,
+    PipeRun,
+    channel_shape,
+    channel_solid,
+    migration_time,
+    pipe,
+    pipe_lattice_units,
+    poiseuille_error,
+    poiseuille_flow_rate,
+    poiseuille_velocity,
+    run_pipe,
+)
+
+SMALL = dict(resolution=4, channel_radius_ratio=2.5, box_length=6)
+
+
+@pytest.fixture(scope="module")
+def cell():
+    return Cell.from_parameters(cell_parameters(nucleus="none", element="p1", mesh_size=0.6, pole_size=0.6))
+
+
+# ----------------------------------------------------------------------------------------- empty channel
+def test_closed_form():
+    g, eta, r_ch = 2e-6, 0.2, 5.0
+    r = np.linspace(0, r_ch, 2001)
+    u = poiseuille_velocity(r, g, eta, r_ch)
+    assert u[0] == pytest.approx(g * r_ch**2 / (4 * eta))
+    assert u[-1] == 0.0
+    q = np.trapezoid(2 * np.pi * r * u, r)
+    assert q == pytest.approx(poiseuille_flow_rate(g, eta, r_ch), rel=1e-6)
+
+
+def test_channel_mask_is_a_closed_cylinder():
+    shape = channel_shape(6.0, 3)
+    solid = channel_solid(shape, 6.0)
+    assert solid.shape == shape
+    assert solid[:, 0, :].all() and solid[:, -1, :].all() and solid[:, :, 0].all() and solid[:, :, -1].all()
+    assert (solid == solid[:1]).all()  # invariant along the axis
+    assert abs((~solid[0]).sum() / (np.pi * 36) - 1) < 0.05
+
+
+@pytest.mark.parametrize(
+    "radius, flow_rate_tol, profile_tol",
+    [
+        # measured (float64, tau = 1, steady): Q error +4.68 %, profile L2 error 4.21 % at R_ch = 8 dx
+        (8.0, 0.05, 0.045),
+        # measured: Q error +0.64 %, profile L2 error 0.95 % at R_ch = 16 dx (the default channel)
+        (16.0, 0.01, 0.012),
+    ],
+)
+def test_poiseuille_profile_and_flow_rate(radius, flow_rate_tol, profile_tol):
+    """Staircase half-way bounce-back: first-order, non-monotone error (benchmarks/pipe.py has the table)."""
+    error = poiseuille_error(radius)
+    assert abs(error["flow_rate_error"]) < flow_rate_tol
+    assert error["profile_l2_error"] < profile_tol
+
+
+# ----------------------------------------------------------------------------------------- parameters
+@pytest.mark.parametrize(
+    "options, parameter",
+    [
+        (dict(capillary_number_wall=0.0), "capillary_number_wall"),
+        (dict(capillary_number_wall=-1.0), "capillary_number_wall"),
+        (dict(capillary_number_wall=float("nan")), "capillary_number_wall"),
+        (dict(capillary_number_wall=0.2, channel_radius_ratio=1.0), "channel_radius_ratio"),
+        (dict(capillary_number_wall=0.2, channel_radius_ratio=0.8), "channel_radius_ratio"),
+        (dict(capillary_number_wall=0.2, channel_radius_ratio=2.0, start_offset=0.5), "start_offset"),
+        (dict(capillary_number_wall=0.2, start_offset=-0.1), "start_offset"),
+    ],
+)
+def test_impossible_input_is_refused(options, parameter):
+    with pytest.raises(ValueError) as info:
+        PipeFlowParameters(**options)
+    assert parameter in str(info.value)
+
+
+def test_wall_margin_is_enforced_before_computing():
+    """The cell fits geometrically but the kernel would reach the wall: refused by the parameters."""
+    with pytest.raises(ValueError, match="start_offset"):
+        PipeFlowParameters(capillary_number_wall=0.2, start_offset=0.55, **SMALL)
+    with pytest.raises(ValueError, match="channel_radius_ratio"):
+        PipeFlowParameters(capillary_number_wall=0.2, resolution=4, channel_radius_ratio=1.2)
+
+
+def test_lattice_units(cell):
+    params = PipeFlowParameters(capillary_number_wall=0.2, **SMALL)
+    units = pipe_lattice_units(cell, params)
+    eta = units.viscosity
+    assert units.body_force * units.channel_radius / (2 * units.reference_shear_modulus) == pytest.approx(0.2)
+    assert units.wall_shear_rate == pytest.approx(units.body_force * units.channel_radius / (2 * eta))
+    assert units.reynolds_number <= params.reynolds_number * (1 + 1e-9)
+    assert units.centre_speed <= params.velocity_limit
+    assert units.stability_number <= 0.6 + 1e-12
+
+
+def test_migration_time():
+    t = np.arange(5.0)
+    assert migration_time(t, [0.4, 0.3, 0.2, 0.1, 0.05]) == pytest.approx(2.0)
+    assert np.isnan(migration_time(t, [0.0] * 5))
+
+
+# ----------------------------------------------------------------------------------------- cell in the channel
+@pytest.fixture(scope="module")
+def centred_runs(cell):
+    """The same cell at two Ca_w (the stiffer one has the smaller Ca_w at the same G), on the axis."""
+    return {ca: run_pipe(cell, PipeFlowParameters(capillary_number_wall=ca, **SMALL), duration=4.0,
+                         record_interval=0.5) for ca in (0.1, 0.4)}
+
+
+def test_centred_cell_stays_on_the_axis_and_becomes_stationary(centred_runs):
+    result = centred_runs[0.1]
+    s = result.series
+    assert set(PIPE_COLUMNS) <= set(s)
+    assert np.max(s["radial_position"]) < 0.01  # measured <= 0.001 R_ch
+    # carried by the flow: the body force acts in the coupled steps (measured 0.857 u_max)
+    assert 0.6 < result.summary["axial_velocity_mean"] < 1.0
+    # stationary: the strains change by less than 1e-3 over the last unit of time (measured < 1e-4)
+    for name in ("strain_axial", "strain_radial"):
+        assert abs(s[name][-1] - s[name][-3]) < 1e-3
+    # axisymmetric within the mesh's own asymmetry: radial (y) and transverse (z) extents agree
+    assert abs(s["strain_radial"][-1] - s["strain_transverse"][-1]) < 0.01
+    assert abs(result.summary["volume_change_max_abs"]) < 0.01
+
+
+def test_stiffer_cell_deforms_less(centred_runs):
+    def distortion(result):
+        s = result.series
+        return abs(s["strain_axial"][-1] - 1) + abs(s["strain_radial"][-1] - 1)
+
+    # measured at t = 4/gdot_w: eps_x - 1 = 0.005 (Ca_w = 0.1) and 0.022 (Ca_w = 0.4)
+    assert distortion(centred_runs[0.1]) < 0.5 * distortion(centred_runs[0.4])
+    assert centred_runs[0.1].summary["deformation_mean"] < centred_runs[0.4].summary["deformation_mean"]
+
+
+def test_off_axis_cell_migrates_towards_the_axis(cell):
+    params = PipeFlowParameters(capillary_number_wall=0.2, start_offset=0.3, **SMALL)
+    result = run_pipe(cell, params, duration=5.0, record_interval=1.0)
+    r = result.series["radial_position"]
+    assert r[0] == pytest.approx(0.3, abs=0.005)
+    assert np.all(np.diff(r[1:]) < 0)  # measured: 0.299 -> 0.275 over 5/gdot_w
+    assert r[-1] < r[0] - 0.015
+    assert np.abs(result.series["centre_z"]).max() < 0.005  # stays in the plane of the offset
+
+
+def test_pipe_api_writes_outputs_and_resumes(tmp_path, cell, monkeypatch):
+    monkeypatch.setenv("ELASTOCELL_NO_VTK", "1")
+    options = dict(nucleus="none", element="p1", mesh_size=0.6, pole_size=0.6, flow_options=SMALL,
+                   record_interval=0.5, checkpoint_every=1, progress=False)
+    full = pipe(tmp_path / "full", 0.2, duration=1.5, **options)
+    pipe(tmp_path / "part", 0.2, duration=1.0, **options)
+    resumed = pipe(tmp_path / "part", 0.2, duration=1.5, resume=True, **options)
+    assert resumed["resumed"]
+    a = np.genfromtxt(tmp_path / "full" / "timeseries.csv", delimiter=",", names=True)
+    b = np.genfromtxt(tmp_path / "part" / "timeseries.csv", delimiter=",", names=True)
+    assert len(a) == len(b) == 4
+    np.testing.assert_allclose(b["strain_axial"], a["strain_axial"], rtol=0, atol=1e-12)
+    summary = json.loads((tmp_path / "full" / "summary.json").read_text())
+    for key in ("strain_axial_mean", "strain_axial_std", "strain_radial_mean", "strain_radial_std",
+                "deformation_mean", "projected_area_mean", "radial_position", "lattice", "reynolds_number",
+                "wall_time_s"):
+        assert key in summary
+    assert summary["strain_axial_mean"] == pytest.approx(full["strain_axial_mean"])
+    assert (tmp_path / "full" / "pipe.png").exists()
+
+
+def test_checkpoint_refuses_other_parameters(tmp_path, cell):
+    run = PipeRun(cell, PipeFlowParameters(capillary_number_wall=0.2, **SMALL), record_interval=0.5)
+    run.save(tmp_path / "c.npz")
+    other = PipeRun(cell, PipeFlowParameters(capillary_number_wall=0.3, **SMALL), record_interval=0.5)
+    with pytest.raises(ParameterError, match="resume"):
+        other.load(tmp_path / "c.npz")
+
+
+@pytest.mark.parametrize(
+    "arguments, option",
+    [
+        (["--capillary-number-wall", "-0.1"], "--capillary-number-wall"),
+        (["--capillary-number-wall", "0.2", "--channel-radius-ratio", "1"], "--channel-radius-ratio"),
+        (["--capillary-number-wall", "0.2", "--start-offset", "0.45"], "--start-offset"),
+        ([], "--capillary-number-wall"),
+    ],
+)
+def test_cli_refuses_impossible_input_in_one_line(tmp_path, arguments, option):
+    from typer.testing import CliRunner
+
+    from elastocell.cli import app
+
+    result = CliRunner().invoke(app, ["pipe", *arguments, "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    lines = [line for line in result.output.strip().splitlines() if line]
+    assert len(lines) == 1 and option in lines[0] and "Traceback" not in result.output
+    assert not (tmp_path / "out").exists()
+
+
+def test_cli_runs_and_writes_every_output(tmp_path):
+    from typer.testing import CliRunner
+
+    from elastocell.cli import app
+
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, [
+        "pipe", "--nucleus", "none", "--mesh-size", "0.6", "--resolution", "4", "--channel-radius-ratio", "2.5",
+        "--capillary-number-wall", "0.2", "--duration", "0.5", "--record-interval", "0.25", "--vtk-interval", "0.5",
+        "--out", str(out)])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    for name in ("timeseries.csv", "summary.json", "pipe.png", "vtk/cell.pvd", "vtk/fluid.pvd", "vtk/cell_0001.vtu",
+                 "vtk/fluid_0001.vtu"):
+        assert (out / name).exists(), name
+    header = (out / "timeseries.csv").read_text().splitlines()[0].split(",")
+    for column in ("time", "radial_position", "axial_velocity", "strain_axial", "strain_radial", "projected_area",
+                   "deformation", "volume_change"):
+        assert column in header
+    assert "eps_x" in result.output
