@@ -115,6 +115,15 @@ MODULUS = typer.Option("1", "--youngs-modulus", help="E_c, e.g. 1kPa (plain numb
 RADIUS = typer.Option("1", "--radius", help="R, e.g. 8um (plain number: dimensionless).")
 MATERIAL = typer.Option("neo-hookean", "--material", help="neo-hookean | mooney-rivlin.")
 ELEMENT = typer.Option("p2", "--element", help="p2 (10-node, default) | p1 (4-node, the paper's).")
+# options shared by the flow scenarios (shear, pipe)
+FLOW_MESH_SIZE = typer.Option(None, "--mesh-size", help="Element size (units of R); default: 2 dx, uniform.")
+FLOW_POLE_SIZE = typer.Option(None, "--pole-size", help="Element size at the poles; default: uniform.")
+FLOW_ELEMENT = typer.Option("p1", "--element", help="p1 (4-node, the paper's; flow default) | p2 (10-node).")
+FLOW_RESOLUTION = typer.Option(8.0, "--resolution", help="R/dx, lattice nodes per cell radius.")
+WALL_CLOCK = typer.Option(None, "--wall-clock", help="Stop after this many seconds.")
+CHECKPOINT_EVERY = typer.Option(20, "--checkpoint-every", help="Records between checkpoints.")
+RESUME = typer.Option(False, "--resume", help="Continue from DIR/checkpoint.npz (same options).")
+QUIET = typer.Option(False, "--quiet", help="No progress bar, no summary.")
 
 
 @app.command()
@@ -164,25 +173,25 @@ def shear(
     nucleus: NucleusShape = NUCLEUS, stiffness_ratio: float = STIFFNESS, size_ratio: float = SIZE,
     offset: float = OFFSET, offset_axis: AxisName = OFFSET_AXIS, semi_axes: tuple[float, float, float] = SEMI_AXES,
     nucleus_axis: AxisName = NUCLEUS_AXIS, random: bool = RANDOM, seed: int = SEED,
-    mesh_size: float | None = typer.Option(None, "--mesh-size", help="Element size (units of R); default: 2 dx, uniform."),  # noqa: UP007
-    pole_size: float | None = typer.Option(None, "--pole-size", help="Element size at the poles; default: uniform."),  # noqa: UP007
+    mesh_size: float | None = FLOW_MESH_SIZE,  # noqa: UP007
+    pole_size: float | None = FLOW_POLE_SIZE,  # noqa: UP007
     poisson_ratio: float = POISSON, youngs_modulus: str = MODULUS, radius: str = RADIUS,
     material: str = MATERIAL,
-    element: str = typer.Option("p1", "--element", help="p1 (4-node, the paper's; shear default) | p2 (10-node)."),
+    element: str = FLOW_ELEMENT,
     equivalent: bool = typer.Option(False, "--equivalent", help="Simulate the homogeneous equivalent (Ca with mu_eff)."),
-    resolution: float = typer.Option(8.0, "--resolution", help="R/dx, lattice nodes per cell radius."),
+    resolution: float = FLOW_RESOLUTION,
     duration: float = typer.Option(6.0, "--duration", help="Run length in strain units shear_rate*t."),
     confinement: float = typer.Option(0.2, "--confinement", help="2R/H, cell diameter over the wall distance."),
     viscosity: str | None = typer.Option(None, "--viscosity", help="Physical eta (e.g. 1mPa*s), with --shear-rate and a physical --youngs-modulus instead of --capillary-number."),  # noqa: UP007
     shear_rate: str | None = typer.Option(None, "--shear-rate", help="Physical shear rate (e.g. 100/s)."),  # noqa: UP007
-    wall_clock: float | None = typer.Option(None, "--wall-clock", help="Stop after this many seconds."),  # noqa: UP007
+    wall_clock: float | None = WALL_CLOCK,  # noqa: UP007
     stationary_tolerance: float | None = typer.Option(  # noqa: UP007
         None, "--stationary-tolerance", help="Stop when the running mean of D changes less than this fraction."),
     record_interval: float = typer.Option(0.05, "--record-interval", help="Strain between records."),
-    checkpoint_every: int = typer.Option(20, "--checkpoint-every", help="Records between checkpoints."),
+    checkpoint_every: int = CHECKPOINT_EVERY,
     vtk_interval: float = typer.Option(1.0, "--vtk-interval", help="Strain between VTK snapshots."),
-    resume: bool = typer.Option(False, "--resume", help="Continue from DIR/checkpoint.npz (same options)."),
-    quiet: bool = typer.Option(False, "--quiet", help="No progress bar, no summary."),
+    resume: bool = RESUME,
+    quiet: bool = QUIET,
 ):
     """A cell in plane Couette (shear) flow: lattice Boltzmann fluid + immersed boundary."""
     from .flow import FlowError, ShearFlowParameters
@@ -255,7 +264,13 @@ def equivalent_command(
         typer.echo(f"{key}: {value}")
 
 
+class StationaryObservable(str, Enum):
+    strain_axial = "strain_axial"
+    deformation = "deformation"
+
+
 _OPTION_NAMES.update({
+    "stationary_observable": "--stationary-observable",
     "capillary_number_wall": "--capillary-number-wall", "channel_radius_ratio": "--channel-radius-ratio",
     "start_offset": "--start-offset", "pressure_gradient": "--pressure-gradient",
 })
@@ -270,29 +285,35 @@ def pipe(
     nucleus: NucleusShape = NUCLEUS, stiffness_ratio: float = STIFFNESS, size_ratio: float = SIZE,
     offset: float = OFFSET, offset_axis: AxisName = OFFSET_AXIS, semi_axes: tuple[float, float, float] = SEMI_AXES,
     nucleus_axis: AxisName = NUCLEUS_AXIS, random: bool = RANDOM, seed: int = SEED,
-    mesh_size: float | None = typer.Option(None, "--mesh-size", help="Element size (units of R); default: 2 dx, uniform."),  # noqa: UP007
-    pole_size: float | None = typer.Option(None, "--pole-size", help="Element size at the poles; default: uniform."),  # noqa: UP007
+    mesh_size: float | None = FLOW_MESH_SIZE,  # noqa: UP007
+    pole_size: float | None = FLOW_POLE_SIZE,  # noqa: UP007
     poisson_ratio: float = POISSON, youngs_modulus: str = MODULUS, radius: str = RADIUS,
     material: str = MATERIAL,
-    element: str = typer.Option("p1", "--element", help="p1 (4-node, the paper's; flow default) | p2 (10-node)."),
+    element: str = FLOW_ELEMENT,
     equivalent: bool = typer.Option(False, "--equivalent", help="Simulate the homogeneous equivalent (Ca_w with mu_eff)."),
     channel_radius_ratio: float = typer.Option(2.0, "--channel-radius-ratio", help="R_ch/R, channel over cell radius (> 1)."),
     start_offset: float = typer.Option(0.0, "--start-offset", help="r0/R_ch, initial distance of the cell from the axis."),
-    resolution: float = typer.Option(8.0, "--resolution", help="R/dx, lattice nodes per cell radius."),
+    resolution: float = FLOW_RESOLUTION,
     duration: float = typer.Option(10.0, "--duration", help="Run length in units of 1/gdot_w (wall shear rate)."),
     pressure_gradient: str | None = typer.Option(None, "--pressure-gradient", help="Physical G (e.g. 1e5Pa/m), with a physical --radius and --youngs-modulus instead of --capillary-number-wall."),  # noqa: UP007
-    wall_clock: float | None = typer.Option(None, "--wall-clock", help="Stop after this many seconds."),  # noqa: UP007
+    wall_clock: float | None = WALL_CLOCK,  # noqa: UP007
+    stationary_tolerance: float | None = typer.Option(  # noqa: UP007
+        None, "--stationary-tolerance",
+        help="Stop when the running mean of --stationary-observable over 1/gdot_w changes less than this fraction."),
+    stationary_observable: StationaryObservable = typer.Option(
+        "strain_axial", "--stationary-observable", help="Observable of the stationary stop: strain_axial | deformation."),
     record_interval: float = typer.Option(0.1, "--record-interval", help="Time between records (1/gdot_w)."),
-    checkpoint_every: int = typer.Option(20, "--checkpoint-every", help="Records between checkpoints."),
+    checkpoint_every: int = CHECKPOINT_EVERY,
     vtk_interval: float = typer.Option(1.0, "--vtk-interval", help="Time between VTK snapshots (1/gdot_w)."),
-    resume: bool = typer.Option(False, "--resume", help="Continue from DIR/checkpoint.npz (same options)."),
-    quiet: bool = typer.Option(False, "--quiet", help="No progress bar, no summary."),
+    resume: bool = RESUME,
+    quiet: bool = QUIET,
 ):
     """A cell in pressure-driven flow through a cylindrical capillary: migration and bullet shape."""
     from .flow import FlowError
     from .parameters import ParameterError, parse_quantity
     from .pipe import PipeFlowParameters
     from .pipe import pipe as run
+    from .runner import StopCriteria
 
     mesh_size = mesh_size if mesh_size is not None else _shear_mesh(resolution)
     pole_size = pole_size if pole_size is not None else mesh_size  # uniform: no plate contacts to refine for
@@ -314,9 +335,12 @@ def pipe(
         raise ParameterError("capillary_number_wall", "required (or --pressure-gradient)")
     flow_options = {"channel_radius_ratio": channel_radius_ratio, "start_offset": start_offset, "resolution": resolution}
     PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)  # validate early
+    StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
+                 stationary_observable=stationary_observable.value, unit="units of 1/gdot_w")
     try:
         summary = run(out, capillary_number_wall, cell=cell, equivalent=equivalent, duration=duration, resume=resume,
                       progress=not quiet and sys.stderr.isatty(), wall_clock=wall_clock,
+                      stationary_tolerance=stationary_tolerance, stationary_observable=stationary_observable.value,
                       record_interval=record_interval, checkpoint_every=checkpoint_every, vtk_interval=vtk_interval,
                       flow_options=flow_options)
     except FlowError as error:

@@ -26,16 +26,17 @@ whose extreme nodes lie inside the sphere's poles, reads exactly 1 at rest), the
 what a camera looking along z sees): its area (units of R^2; pi for the undeformed cell) and its
 deformation 1 - circularity, circularity = 2 sqrt(pi area)/perimeter; the volume change and the nucleus
 position.
+
+Running (:class:`PipeRun`, :func:`pipe`): the simulation runner of the shear-flow scenario
+(:class:`elastocell.runner.FlowRun` and its output-directory helpers: stop criteria on duration, wall clock
+or a stationary running mean of ``strain_axial`` or ``deformation``, guards, observers, VTK snapshots,
+progress bar, atomic checkpoints whose resumed series equals the uninterrupted one).
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
-import os
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -57,6 +58,15 @@ from .flow import (
 from .lattice import Lattice, LatticeParams
 from .observables import moments
 from .parameters import ParameterError
+from .runner import (
+    FlowRun,
+    StopCriteria,
+    directory_summary,
+    flow_cell,
+    run_in_directory,
+    save_time_series_figure,
+    time_series_figure,
+)
 
 # =========================================================================== empty channel
 
@@ -441,51 +451,44 @@ volume_change V/V0 - 1; axial_position (R, distance travelled); centre_y, centre
 nucleus_radial_position (R_ch) and nucleus_axial_offset (R, ahead of the cell centroid; NaN without a
 nucleus); max_speed (largest marker speed in the last step, dx/dt)."""
 
-CHECKPOINT_VERSION = 1
+STATIONARY_OBSERVABLES = ("strain_axial", "deformation")
+"""Observables the stationary stop criterion of :func:`pipe` may follow."""
 
 
-class PipeRun:
-    """A cell in a capillary, advanced record by record in compiled chunks (plain loop; checkpoints).
+class PipeRun(FlowRun):
+    """A cell in a capillary, advanced record by record by the shared runner (:class:`~elastocell.runner.FlowRun`:
+    compiled chunks, guards, stop criteria, observers, atomic checkpoints whose resumed series equals the
+    uninterrupted one).
 
-    A record every ``record_interval`` (units of 1/gdot_w); between chunks: observables, guards (cell at
-    the wall, non-finite fluid, speed above the limit), observers, stop criteria (duration, wall clock),
-    atomic checkpoints. :class:`elastocell.runner.ShearRun` is specific to shear flow (strain units, its
-    column set and stop criteria, guards against y-walls, the tank-treading tracker), so this run has its own
-    loop, following the same conventions (checkpoint written to a temporary file and moved into place; a
-    resumed run repeats the lost records exactly).
+    Time in units of 1/gdot_w; a record every ``record_interval``. The scenario adds the channel lattice, the
+    columns :data:`PIPE_COLUMNS`, the guard against the cylindrical wall and its summary.
     """
 
-    def __init__(self, cell, params: PipeFlowParameters, record_interval: float = 0.1,
-                 units: PipeUnits | None = None):
-        if not (math.isfinite(record_interval) and record_interval > 0):
-            raise ParameterError("record_interval", f"must be > 0 (units of 1/gdot_w), got {record_interval}")
-        self.cell = cell
-        self.params = params
-        self.units = pipe_lattice_units(cell, params) if units is None else units
-        self.system: ImmersedCell = pipe_setup(cell, params, self.units)
-        self.steps_per_record = max(1, int(round(record_interval * self.units.steps_per_time)))
-        self.record_interval = self.steps_per_record * self.units.wall_shear_rate
-        mesh = cell.mesh
-        self._nucleus_mask = (mesh.region == 1) if bool((mesh.region == 1).any()) else None
+    COLUMNS = PIPE_COLUMNS
+    TIME_UNIT = "units of 1/gdot_w"
+    WHEN = "time {:.3g}/gdot_w"
+    DRIVING = "capillary_number_wall"
+    RATE = "wall_shear_rate"
+    DEFAULT_RECORD_INTERVAL = 0.1
+    PROGRESS = ("t {task.completed:.2f}/gdot_w", "strain_axial", "eps_x")
+    lattice_units = staticmethod(pipe_lattice_units)
+    setup = staticmethod(pipe_setup)
+    units: PipeUnits
+    params: PipeFlowParameters
+
+    def _start(self) -> None:
+        mesh = self.cell.mesh
         self._x0 = self.units.centre[0]
         self.reference_extent = mesh.nodes.max(axis=0) - mesh.nodes.min(axis=0)
         """Undeformed extent of the mesh along x, y, z (units of R): the 2R of the strains."""
-        self.series: dict[str, list] = {name: [] for name in PIPE_COLUMNS}
-        self.elapsed = 0.0
-        self.stop_reason = ""
         self.volume0 = moments(self.system.positions_in_radii(), mesh.elements).volume
-        velocity = ibm.interpolate_lattice_velocity(self.system.lattice, self.system.positions, params.kernel)
-        self._record(velocity, 0.0)
+        velocity = ibm.interpolate_lattice_velocity(self.system.lattice, self.system.positions, self.params.kernel)
+        self._append(self._row(velocity, 0.0))
 
-    @property
-    def time(self) -> float:
-        return self.system.time_step * self.units.wall_shear_rate
+    def _measure(self) -> dict:
+        return self._row(self.system.marker_velocities, self.system.max_speed)
 
-    @property
-    def n_records(self) -> int:
-        return len(self.series["time"])
-
-    def _record(self, marker_velocity: np.ndarray, max_speed: float) -> dict:
+    def _row(self, marker_velocity: np.ndarray, max_speed: float) -> dict:
         units = self.units
         x = self.system.positions  # dx
         elements = self.cell.mesh.elements
@@ -503,7 +506,7 @@ class PipeRun:
             nucleus_dx = (nc[0] - centre[0]) / units.radius
         else:
             nucleus_r = nucleus_dx = float("nan")
-        row = {
+        return {
             "time": self.time, "radial_position": r_c,
             "axial_velocity": float(marker_velocity[:, 0].mean()) / units.centre_speed,
             "local_capillary_number": self.params.capillary_number_wall * r_c,
@@ -513,11 +516,8 @@ class PipeRun:
             "axial_position": (centre[0] - self._x0) / units.radius, "centre_y": cy, "centre_z": cz,
             "nucleus_radial_position": nucleus_r, "nucleus_axial_offset": nucleus_dx, "max_speed": max_speed,
         }  # fmt: skip
-        for name in PIPE_COLUMNS:
-            self.series[name].append(float(row[name]))
-        return row
 
-    def _check(self) -> None:
+    def _check_walls(self) -> None:
         units, system = self.units, self.system
         ay, az = units.axis
         r = np.hypot(system.positions[:, 1] - ay, system.positions[:, 2] - az)
@@ -525,55 +525,16 @@ class PipeRun:
         if r.max() > reach:
             raise FlowError(f"the cell reached the wall at time {self.time:.3g}/gdot_w (within the kernel support): "
                             "raise channel_radius_ratio or lower start_offset")
-        velocity = system.lattice.velocity()
-        speed = float(np.sqrt(np.einsum("a...,a...->...", velocity, velocity)).max())
-        if not math.isfinite(speed):
-            raise FlowError(f"the fluid became non-finite at time {self.time:.3g}/gdot_w: the elastic forces are "
-                            "too stiff for the time step; lower reynolds_number or raise capillary_number_wall")
-        limit = system.lattice.params.velocity_limit
-        if speed > limit:
-            raise FlowError(f"the lattice speed reached {speed:.3g} dx/dt above the limit {limit:.3g}: lower "
-                            "velocity_limit or reynolds_number")
 
-    def advance_record(self) -> dict:
-        """One compiled chunk of ``steps_per_record`` coupled steps, the guards, and one record."""
-        t0 = time.perf_counter()
-        self.system.advance(self.steps_per_record)
-        self._check()
-        row = self._record(self.system.marker_velocities, self.system.max_speed)
-        self.elapsed += time.perf_counter() - t0
-        return row
+    def vtk_origin(self, x: np.ndarray) -> np.ndarray:
+        """The current centroid: the displacement from the undeformed cell moved along with it."""
+        return moments(x, self.cell.mesh.elements).centre
 
-    def run(self, duration: float, wall_clock: float | None = None, observers: tuple[Callable, ...] = (),
-            checkpoint: str | Path | None = None, checkpoint_every: int = 20) -> str:
-        """Advance to ``duration`` (units of 1/gdot_w) or ``wall_clock`` seconds; returns the stop reason."""
-        if not (math.isfinite(duration) and duration > 0):
-            raise ParameterError("duration", f"must be > 0 (units of 1/gdot_w), got {duration}")
-        if wall_clock is not None and not wall_clock > 0:
-            raise ParameterError("wall_clock", f"must be > 0 seconds, got {wall_clock}")
-        if checkpoint_every < 1:
-            raise ParameterError("checkpoint_every", f"must be >= 1 record, got {checkpoint_every}")
-        start = time.perf_counter()
-        n_target = int(math.ceil(duration / self.record_interval - 1e-9))
-        reason = "duration"
-        while self.n_records - 1 < n_target:
-            row = self.advance_record()
-            for observer in observers:
-                observer(row, self)
-            if checkpoint is not None and (self.n_records - 1) % checkpoint_every == 0:
-                self.save(checkpoint)
-            if wall_clock is not None and time.perf_counter() - start >= wall_clock:
-                reason = "wall_clock"
-                break
-        self.stop_reason = reason
-        if checkpoint is not None:
-            self.save(checkpoint)
-        return reason
+    def vtk_slice(self) -> tuple[int, float]:
+        """The x-y plane through the axis, velocity in u_max."""
+        return int(round(self.units.axis[1])), self.units.centre_speed
 
     # ------------------------------------------------------------------ results
-    def arrays(self) -> dict[str, np.ndarray]:
-        return {name: np.asarray(values) for name, values in self.series.items()}
-
     def summary(self, transient: float | None = None) -> dict:
         """Means and standard deviations over time >= transient (default: the second half of the run), the
         migration (initial and final radial position, time to halve the offset), lattice parameters, timings."""
@@ -600,69 +561,12 @@ class PipeRun:
         out["volume_change_max_abs"] = float(np.abs(s["volume_change"]).max())
         out["bullet_shape"] = bool(out["strain_axial_mean"] < 1.0 < out["strain_radial_mean"])
         out["duration"] = end
-        out["steps"] = int(self.system.time_step)
-        out["stop_reason"] = self.stop_reason
-        out["time_stepping_s"] = self.elapsed
+        out.update(self.run_summary())
         out["lattice_updates_per_s"] = (self.system.time_step * int(np.prod(self.units.shape)) / self.elapsed
                                         if self.elapsed > 0 else float("nan"))
-        out["lattice"] = self.units.as_dict()
-        out["reynolds_number"] = self.units.reynolds_number
         out["channel_reynolds_number"] = self.units.channel_reynolds_number
         out["record_interval"] = self.record_interval
         return out
-
-    # ------------------------------------------------------------------ checkpoints
-    def fingerprint(self) -> str:
-        digest = hashlib.sha256()
-        digest.update(self.params.model_dump_json().encode())
-        digest.update(json.dumps(self.units.as_dict(), sort_keys=True, default=float).encode())
-        digest.update(np.ascontiguousarray(self.cell.mesh.nodes).tobytes())
-        digest.update(np.ascontiguousarray(self.cell.mesh.elements).tobytes())
-        digest.update(np.ascontiguousarray(self.cell.youngs_moduli, dtype=np.float64).tobytes())
-        digest.update(str(self.steps_per_record).encode())
-        return digest.hexdigest()
-
-    def save(self, path: str | Path) -> None:
-        """Complete state to ``path``, atomically (temporary file, then ``os.replace``)."""
-        path = Path(path)
-        system, lattice = self.system, self.system.lattice
-        arrays = {
-            "version": np.array(CHECKPOINT_VERSION), "fingerprint": np.array(self.fingerprint()),
-            "storage": lattice._storage, "parity": np.array(lattice._parity),
-            "lattice_time_step": np.array(lattice.time_step), "force_density": lattice.force_density,
-            "positions": system.positions, "spread_positions": system._spread_positions,
-            "has_spread": np.array(system._has_spread), "time_step": np.array(system.time_step),
-            "max_speed": np.array(system.max_speed), "volume0": np.array(self.volume0),
-            "elapsed": np.array(self.elapsed),
-        }  # fmt: skip
-        for name, values in self.series.items():
-            arrays[f"series_{name}"] = np.asarray(values, dtype=np.float64)
-        temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        with open(temporary, "wb") as handle:
-            np.savez(handle, **arrays)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temporary, path)
-
-    def load(self, path: str | Path) -> None:
-        """Restore the state saved by :meth:`save` (same cell, parameters and record interval)."""
-        with np.load(path, allow_pickle=False) as data:
-            if int(data["version"]) != CHECKPOINT_VERSION or str(data["fingerprint"]) != self.fingerprint():
-                raise ParameterError("resume", f"{path} was written for other cell or flow parameters: rerun "
-                                     "without --resume or with the original options")
-            system, lattice = self.system, self.system.lattice
-            lattice._storage[...] = data["storage"]
-            lattice._parity = int(data["parity"])
-            lattice.time_step = int(data["lattice_time_step"])
-            lattice.force_density[...] = data["force_density"]
-            system.positions[...] = data["positions"]
-            system._spread_positions[...] = data["spread_positions"]
-            system._has_spread = bool(data["has_spread"])
-            system.time_step = int(data["time_step"])
-            system.max_speed = float(data["max_speed"])
-            self.volume0 = float(data["volume0"])
-            self.elapsed = float(data["elapsed"])
-            self.series = {name: [float(v) for v in data[f"series_{name}"]] for name in PIPE_COLUMNS}
 
 
 def migration_time(times, radial_positions, fraction: float = 0.5) -> float:
@@ -702,74 +606,18 @@ def run_pipe(cell, params: PipeFlowParameters, duration: float = 10.0, record_in
     time >= ``transient`` (default duration/2). ``callback(row, run)`` after every record. Raises
     :class:`~elastocell.flow.FlowError` if the run turns unstable or the cell reaches the wall."""
     start = time.perf_counter()
+    stop = StopCriteria(duration=duration, unit=PipeRun.TIME_UNIT)
     run = PipeRun(cell, params, record_interval=record_interval)
-    run.run(duration, observers=() if callback is None else (callback,))
+    run.run(stop, observers=() if callback is None else (callback,))
     summary = run.summary(transient)
     summary["wall_time_s"] = time.perf_counter() - start
     return PipeResult(series=run.arrays(), summary=summary, units=run.units)
 
 
 # =========================================================================== output
-class PipeVTKWriter:
-    """Cell snapshots (``vtk/cell_NNNN.vtu``: displacement from the undeformed cell at the current centroid,
-    stiffness ratio, region) and the fluid velocity on the x-y plane through the axis
-    (``vtk/fluid_NNNN.vtu``, quads, velocity in u_max, lengths in R), every ``interval`` (1/gdot_w)."""
-
-    def __init__(self, directory: Path, interval: float):
-        self.directory = Path(directory)
-        self.interval = float(interval)
-
-    def __call__(self, row: dict, run: PipeRun) -> None:
-        index = int(round(row["time"] / self.interval, 9))
-        if abs(row["time"] - index * self.interval) > 0.5 * run.record_interval:
-            return
-        self.write(index, run)
-
-    def write(self, index: int, run: PipeRun) -> None:
-        import meshio
-
-        self.directory.mkdir(parents=True, exist_ok=True)
-        mesh = run.cell.mesh
-        x = run.system.positions_in_radii()
-        centre = moments(x, mesh.elements).centre
-        meshio.Mesh(
-            x, [({1: "tetra", 2: "tetra10"}[mesh.order], mesh.elements)],
-            point_data={"displacement": x - mesh.nodes - centre},
-            cell_data={"stiffness_ratio": [run.cell.youngs_moduli], "region": [mesh.region.astype(np.int32)]},
-        ).write(self.directory / f"cell_{index:04d}.vtu")
-        lattice = run.system.lattice
-        nx, ny, nz = lattice.shape
-        k = int(round(run.units.axis[1]))
-        u = lattice.velocity()[:, :, :, k] / run.units.centre_speed  # (3, nx, ny)
-        gx, gy = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
-        points = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, k)]).astype(float) / run.units.radius
-        ids = np.arange(nx * ny).reshape(nx, ny)
-        quads = np.column_stack([ids[:-1, :-1].ravel(), ids[1:, :-1].ravel(), ids[1:, 1:].ravel(),
-                                 ids[:-1, 1:].ravel()])
-        solid = lattice.solid[:, :, k].ravel().astype(np.int32) if lattice.solid is not None else np.zeros(nx * ny)
-        meshio.Mesh(points, [("quad", quads)], point_data={"velocity": u.reshape(3, -1).T, "solid": solid}).write(
-            self.directory / f"fluid_{index:04d}.vtu")
-
-    def close(self) -> None:
-        if not self.directory.exists():
-            return
-        for stem in ("cell", "fluid"):
-            files = sorted(self.directory.glob(f"{stem}_*.vtu"))
-            entries = [f'    <DataSet timestep="{int(f.stem.split("_")[1]) * self.interval:.8g}" group="" part="0" '
-                       f'file="{f.name}"/>' for f in files]
-            (self.directory / f"{stem}.pvd").write_text(
-                '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
-                + "\n".join(entries) + "\n  </Collection>\n</VTKFile>\n")
-
-
 def plot_pipe(path: Path, series: dict, summary: dict, title: str = "") -> None:
     """Strains eps_x, eps_r (with their stationary means) and the radial position against time."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    figure, (top, bottom) = plt.subplots(2, 1, figsize=(6.5, 5.5), sharex=True, constrained_layout=True)
+    figure, top, bottom = time_series_figure()
     t = np.asarray(series["time"])
     start = summary.get("transient_time", 0.0)
     for name, label, colour in (("strain_axial", r"$\epsilon_x$", "C0"), ("strain_radial", r"$\epsilon_r$", "C1")):
@@ -781,13 +629,7 @@ def plot_pipe(path: Path, series: dict, summary: dict, title: str = "") -> None:
     top.legend(fontsize=8)
     bottom.plot(t, series["radial_position"], lw=1.2, color="C2")
     bottom.set_ylabel(r"radial position $r_c/R_{ch}$")
-    bottom.set_xlabel(r"time $\dot\gamma_w t$")
-    for axis in (top, bottom):
-        axis.grid(alpha=0.3)
-    if title:
-        top.set_title(title, fontsize=9)
-    figure.savefig(path, dpi=130)
-    plt.close(figure)
+    save_time_series_figure(path, figure, r"time $\dot\gamma_w t$", title)
 
 
 def pipe(
@@ -802,6 +644,8 @@ def pipe(
     resume: bool = False,
     progress: bool = True,
     wall_clock: float | None = None,
+    stationary_tolerance: float | None = None,
+    stationary_observable: str = "strain_axial",
     record_interval: float = 0.1,
     checkpoint_every: int = 20,
     vtk_interval: float | None = 1.0,
@@ -814,32 +658,28 @@ def pipe(
     capillary_number_wall: Ca_w = G R_ch/(2 mu_c) (mu_eff with ``equivalent``). cell: CellParameters or the
     CELL OPTIONS of ``cell_parameters`` (default mesh: uniform p1 with edges of 2 dx, as shear flow).
     duration: units of 1/gdot_w. resume: continue from ``out/checkpoint.npz`` if it exists.
-    flow_options: further :class:`PipeFlowParameters`.
+    stationary_tolerance: stop once the running mean of ``stationary_observable`` ("strain_axial" or
+    "deformation") over the last unit of time changes by less than this fraction of it (see
+    :class:`~elastocell.runner.StopCriteria`). flow_options: further :class:`PipeFlowParameters`.
     """
-    from .api import _describe, _vtk_enabled, cell_parameters
+    from .api import _describe
     from .cell import Cell
-    from .flow import shear_mesh_size
-    from .io import Stopwatch, software_versions, write_json, write_table
+    from .io import Stopwatch, write_json
 
-    if cell is not None and cell_options:
-        raise ParameterError("cell", f"give either cell= or cell options, not both ({', '.join(cell_options)})")
     flow_options = dict(flow_options or {})
     for name, value in (("channel_radius_ratio", channel_radius_ratio), ("start_offset", start_offset),
                         ("resolution", resolution)):
         if value is not None:
             flow_options[name] = value
     params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)
-    if not (math.isfinite(duration) and duration > 0):
-        raise ParameterError("duration", f"must be > 0 (units of 1/gdot_w), got {duration}")
+    if stationary_observable not in STATIONARY_OBSERVABLES:
+        raise ParameterError("stationary_observable", f"must be one of {', '.join(STATIONARY_OBSERVABLES)}, "
+                             f"got {stationary_observable!r}")
+    stop = StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
+                        stationary_observable=stationary_observable, unit=PipeRun.TIME_UNIT)
     if vtk_interval is not None and not vtk_interval > 0:
         raise ParameterError("vtk_interval", f"must be > 0 (units of 1/gdot_w), got {vtk_interval}")
-    if cell is None:
-        cell_options.setdefault("element", "p1")
-        if cell_options.get("mesh_size") is None:
-            cell_options["mesh_size"] = shear_mesh_size(params.resolution)
-        if cell_options.get("pole_size") is None:
-            cell_options["pole_size"] = cell_options["mesh_size"]
-        cell = cell_parameters(**cell_options)
+    cell = flow_cell(cell, cell_options, params.resolution)
     clock = Stopwatch()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -847,61 +687,17 @@ def pipe(
     if equivalent:
         body = body.equivalent()
     run = PipeRun(body, params, record_interval=record_interval)
-    checkpoint = out / "checkpoint.npz"
-    resumed = False
-    if resume and checkpoint.exists():
-        run.load(checkpoint)
-        resumed = True
-    observers = []
-    vtk = PipeVTKWriter(out / "vtk", vtk_interval) if vtk_interval is not None and _vtk_enabled() else None
-    if vtk is not None:
-        observers.append(vtk)
-        if not resumed:
-            vtk.write(0, run)
-
-    def write_series(row, current):
-        if (current.n_records - 1) % checkpoint_every == 0:
-            write_table(out / "timeseries.csv", current.arrays())
-
-    observers.append(write_series)
+    resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
+                                    description=f"pipe Ca_w={capillary_number_wall:g}",
+                                    checkpoint_every=checkpoint_every, vtk_interval=vtk_interval)
     label = "homogeneous equivalent" if equivalent else _describe(cell)
-    bar_context = _progress_bar(progress)
-    with bar_context as bar:
-        if bar is not None:
-            task = bar.add_task(f"pipe Ca_w={capillary_number_wall:g}", total=duration, completed=run.time,
-                                e=run.series["strain_axial"][-1])
-            observers.append(lambda row, current: bar.update(task, completed=row["time"], e=row["strain_axial"]))
-        run.run(duration, wall_clock=wall_clock, observers=tuple(observers), checkpoint=checkpoint,
-                checkpoint_every=checkpoint_every)
-    series = run.arrays()
-    write_table(out / "timeseries.csv", series)
     summary = {"scenario": "pipe", "label": label}
     summary.update(run.summary())
-    summary.update({
-        "effective_stiffness_ratio": body.effective_stiffness_ratio,
-        "reference_modulus": "mu_eff" if equivalent else "mu_c",
-        "resumed": resumed,
-        "wall_time_s": clock.elapsed,
-        "cell": cell.model_dump(mode="json"),
-        "flow": params.model_dump(mode="json"),
-        "mesh": {**body.mesh.counts(), "element_order": body.mesh.order},
-        "software": software_versions(),
-    })
+    summary.update(directory_summary(run, body, cell, params, clock, resumed, equivalent))
     write_json(out / "summary.json", summary)
-    plot_pipe(out / "pipe.png", series, summary,
+    plot_pipe(out / "pipe.png", run.arrays(), summary,
               title=f"{label}, Ca_w = {capillary_number_wall:g}, R_ch/R = {params.channel_radius_ratio:g}, "
                     f"r0/R_ch = {params.start_offset:g}, R/dx = {params.resolution:g}")
     if vtk is not None:
-        vtk.close()
+        vtk.close(run)
     return summary
-
-
-def _progress_bar(enabled: bool):
-    from contextlib import nullcontext
-
-    if not enabled:
-        return nullcontext(None)
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-    return Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("t {task.completed:.2f}/gdot_w"),
-                    TextColumn("eps_x {task.fields[e]:.4f}"), TimeElapsedColumn(), TimeRemainingColumn())
