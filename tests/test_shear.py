@@ -143,9 +143,8 @@ def test_unstable_or_impossible_runs_are_refused_with_the_parameter(coarse_cell)
     with pytest.raises(ParameterError, match="capillary_number"):  # too many steps per strain
         flow.shear_lattice_units(coarse_cell, flow.ShearFlowParameters(capillary_number=1e-4, resolution=4,
                                                                        max_steps_per_strain=1e4))
-    with pytest.raises(ParameterError, match="confinement"):  # walls within the kernel support
-        flow.shear_lattice_units(coarse_cell, flow.ShearFlowParameters(capillary_number=0.1, resolution=4,
-                                                                       confinement=0.8))
+    with pytest.raises(ValueError, match="confinement"):  # walls within the kernel support: at validation
+        flow.ShearFlowParameters(capillary_number=0.1, resolution=4, confinement=0.8)
 
 
 # --------------------------------------------------------------------------- the cell in shear flow
@@ -312,6 +311,7 @@ def test_cli_shear_physical_input_with_equivalent_keeps_the_physical_shear_rate(
     (["--capillary-number", "-1"], "--capillary-number"),
     (["--capillary-number", "0.1", "--resolution", "100"], "--resolution"),
     (["--capillary-number", "0.1", "--confinement", "1.5"], "--confinement"),
+    (["--capillary-number", "0.1", "--confinement", "0.8", "--resolution", "4"], "--confinement"),  # wall gap
     (["--capillary-number", "0.1", "--duration", "0"], "--duration"),
     (["--capillary-number", "0.1", "--size-ratio", "1.2"], "--size-ratio"),
     (["--viscosity", "1mPa*s", "--shear-rate", "100/s"], "--youngs-modulus"),

@@ -545,6 +545,7 @@ class ShearFlowParameters(BaseModel):
         if self.lattice_shear_rate is not None:
             require(math.isfinite(self.lattice_shear_rate) and self.lattice_shear_rate > 0, "lattice_shear_rate",
                     f"must be > 0 (1/dt), got {self.lattice_shear_rate}")
+        _check_wall_gap(self)  # before any meshing
         return self
 
 
@@ -614,6 +615,20 @@ def reference_modulus_ratio(cell) -> float:
     return cell.effective_stiffness_ratio if cell.is_equivalent else 1.0
 
 
+def _check_wall_gap(params: ShearFlowParameters) -> None:
+    """Refuse a channel whose walls lie within the kernel support (+1 dx) of the undeformed cell."""
+    radius = float(params.resolution)
+    ny = int(round(2.0 * radius / params.confinement))
+    half_width = ibm.kernel_half_width(params.kernel)
+    gap = ny / 2.0 - radius  # distance from the undeformed cell to a wall (dx)
+    if gap < half_width + 1.0:
+        raise ParameterError(
+            "confinement",
+            f"the walls are {gap:.2f} dx from the cell at confinement {params.confinement} and resolution "
+            f"{params.resolution}; need >= {half_width + 1:g} dx (kernel half-width + 1): lower confinement",
+        )
+
+
 def shear_lattice_units(cell, params: ShearFlowParameters) -> ShearUnits:
     """Derive the lattice parameters of a shear run from (Ca, R/dx, confinement) and the limits.
 
@@ -628,14 +643,7 @@ def shear_lattice_units(cell, params: ShearFlowParameters) -> ShearUnits:
     radius = float(params.resolution)
     ny = int(round(2.0 * radius / params.confinement))
     n_side = int(round(params.box_length * radius))
-    half_width = ibm.kernel_half_width(params.kernel)
-    gap = ny / 2.0 - radius  # distance from the undeformed cell to a wall (dx)
-    if gap < half_width + 1.0:
-        raise ParameterError(
-            "confinement",
-            f"the walls are {gap:.2f} dx from the cell at confinement {params.confinement} and resolution "
-            f"{params.resolution}; need >= {half_width + 1:g} dx (kernel half-width + 1): lower confinement",
-        )
+    _check_wall_gap(params)
     tau = params.relaxation_time
     viscosity = (tau - 0.5) / 3.0
     poisson = cell.parameters.material.poisson_ratio
