@@ -13,24 +13,10 @@ from pathlib import Path
 
 import typer
 
+from .cli_common import _OPTION_NAMES, _fail, _user_errors  # noqa: F401
+
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="elastocell: mechanics of living cells (AFM plate compression; homogeneous equivalents).")
-
-# CLI option names for parameter names used in error messages
-_OPTION_NAMES = {
-    "stiffness_ratio": "--stiffness-ratio", "size_ratio": "--size-ratio", "offset": "--offset",
-    "semi_axes": "--semi-axes", "poisson_ratio": "--poisson-ratio", "youngs_modulus": "--youngs-modulus",
-    "radius": "--radius", "mesh_size": "--mesh-size", "pole_size": "--pole-size", "delta_max": "--delta-max",
-    "steps": "--steps", "material": "--material", "element": "--element", "random": "--random",
-    "compare": "--compare",
-    # shear
-    "capillary_number": "--capillary-number", "resolution": "--resolution", "duration": "--duration",
-    "confinement": "--confinement", "resume": "--resume", "wall_clock": "--wall-clock",
-    "stationary_tolerance": "--stationary-tolerance", "record_interval": "--record-interval",
-    "checkpoint_every": "--checkpoint-every", "vtk_interval": "--vtk-interval", "viscosity": "--viscosity",
-    "shear_rate": "--shear-rate", "size": "--size", "threads": "--threads",
-}
-
 
 class NucleusShape(str, Enum):
     none = "none"
@@ -42,47 +28,6 @@ class AxisName(str, Enum):
     x = "x"
     y = "y"
     z = "z"
-
-
-def _fail(message: str) -> None:
-    typer.echo(f"elastocell: error: {message}", err=True)
-    raise typer.Exit(code=2)
-
-
-def _user_errors(function):
-    """Turn ParameterError / pydantic validation errors into one line and exit code 2."""
-    import functools
-
-    from pydantic import ValidationError
-
-    from .parameters import ParameterError
-
-    @functools.wraps(function)
-    def wrapper(*args, **kwargs):
-        try:
-            return function(*args, **kwargs)
-        except ParameterError as error:
-            _fail(f"{_OPTION_NAMES.get(error.parameter, error.parameter)}: {str(error).split(': ', 1)[1]}")
-        except ValidationError as error:
-            first = error.errors()[0]
-            cause = (first.get("ctx") or {}).get("error")
-            if isinstance(cause, ParameterError):
-                _fail(f"{_OPTION_NAMES.get(cause.parameter, cause.parameter)}: {str(cause).split(': ', 1)[1]}")
-            location = ".".join(str(p) for p in first.get("loc", ()))
-            _fail(f"{location or 'input'}: {first.get('msg')}")
-        except OSError as error:
-            _fail(f"cannot write or read {error.filename or ''}: {error.strerror or error}")
-        except typer.Exit:
-            raise
-        except Exception as error:  # anything unforeseen: one line, not a traceback (ELASTOCELL_DEBUG shows it)
-            import os
-
-            if os.environ.get("ELASTOCELL_DEBUG"):
-                raise
-            typer.echo(f"elastocell: error: {type(error).__name__}: {error}", err=True)
-            raise typer.Exit(code=1) from None
-
-    return wrapper
 
 
 def _cell_options(nucleus, stiffness_ratio, size_ratio, offset, offset_axis, semi_axes, nucleus_axis, random, seed,
@@ -393,6 +338,12 @@ def bench_lattice(
     if result["mlups_with_cell"] is not None:
         typer.echo(f"with a cell ({result['markers']} markers): {result['mlups_with_cell']:.1f} MLUPS, "
                    f"{result['with_cell_slowdown']:.2f} x slower than pure LB")
+
+
+from .cli_fit import fit_app, mastercurve_app  # noqa: E402
+
+app.add_typer(mastercurve_app, name="mastercurve")
+app.add_typer(fit_app, name="fit")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,0 +1,114 @@
+"""Command line: ``elastocell mastercurve compression`` and ``elastocell fit afm``.
+
+Registered in :mod:`elastocell.cli` with ``app.add_typer(mastercurve_app, name="mastercurve")`` and
+``app.add_typer(fit_app, name="fit")``. Impossible input exits with code 2 and one line (``_user_errors``).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import typer
+
+from .cli_common import _OPTION_NAMES, _fail, _user_errors
+
+for _name in ("model", "geometry", "contact_point", "nucleus_size_ratio", "bootstrap", "baseline_fraction",
+              "threshold"):
+    _OPTION_NAMES.setdefault(_name, "--" + _name.replace("_", "-"))
+
+mastercurve_app = typer.Typer(add_completion=False, no_args_is_help=True,
+                              help="Master curves of a homogeneous cell (computed once, cached, shipped).")
+fit_app = typer.Typer(add_completion=False, no_args_is_help=True,
+                      help="Fit measured curves: Young's modulus from AFM plate compression.")
+
+
+@mastercurve_app.command("compression")
+@_user_errors
+def mastercurve_compression(
+    poisson_ratio: float = typer.Option(0.48, "--poisson-ratio", help="nu in (-1, 0.5)."),
+    material: str = typer.Option("neo-hookean", "--material", help="neo-hookean | mooney-rivlin."),
+    out: Path | None = typer.Option(None, "--out", help="Write the curve (CSV with # JSON metadata) here."),  # noqa: UP007
+    no_cache: bool = typer.Option(False, "--no-cache", help="Recompute even if shipped or cached."),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress, no summary."),
+):
+    """F/(E R^2) against delta (0..0.75) of a homogeneous sphere: the shipped curve, the cached one, or a fresh
+    computation on the default and a finer p2 mesh (their difference is the error column)."""
+    from .mastercurve import _check_inputs, cache_path, compute_master_curve, shipped
+
+    _check_inputs(poisson_ratio, material)
+    curve, source = None, None
+    if not no_cache:
+        curve = shipped(poisson_ratio, material)
+        source = "shipped" if curve is not None else None
+        if curve is None and cache_path(poisson_ratio, material).exists():
+            source = "cached"
+    if curve is None:
+        show = not quiet and sys.stderr.isatty()
+        progress = (lambda mesh, delta: typer.echo(f"\r{mesh} mesh: delta = {delta:.3f}", err=True, nl=False)) \
+            if show else None
+        curve = compute_master_curve(poisson_ratio, material, use_cache=not no_cache, progress=progress)
+        source = source or "computed"
+        if show:
+            typer.echo("", err=True)
+    if out is not None:
+        curve.to_csv(out)
+    if not quiet:
+        table = "  ".join(f"{d:.2f}:{curve(d):.4g}" for d in (0.1, 0.3, 0.5, 0.7))
+        worst = float((curve.error / curve.force.clip(1e-300))[curve.delta >= curve.hertz_blend_below].max())
+        typer.echo(f"nu={poisson_ratio:g} {material} ({source}): F/(E R^2) at delta {table}; largest relative "
+                   f"mesh error above delta {curve.hertz_blend_below:g}: {100 * worst:.2f} %"
+                   + (f" -> {out}" if out else ""))
+
+
+@fit_app.command("afm")
+@_user_errors
+def fit_afm(
+    files: list[Path] = typer.Argument(..., help="Curves: plain CSV (columns displacement in m, force in N) or "
+                                                  "afmformats files; a folder contributes its files."),
+    radius: str = typer.Option(..., "--radius", help="Cell radius R, e.g. 8um (plain number: metres)."),
+    geometry: str = typer.Option("parallel-plates", "--geometry", help="parallel-plates (the only one)."),
+    poisson_ratio: float = typer.Option(0.48, "--poisson-ratio", help="nu (shipped: 0.45, 0.48, 0.49)."),
+    material: str = typer.Option("neo-hookean", "--material", help="Master curve's law."),
+    model: str = typer.Option("both", "--model", help="master | hertz | both (master is youngs_modulus)."),
+    delta_max: float = typer.Option(0.75, "--delta-max", help="Fit the data up to this delta (<= 0.75)."),
+    contact_point: str = typer.Option("auto", "--contact-point", help="auto, or a displacement (e.g. 1.2um)."),
+    bootstrap: int = typer.Option(0, "--bootstrap", help="Residual-bootstrap replicas for a second CI."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
+    nucleus_size_ratio: float | None = typer.Option(  # noqa: UP007
+        None, "--nucleus-size-ratio", help="lambda: also report E_c and E_n (needs --stiffness-ratio)."),
+    stiffness_ratio: float | None = typer.Option(None, "--stiffness-ratio", help="gamma = E_n/E_c."),  # noqa: UP007
+    baseline_fraction: float = typer.Option(0.2, "--baseline-fraction", help="Share of the approach for the baseline."),
+    threshold: float = typer.Option(5.0, "--threshold", help="Contact: force above threshold*sigma of the baseline."),
+    baseline_tilt: bool = typer.Option(False, "--baseline-tilt", help="Subtract a sloped baseline (default: offset)."),
+    out: Path = typer.Option(Path("fits"), "--out", help="Output directory."),
+    no_plots: bool = typer.Option(False, "--no-plots", help="Skip the per-curve PNGs (faster for many curves)."),
+    quiet: bool = typer.Option(False, "--quiet", help="No progress bar, no summary."),
+):
+    """Young's modulus from plate-compression force curves: master-curve and Hertz fits, 95 % CIs."""
+    from .fit import FitSettings, fit_files, parse_length
+    from .parameters import ParameterError
+
+    radius_m = parse_length(radius, "radius")
+    contact = None if contact_point.strip().lower() == "auto" else parse_length(contact_point, "contact_point")
+    settings = FitSettings(radius=radius_m, poisson_ratio=poisson_ratio, material=material, geometry=geometry,
+                           model=model, delta_max=delta_max, contact_point=contact, bootstrap=bootstrap, seed=seed,
+                           baseline_fraction=baseline_fraction, threshold=threshold, baseline_tilt=baseline_tilt,
+                           nucleus_size_ratio=nucleus_size_ratio, stiffness_ratio=stiffness_ratio)
+    for path in files:
+        if not path.exists():
+            raise ParameterError("file", f"{path}: no such file or directory")
+    result = fit_files(files, settings, out, plots=not no_plots, progress=not quiet and sys.stderr.isatty())
+    if not quiet and result["rows"]:
+        for row in result["rows"][:20]:
+            hertz = row.get("youngs_modulus_hertz")
+            typer.echo(f"{row['file']}: E = {row['youngs_modulus']:.4g} Pa [{row['youngs_modulus_ci_low']:.4g}, "
+                       f"{row['youngs_modulus_ci_high']:.4g}] ({row['model']}), delta up to {row['delta_max']:.3f}"
+                       + (f", Hertz {hertz:.4g} Pa" if hertz == hertz else ""))
+        typer.echo(f"{len(result['rows'])} curve(s) in {result['wall_time_s']:.2f} s -> {out / 'fits.csv'}")
+    if result["errors"]:
+        for _, message in result["errors"]:
+            typer.echo(f"elastocell: error: {message}", err=True)
+        raise typer.Exit(code=2)
+    if not result["rows"]:
+        _fail("no curve could be fitted")

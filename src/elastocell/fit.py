@@ -1,0 +1,526 @@
+"""From a measured compression curve to a Young's modulus: least-squares fits to the master curve and to Hertz.
+
+Geometry: parallel plates (DESIGN.md). The plate's approach ``displacement`` (m, increasing towards the cell)
+and the ``force`` (N) are converted to ``delta = (displacement - contact_point) / (2 R)`` (the gap is
+``h = 2R - (displacement - contact_point)``, so ``delta = 1 - h/(2R)``) and fitted by
+``F = E R^2 f(delta)`` with ``f`` the homogeneous master curve (:mod:`elastocell.mastercurve`) or Hertz's
+two-contact law ``f = 4/(3(1-nu^2)) delta^(3/2)``.
+
+Contact point (``contact_point="auto"``):
+1. Baseline: the mean force over the first ``baseline_fraction`` (20 %) of the approach (sorted by
+   displacement; with ``baseline_tilt`` a straight line instead -- its slope, extrapolated over the contact
+   region, adds a tilt that is only worth it when the baseline is long and clearly tilted); the residual
+   standard deviation is the force noise ``sigma``. The baseline is subtracted from the whole curve.
+2. First guess: the last point whose corrected force is below ``threshold * sigma`` (5 sigma). The force
+   rises as delta^1.5, so this crossing is late; it is moved back by extrapolating F^(2/3) (linear in the
+   displacement for Hertz) over the next points (up to 5 % of the force range, at most 50 points) to zero force.
+3. Refinement: E and the contact point are fitted together by least squares over every point up to
+   ``delta_max`` (points before contact are predicted to carry no force), re-selecting the points with the
+   refined contact point until the selection settles (at most 6 fits), together with a constant force offset (what the baseline
+   left), so that the baseline's uncertainty enters E's.
+A numeric ``contact_point`` fixes it and only E is fitted.
+
+Uncertainty: a 95 % confidence interval from the fit's covariance (Student t, ``s^2 (J^T J)^-1``) and,
+with ``bootstrap=N``, a residual bootstrap (percentile interval of N refits to fitted curve + resampled
+residuals). ``chi_square`` uses the baseline noise ``sigma``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .compression import hertz_force
+from .mastercurve import MasterCurve, load_master_curve
+from .parameters import ParameterError, parse_quantity
+
+PLAIN_SUFFIXES = (".csv", ".txt", ".tsv")
+
+
+class CurveError(ValueError):
+    """A curve that cannot be fitted (bad file, no contact, ...): the message names the file."""
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    radius: float  # m
+    poisson_ratio: float = 0.48
+    material: str = "neo-hookean"
+    geometry: str = "parallel-plates"
+    model: str = "both"  # master | hertz | both
+    delta_max: float = 0.75
+    contact_point: float | None = None  # m; None = auto
+    bootstrap: int = 0
+    seed: int = 0
+    baseline_fraction: float = 0.2
+    threshold: float = 5.0
+    baseline_tilt: bool = False
+    nucleus_size_ratio: float | None = None
+    stiffness_ratio: float | None = None
+
+    def __post_init__(self):
+        if not (math.isfinite(self.radius) and self.radius > 0):
+            raise ParameterError("radius", f"must be > 0, got {self.radius}")
+        if not (math.isfinite(self.poisson_ratio) and -1 < self.poisson_ratio < 0.5):
+            raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {self.poisson_ratio}")
+        if self.geometry != "parallel-plates":
+            raise ParameterError("geometry", f"only parallel-plates is supported, got {self.geometry!r}")
+        if self.model not in ("master", "hertz", "both"):
+            raise ParameterError("model", f"must be master, hertz or both, got {self.model!r}")
+        if not 0 < self.delta_max <= 0.75:
+            raise ParameterError("delta_max", f"must be in (0, 0.75] (the master curve's range), got {self.delta_max}")
+        if self.contact_point is not None and not math.isfinite(self.contact_point):
+            raise ParameterError("contact_point", f"must be finite, got {self.contact_point}")
+        if self.bootstrap < 0:
+            raise ParameterError("bootstrap", f"must be >= 0, got {self.bootstrap}")
+        if not 0.02 <= self.baseline_fraction <= 0.8:
+            raise ParameterError("baseline_fraction", f"must be in [0.02, 0.8], got {self.baseline_fraction}")
+        if not self.threshold > 0:
+            raise ParameterError("threshold", f"must be > 0, got {self.threshold}")
+        if (self.nucleus_size_ratio is None) != (self.stiffness_ratio is None):
+            raise ParameterError("nucleus_size_ratio", "give both --nucleus-size-ratio and --stiffness-ratio, or neither")
+        if self.nucleus_size_ratio is not None:
+            if not 0 < self.nucleus_size_ratio < 1:
+                raise ParameterError("nucleus_size_ratio", f"must be in (0, 1), got {self.nucleus_size_ratio}")
+            if not (math.isfinite(self.stiffness_ratio) and self.stiffness_ratio > 0):
+                raise ParameterError("stiffness_ratio", f"must be > 0, got {self.stiffness_ratio}")
+
+
+def parse_length(value, parameter: str) -> float:
+    """A length in metres: '8um', '8e-6 m' or a plain number (read as metres)."""
+    magnitude, _ = parse_quantity(value, "m", parameter)
+    return magnitude
+
+
+# ---------------------------------------------------------------- reading
+
+
+def read_curves(path: Path) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """``[(name, displacement_m, force_N), ...]`` of the approach segment(s) in ``path``.
+
+    Plain CSV/TSV with the columns ``displacement`` and ``force``; otherwise (or if those columns are absent
+    and afmformats can read the file) afmformats' formats: the approach segment, displacement = -tip position
+    (piezo height minus cantilever deflection), so it increases towards the sample.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise CurveError(f"{path}: no such file")
+    if path.suffix.lower() in PLAIN_SUFFIXES:
+        plain = _read_plain(path)
+        if plain is not None:
+            return [(path.stem, *plain)]
+    try:
+        import afmformats
+    except ImportError:
+        afmformats = None
+    if afmformats is None or path.suffix.lower() not in afmformats.supported_extensions:
+        if path.suffix.lower() in PLAIN_SUFFIXES:
+            raise CurveError(f"{path}: missing column(s) 'displacement' and/or 'force' (plain CSV needs both)")
+        hint = "" if afmformats is not None else " (install afmformats for AFM file formats)"
+        raise CurveError(f"{path}: unsupported file type {path.suffix!r}{hint}")
+    try:
+        datasets = afmformats.load_data(path, modality="force-distance")
+    except (Exception, afmformats.errors.AFMFileFormatError, afmformats.errors.MissingMetaDataError) as error:
+        # afmformats raises many types for foreign files, some derived from BaseException
+        if path.suffix.lower() in PLAIN_SUFFIXES:
+            raise CurveError(f"{path}: missing column(s) 'displacement' and/or 'force' (plain CSV needs both)") from None
+        raise CurveError(f"{path}: afmformats cannot read it ({type(error).__name__}: {error})") from None
+    curves = []
+    for index, data in enumerate(datasets):
+        segment = data.appr
+        columns = set(data.columns)
+        if "tip position" in columns:
+            displacement = -np.asarray(segment["tip position"], dtype=float)
+        elif "height (measured)" in columns:
+            displacement = -np.asarray(segment["height (measured)"], dtype=float)
+        else:
+            raise CurveError(f"{path}: curve {index} has no tip position or height column")
+        force = np.asarray(segment["force"], dtype=float)
+        name = path.stem if len(datasets) == 1 else f"{path.stem}_{index:04d}"
+        curves.append((name, displacement, force))
+    if not curves:
+        raise CurveError(f"{path}: no force-distance curve in the file")
+    return curves
+
+
+def _read_plain(path: Path):
+    import pandas as pd
+
+    try:
+        table = pd.read_csv(path, sep=None, engine="python", comment="#")
+    except Exception as error:
+        raise CurveError(f"{path}: cannot read as CSV ({type(error).__name__}: {error})") from None
+    columns = {str(c).strip().lower(): c for c in table.columns}
+    if "displacement" not in columns or "force" not in columns:
+        return None
+    try:
+        displacement = pd.to_numeric(table[columns["displacement"]], errors="raise").to_numpy(float)
+        force = pd.to_numeric(table[columns["force"]], errors="raise").to_numpy(float)
+    except (ValueError, TypeError):
+        raise CurveError(f"{path}: non-numeric values in 'displacement' or 'force'") from None
+    return displacement, force
+
+
+def _clean(name: str, displacement: np.ndarray, force: np.ndarray):
+    finite = np.isfinite(displacement) & np.isfinite(force)
+    displacement, force = displacement[finite], force[finite]
+    if len(displacement) < 10:
+        raise CurveError(f"{name}: needs at least 10 finite points, got {len(displacement)}")
+    if displacement[-1] <= displacement[0]:
+        raise CurveError(f"{name}: displacement must increase towards the cell (it decreases from first to last row)")
+    order = np.argsort(displacement, kind="stable")
+    return displacement[order], force[order]
+
+
+# ---------------------------------------------------------------- contact point
+
+
+@dataclass
+class Baseline:
+    slope: float
+    intercept: float
+    sigma: float
+    n_points: int
+
+    def __call__(self, displacement):
+        return self.slope * np.asarray(displacement) + self.intercept
+
+
+def fit_baseline(displacement: np.ndarray, force: np.ndarray, fraction: float = 0.2, tilt: bool = False) -> Baseline:
+    """Force offset (and, with ``tilt``, slope) of the first ``fraction`` of the approach, and its noise."""
+    n = max(5, int(round(fraction * len(displacement))))
+    if tilt:
+        slope, intercept = np.polyfit(displacement[:n], force[:n], 1)
+    else:
+        slope, intercept = 0.0, float(np.mean(force[:n]))
+    residual = force[:n] - (slope * displacement[:n] + intercept)
+    sigma = float(np.sqrt(np.sum(residual**2) / max(n - (2 if tilt else 1), 1)))
+    return Baseline(float(slope), float(intercept), sigma, n)
+
+
+def estimate_contact_point(displacement: np.ndarray, force: np.ndarray, fraction: float = 0.2,
+                           threshold: float = 5.0, name: str = "curve", tilt: bool = False) -> tuple[float, Baseline]:
+    """First guess of the contact point: the last point whose baseline-corrected force is below
+    ``threshold`` times the baseline noise (see the module docstring). Returns ``(contact, baseline)``."""
+    baseline = fit_baseline(displacement, force, fraction, tilt)
+    corrected = force - baseline(displacement)
+    level = threshold * baseline.sigma
+    if level <= 0:  # noise-free data: a tiny fraction of the largest force
+        level = 1e-9 * max(float(np.abs(corrected).max()), 1e-300)
+    below = np.nonzero(corrected <= level)[0]
+    if len(below) == 0 or below[-1] >= len(displacement) - 3 or corrected[-1] <= level:
+        raise CurveError(f"{name}: no contact found (the force never rises above {threshold:g} sigma of the "
+                         f"baseline, sigma = {baseline.sigma:.3g} N)")
+    crossing = below[-1]
+    contact = float(displacement[crossing])
+    # extrapolate F^(2/3), linear in (displacement - contact) near contact (Hertz), back to zero force
+    after = np.arange(crossing + 1, len(displacement))
+    window = after[corrected[after] <= level + 0.05 * (corrected.max() - level)][:50]
+    if len(window) >= 3:
+        slope, intercept = np.polyfit(displacement[window], np.cbrt(corrected[window]) ** 2, 1)
+        if slope > 0:
+            contact = float(np.clip(-intercept / slope, displacement[0], contact))
+    return contact, baseline
+
+
+# ---------------------------------------------------------------- least squares
+
+
+def _model_function(model: str, curve: MasterCurve | None, poisson_ratio: float):
+    if model == "master":
+        return curve
+    return lambda delta: hertz_force(np.maximum(delta, 0.0), poisson_ratio)
+
+
+def fit_model(displacement: np.ndarray, force: np.ndarray, radius: float, f, delta_max: float,
+              contact_guess: float, fit_contact: bool = True, sigma: float = float("nan"), bootstrap: int = 0,
+              seed: int = 0) -> dict:
+    """Least-squares fit of ``force = b + E R^2 f((displacement - c)/(2R))``: E, the force offset b (residual
+    baseline, informed by the points before contact) and, if ``fit_contact``, the contact point c.
+
+    Every point with ``(displacement - c)/(2R) <= delta_max`` is used (before contact f = 0).
+    """
+    from scipy import stats
+    from scipy.optimize import least_squares
+
+    index_contact = 1 if fit_contact else None
+    index_offset = 2 if fit_contact else 1
+
+    def unpack(parameters, modulus_scale, contact0, force_scale):
+        modulus = parameters[0] * modulus_scale
+        contact = contact0 + (parameters[index_contact] * radius if fit_contact else 0.0)
+        return modulus, contact, parameters[index_offset] * force_scale
+
+    def predict(parameters, modulus_scale, contact0, force_scale, d):
+        modulus, contact, offset = unpack(parameters, modulus_scale, contact0, force_scale)
+        return offset + modulus * radius**2 * f(np.maximum(d - contact, 0.0) / (2 * radius))
+
+    def solve(d, y, modulus_scale, contact0, force_scale, start):
+        def residual(parameters):
+            return (predict(parameters, modulus_scale, contact0, force_scale, d) - y) / force_scale
+
+        lower = [1e-8] + [-np.inf] * (len(start) - 1)
+        return least_squares(residual, start, jac="3-point", bounds=(lower, [np.inf] * len(start)),
+                             xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=400)
+
+    contact, previous = contact_guess, None
+    for _ in range(6):  # select the points with the current contact and fit, until the selection settles
+        mask = (displacement - contact) / (2 * radius) <= delta_max + 1e-12
+        if previous is not None and np.array_equal(mask, previous):
+            break
+        previous = mask
+        d, y = displacement[mask], force[mask]
+        if (d > contact).sum() < 3:
+            raise CurveError("fewer than 3 points in contact below delta_max")
+        contact0 = contact
+        force_scale = max(float(np.abs(y).max()), 1e-300)
+        delta_last = (d[-1] - contact0) / (2 * radius)
+        modulus_scale = max(float(y[-1]), 1e-300) / (radius**2 * float(f(np.array([delta_last]))[0]))
+        start = np.zeros(index_offset + 1)
+        start[0] = 1.0
+        result = solve(d, y, modulus_scale, contact0, force_scale, start)
+        modulus, contact, offset = unpack(result.x, modulus_scale, contact0, force_scale)
+    n, p = len(y), len(result.x)
+    residuals = result.fun * force_scale
+    ssr = float(np.sum(residuals**2))
+    dof = max(n - p, 1)
+    try:
+        jac = result.jac * force_scale
+        covariance = np.linalg.inv(jac.T @ jac) * ssr / dof
+        modulus_std = math.sqrt(max(covariance[0, 0], 0.0)) * modulus_scale
+        contact_std = math.sqrt(max(covariance[1, 1], 0.0)) * radius if fit_contact else 0.0
+    except np.linalg.LinAlgError:
+        modulus_std, contact_std = float("nan"), float("nan")
+    t = float(stats.t.ppf(0.975, dof))
+    predicted = predict(result.x, modulus_scale, contact0, force_scale, d)
+    out = {
+        "youngs_modulus": modulus, "youngs_modulus_std": modulus_std,
+        "youngs_modulus_ci_low": modulus - t * modulus_std, "youngs_modulus_ci_high": modulus + t * modulus_std,
+        "contact_point": contact, "contact_point_std": contact_std, "force_offset": offset,
+        "delta_max": float((d.max() - contact) / (2 * radius)), "n_points": n,
+        "n_points_in_contact": int((d > contact).sum()),
+        "chi_square": ssr / sigma**2 if sigma > 0 else float("nan"),
+        "reduced_chi_square": ssr / sigma**2 / dof if sigma > 0 else float("nan"),
+        "rms_residual": math.sqrt(ssr / n), "converged": bool(result.success),
+        "fitted_points": (d, y - offset, predicted - offset),
+    }
+    if bootstrap:
+        rng = np.random.default_rng(seed)
+        moduli = []
+        for _ in range(bootstrap):
+            sample = predicted + rng.choice(residuals, size=n, replace=True)
+            replica = solve(d, sample, modulus_scale, contact0, force_scale, result.x)
+            moduli.append(replica.x[0] * modulus_scale)
+        out["youngs_modulus_bootstrap_ci_low"] = float(np.percentile(moduli, 2.5))
+        out["youngs_modulus_bootstrap_ci_high"] = float(np.percentile(moduli, 97.5))
+    return out
+
+
+def fit_curve(name: str, displacement, force, settings: FitSettings, curve: MasterCurve | None = None) -> dict:
+    """Fit one curve; returns a dict (fits.csv row plus ``_plot`` data)."""
+    displacement, force = _clean(name, np.asarray(displacement, float), np.asarray(force, float))
+    start = time.perf_counter()
+    try:
+        guess, baseline = estimate_contact_point(displacement, force, settings.baseline_fraction,
+                                                 settings.threshold, name, settings.baseline_tilt)
+    except CurveError:
+        if settings.contact_point is None:
+            raise
+        baseline = fit_baseline(displacement, force, settings.baseline_fraction, settings.baseline_tilt)
+    corrected = force - baseline(displacement)
+    fit_contact = settings.contact_point is None
+    contact0 = guess if fit_contact else settings.contact_point
+    if curve is None and settings.model in ("master", "both"):
+        curve = load_master_curve(settings.poisson_ratio, settings.material)
+    row = {"file": name, "radius": settings.radius, "poisson_ratio": settings.poisson_ratio}
+    fits = {}
+    for model in ("master", "hertz"):
+        if settings.model not in (model, "both"):
+            continue
+        try:
+            fits[model] = fit_model(displacement, corrected, settings.radius,
+                                    _model_function(model, curve, settings.poisson_ratio), settings.delta_max,
+                                    contact0, fit_contact, baseline.sigma, settings.bootstrap, settings.seed)
+        except CurveError as error:
+            raise CurveError(f"{name}: {error}") from None
+    primary = fits["master"] if "master" in fits else fits["hertz"]
+    for key in ("youngs_modulus", "youngs_modulus_ci_low", "youngs_modulus_ci_high", "contact_point",
+                "delta_max", "youngs_modulus_std", "contact_point_std", "chi_square", "reduced_chi_square",
+                "rms_residual", "n_points", "n_points_in_contact", "converged", "youngs_modulus_bootstrap_ci_low",
+                "youngs_modulus_bootstrap_ci_high"):
+        if key in primary:
+            row[key] = primary[key]
+    row["model"] = "master" if "master" in fits else "hertz"
+    hertz = fits.get("hertz")
+    nan = float("nan")
+    row["youngs_modulus_hertz"] = hertz["youngs_modulus"] if hertz else nan
+    row["youngs_modulus_hertz_ci_low"] = hertz["youngs_modulus_ci_low"] if hertz else nan
+    row["youngs_modulus_hertz_ci_high"] = hertz["youngs_modulus_ci_high"] if hertz else nan
+    row["contact_point_hertz"] = hertz["contact_point"] if hertz else nan
+    row["chi_square_hertz"] = hertz["chi_square"] if hertz else nan
+    row["contact_point_initial_guess"] = contact0
+    row["baseline_sigma"] = baseline.sigma
+    if "master" in fits and curve is not None:
+        row["master_curve_relative_error"] = float(curve.relative_error_at(fits["master"]["delta_max"]))
+    if settings.nucleus_size_ratio is not None:
+        row.update(heterogeneous_moduli(row, settings.nucleus_size_ratio, settings.stiffness_ratio))
+    row["fit_time_s"] = time.perf_counter() - start
+    row["_plot"] = {"displacement": displacement, "force": corrected, "fits": fits, "radius": settings.radius}
+    return row
+
+
+def heterogeneous_moduli(row: dict, size_ratio: float, stiffness_ratio: float) -> dict:
+    """E_c = E_eff / (1 + (G - 1) L^3) and E_n = G E_c (the paper's volume average, spherical nucleus)."""
+    factor = 1.0 + (stiffness_ratio - 1.0) * size_ratio**3
+    out = {"effective_stiffness_ratio": factor, "nucleus_size_ratio": size_ratio, "stiffness_ratio": stiffness_ratio}
+    for suffix in ("", "_ci_low", "_ci_high"):
+        value = row.get(f"youngs_modulus{suffix}", float("nan"))
+        out[f"youngs_modulus_cytoplasm{suffix}"] = value / factor
+        out[f"youngs_modulus_nucleus{suffix}"] = stiffness_ratio * value / factor
+    return out
+
+
+# ---------------------------------------------------------------- plots and files
+
+
+def plot_fit(path: Path, row: dict) -> None:
+    from .plotting import plt  # the Agg backend
+
+    data = row["_plot"]
+    radius = data["radius"]
+    figure, (top, bottom) = plt.subplots(2, 1, figsize=(6.4, 6), sharex=True, height_ratios=[3, 1],
+                                         constrained_layout=True)
+    micro = 1e6
+    top.plot(data["displacement"] * micro, data["force"] * 1e9, ".", ms=2, color="0.5", label="data (baseline removed)")
+    styles = {"master": ("C0", "master curve"), "hertz": ("C3", "Hertz")}
+    for model, fit in data["fits"].items():
+        d, y, predicted = fit["fitted_points"]
+        color, label = styles[model]
+        top.plot(d * micro, predicted * 1e9, "-", color=color,
+                 label=f"{label}: E = {fit['youngs_modulus']:.4g} Pa "
+                       f"[{fit['youngs_modulus_ci_low']:.4g}, {fit['youngs_modulus_ci_high']:.4g}]")
+        top.axvline(fit["contact_point"] * micro, color=color, lw=0.8, ls=":")
+        bottom.plot(d * micro, (y - predicted) * 1e9, ".", ms=2, color=color, label=label)
+    top.set_ylabel("force (nN)")
+    top.set_title(f"{row['file']}: R = {radius * micro:.3g} um, delta up to {row['delta_max']:.3f}")
+    top.legend(fontsize=8)
+    bottom.axhline(0, color="k", lw=0.6)
+    bottom.set_xlabel("displacement (um)")
+    bottom.set_ylabel("residual (nN)")
+    for axis in (top, bottom):
+        axis.grid(alpha=0.3)
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+
+
+CONTRACT_COLUMNS = ["file", "youngs_modulus", "youngs_modulus_ci_low", "youngs_modulus_ci_high", "contact_point",
+                    "delta_max", "youngs_modulus_hertz"]
+
+
+def expand_paths(paths) -> list[Path]:
+    """Files as given; a directory contributes its readable files (plain CSV and afmformats' extensions)."""
+    try:
+        import afmformats
+
+        extensions = set(afmformats.supported_extensions) | set(PLAIN_SUFFIXES)
+    except ImportError:
+        extensions = set(PLAIN_SUFFIXES)
+    out = []
+    for path in map(Path, paths):
+        if path.is_dir():
+            out += sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in extensions)
+        else:
+            out.append(path)
+    return out
+
+
+def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progress: bool = False) -> dict:
+    """Fit every curve of every file; write ``out/fits.csv``, ``out/<curve>.png``, ``out/fit_settings.json``.
+
+    Returns ``{"rows": [...], "errors": [(file, message), ...], "wall_time_s": ...}``. Curves run one after
+    the other (a plain loop): one fit takes well under a second.
+    """
+    import pandas as pd
+
+    from .io import _replace_atomically, software_versions, write_json
+
+    start = time.perf_counter()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    curve = load_master_curve(settings.poisson_ratio, settings.material) if settings.model != "hertz" else None
+    files = expand_paths(paths)
+    if not files:
+        raise ParameterError("file", "no input files")
+    rows, errors, used_names = [], [], set()
+    bar = None
+    if progress and len(files) > 3:
+        from rich.progress import Progress
+
+        bar = Progress(transient=True)
+        bar.start()
+        task = bar.add_task("fitting", total=len(files))
+    try:
+        for path in files:
+            try:
+                for name, displacement, force in read_curves(path):
+                    unique = name
+                    counter = 1
+                    while unique in used_names:
+                        unique = f"{name}_{counter}"
+                        counter += 1
+                    used_names.add(unique)
+                    try:
+                        row = fit_curve(unique, displacement, force, settings, curve)
+                    except CurveError as error:
+                        message = str(error)
+                        if message.startswith(f"{unique}: "):
+                            message = message[len(unique) + 2:]
+                        errors.append((str(path), message if str(path) in message else f"{path}: {message}"))
+                        continue
+                    row["source"] = str(path)
+                    if plots:
+                        plot_fit(out / f"{unique}.png", row)
+                    rows.append(row)
+            except CurveError as error:
+                errors.append((str(path), str(error)))
+            if bar is not None:
+                bar.advance(task)
+    finally:
+        if bar is not None:
+            bar.stop()
+    table = [{k: v for k, v in row.items() if k != "_plot"} for row in rows]
+    table += [{"file": Path(f).stem, "source": f, "error": message} for f, message in errors]
+    frame = pd.DataFrame(table)
+    for column in CONTRACT_COLUMNS:
+        if column not in frame:
+            frame[column] = np.nan
+    frame = frame[CONTRACT_COLUMNS + [c for c in frame.columns if c not in CONTRACT_COLUMNS]]
+    _replace_atomically(out / "fits.csv", lambda temporary: frame.to_csv(temporary, index=False, float_format="%.8g"))
+    versions = software_versions()
+    try:
+        import afmformats
+
+        versions["afmformats"] = afmformats.__version__
+    except ImportError:
+        pass
+    wall = time.perf_counter() - start
+    write_json(out / "fit_settings.json", {
+        "settings": asdict(settings), "files": [str(p) for p in files],
+        "master_curve": (curve.metadata | {"poisson_ratio": curve.poisson_ratio, "material": curve.material,
+                                           "hertz_blend_below": curve.hertz_blend_below}) if curve else None,
+        "delta_definition": "delta = (displacement - contact_point) / (2 R) = 1 - h/(2R)",
+        "contact_point_estimator": "baseline line on the first baseline_fraction of the approach; first guess the "
+                                   "last point below threshold*sigma; refined with E by least squares",
+        "heterogeneous_conversion": None if settings.nucleus_size_ratio is None else (
+            "E_c = E_eff / (1 + (gamma - 1) lambda^3), E_n = gamma E_c (volume average, spherical centred nucleus). "
+            "Measured (README, compression): a cell with a centred nucleus (gamma 2, lambda 0.5) is 3 % (delta 0.1) "
+            "to 13 % (delta 0.3-0.5) stiffer than its volume-averaged equivalent, so E_c and E_n from this "
+            "conversion can be that much too high; no study of other gamma/lambda is available yet."),
+        "execution": "plain loop (one process)", "n_curves": len(rows), "n_errors": len(errors),
+        "wall_time_s": wall, "software": versions,
+    })
+    return {"rows": rows, "errors": errors, "wall_time_s": wall, "files": files}
