@@ -629,6 +629,40 @@ def _check_wall_gap(params: ShearFlowParameters) -> None:
         )
 
 
+@dataclass(frozen=True)
+class RateLimits:
+    """Largest lattice shear rates (1/dt) each Stokes-regime and stability limit allows, and the quantities
+    they come from (see :func:`shear_rate_limits`)."""
+
+    viscosity: float  # eta = (tau - 1/2)/3 (rho0 dx^2/dt)
+    modulus_per_rate: float  # E_c per unit shear rate (rho0 dx^2/dt)
+    stiffness_mobility: float  # lambda_max(W K) per unit E_lat
+    spacing: float  # smallest node distance within an element (dx)
+    stability_number: float  # C0 c(tau) c(d)
+    limits: dict  # {"reynolds_number", "velocity_limit", "elastic_stability"}: rate (1/dt)
+
+
+def shear_rate_limits(cell, radius: float, relaxation_time: float, capillary_number: float, kernel: str,
+                      reynolds_number: float, velocity_limit: float, velocity_length: float) -> RateLimits:
+    """Limits on a flow's reference shear rate gdot (shear rate; wall shear rate in a pipe), shared by every
+    flow scenario: (1) particle Reynolds number gdot R^2/nu <= ``reynolds_number``, (2) the fastest lattice
+    speed gdot velocity_length/2 <= ``velocity_limit`` (velocity_length: H for Couette walls at +-gdot H/2,
+    R_ch for the Poiseuille centre line gdot_w R_ch/2), (3) the explicit elastic step stable,
+    E_c lambda_max(W K) <= C0 c(tau) c(d), where Ca = eta gdot/mu_ref gives E_c = 2 (1 + nu) mu_ref/(mu_ref/mu_c)."""
+    viscosity = (relaxation_time - 0.5) / 3.0
+    poisson = cell.parameters.material.poisson_ratio
+    modulus_per_rate = 2.0 * (1.0 + poisson) * viscosity / (capillary_number * reference_modulus_ratio(cell))
+    stiffness_mobility = stiffness_mobility_eigenvalue(cell, radius, kernel)
+    spacing = minimum_node_spacing(cell) * radius
+    stability_number = STABILITY_CONSTANT * relaxation_time_factor(relaxation_time) * spacing_factor(spacing)
+    limits = {
+        "reynolds_number": reynolds_number * viscosity / radius**2,
+        "velocity_limit": 2.0 * velocity_limit / velocity_length,
+        "elastic_stability": stability_number / (stiffness_mobility * modulus_per_rate),
+    }
+    return RateLimits(viscosity, modulus_per_rate, stiffness_mobility, spacing, stability_number, limits)
+
+
 def shear_lattice_units(cell, params: ShearFlowParameters) -> ShearUnits:
     """Derive the lattice parameters of a shear run from (Ca, R/dx, confinement) and the limits.
 
@@ -645,20 +679,11 @@ def shear_lattice_units(cell, params: ShearFlowParameters) -> ShearUnits:
     n_side = int(round(params.box_length * radius))
     _check_wall_gap(params)
     tau = params.relaxation_time
-    viscosity = (tau - 0.5) / 3.0
-    poisson = cell.parameters.material.poisson_ratio
-    ratio = reference_modulus_ratio(cell)
     ca = params.capillary_number
-    # E_c per unit shear rate: mu_ref = eta gdot / Ca, E_c = 2 (1 + nu) mu_ref / ratio
-    modulus_per_rate = 2.0 * (1.0 + poisson) * viscosity / (ca * ratio)
-    stiffness_mobility = stiffness_mobility_eigenvalue(cell, radius, params.kernel)
-    spacing = minimum_node_spacing(cell) * radius
-    stability_number = STABILITY_CONSTANT * relaxation_time_factor(tau) * spacing_factor(spacing)
-    limits = {
-        "reynolds_number": params.reynolds_number * viscosity / radius**2,
-        "velocity_limit": 2.0 * params.velocity_limit / ny,
-        "elastic_stability": stability_number / (stiffness_mobility * modulus_per_rate),
-    }
+    rates = shear_rate_limits(cell, radius, tau, ca, params.kernel, params.reynolds_number,
+                              params.velocity_limit, ny)
+    viscosity, modulus_per_rate, limits = rates.viscosity, rates.modulus_per_rate, rates.limits
+    stiffness_mobility, spacing, stability_number = rates.stiffness_mobility, rates.spacing, rates.stability_number
     if params.lattice_shear_rate is None:
         limiting = min(limits, key=limits.get)
         shear_rate = limits[limiting]

@@ -45,16 +45,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, model_validator
 
 from . import ibm
-from .flow import (
-    STABILITY_CONSTANT,
-    FlowError,
-    ImmersedCell,
-    minimum_node_spacing,
-    reference_modulus_ratio,
-    relaxation_time_factor,
-    spacing_factor,
-    stiffness_mobility_eigenvalue,
-)
+from .flow import FlowError, ImmersedCell, shear_rate_limits
 from .lattice import Lattice, LatticeParams
 from .observables import moments
 from .parameters import ParameterError
@@ -359,19 +350,11 @@ def pipe_lattice_units(cell, params: PipeFlowParameters) -> PipeUnits:
     radius = float(params.resolution)
     channel_radius = params.channel_radius_ratio * radius
     tau = params.relaxation_time
-    viscosity = (tau - 0.5) / 3.0
-    poisson = cell.parameters.material.poisson_ratio
-    ratio = reference_modulus_ratio(cell)
     ca = params.capillary_number_wall
-    modulus_per_rate = 2.0 * (1.0 + poisson) * viscosity / (ca * ratio)
-    stiffness_mobility = stiffness_mobility_eigenvalue(cell, radius, params.kernel)
-    spacing = minimum_node_spacing(cell) * radius
-    stability_number = STABILITY_CONSTANT * relaxation_time_factor(tau) * spacing_factor(spacing)
-    limits = {
-        "reynolds_number": params.reynolds_number * viscosity / radius**2,
-        "velocity_limit": 2.0 * params.velocity_limit / channel_radius,
-        "elastic_stability": stability_number / (stiffness_mobility * modulus_per_rate),
-    }
+    rates = shear_rate_limits(cell, radius, tau, ca, params.kernel, params.reynolds_number,
+                              params.velocity_limit, channel_radius)
+    viscosity, modulus_per_rate, limits = rates.viscosity, rates.modulus_per_rate, rates.limits
+    stiffness_mobility, spacing = rates.stiffness_mobility, rates.spacing
     if params.lattice_wall_shear_rate is None:
         limiting = min(limits, key=limits.get)
         rate = limits[limiting]
