@@ -143,8 +143,12 @@ def _folded(problem: _Problem, x: np.ndarray) -> bool:
 
 
 def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: CompressionParameters,
-            pattern) -> tuple[np.ndarray, int, bool, str]:
-    """Projected Newton on E(x) subject to the plate bounds. Returns (x, iterations, converged, reason)."""
+            pattern) -> tuple[np.ndarray, int, bool, str, float | None]:
+    """Projected Newton on E(x) subject to the plate bounds.
+
+    Returns (x, iterations, converged, reason, last_shift): ``last_shift`` is the Levenberg-Marquardt shift of
+    the last factorisation (None if none was needed); MIN_SHIFT means PARDISO found no negative eigenvalue of
+    the free-dof stiffness at the last iterate, i.e. (to within that step) the equilibrium is a minimum."""
     cell = problem.cell
     pinned = np.zeros(x.size, dtype=bool)
     pinned[problem.pinned] = True
@@ -152,8 +156,8 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
     # round-off of the energy sum: changes below it cannot be resolved by the line search
     noise = 1e-13 * float(np.sum(cell.element_volumes * cell.youngs_moduli))
     if not np.isfinite(energy):
-        return x, 0, False, "inverted element in the predictor"
-    shift = MIN_SHIFT
+        return x, 0, False, "inverted element in the predictor", None
+    shift, last_shift = MIN_SHIFT, None
     gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
     for iteration in range(1, parameters.max_newton_iterations + 1):
         active, at_lower, at_upper, residual, force_scale = _active_set(problem, x, gradient, pinned)
@@ -162,8 +166,8 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
                   f"active {active.sum()} energy {energy:.12e}")
         if residual < parameters.tolerance * force_scale:
             if _folded(problem, x):
-                return x, iteration - 1, False, FOLDED
-            return x, iteration - 1, True, ""
+                return x, iteration - 1, False, FOLDED, last_shift
+            return x, iteration - 1, True, "", last_shift
         stiffness = cell.stiffness_pattern.assemble(cell.element_stiffness(x.reshape(-1, 3)))
         rhs = np.where(active, 0.0, -gradient)
         # Levenberg-Marquardt safeguard: where the stiffness restricted to the free dofs is indefinite (far
@@ -172,8 +176,9 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
         shift = max(MIN_SHIFT, shift * 1e-4)  # start near the last accepted shift
         for _ in range(4):
             direction, shift = _shifted_newton_direction(solver, stiffness, pattern, active, rhs, shift)
+            last_shift = shift
             if direction is None:
-                return x, iteration, False, "no descent direction"
+                return x, iteration, False, "no descent direction", last_shift
             # A node on a plate with a tensile force is free, but the coupled Newton step may still push it
             # into the plate; the projection would then clip it at every iteration and stall the solver.
             # Hold such nodes for this iteration and solve again.
@@ -195,12 +200,13 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
                 break
             step *= 0.5
         if not accepted:
-            return x, iteration, False, "line search failed (an element would invert)"
+            return x, iteration, False, "line search failed (an element would invert)", last_shift
         if DEBUG:
             print(f"     shift {shift:g} step {step:g} max|d| {largest:.3e} clipped {(trial != x + step * direction).sum()}")
         x, energy = trial, trial_energy
         gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
-    return x, parameters.max_newton_iterations, False, f"no convergence in {parameters.max_newton_iterations} iterations"
+    return (x, parameters.max_newton_iterations, False,
+            f"no convergence in {parameters.max_newton_iterations} iterations", last_shift)
 
 
 def is_saddle(problem: _Problem, x: np.ndarray, solver: SparseSolver, pattern) -> bool:
@@ -283,7 +289,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
     x = cell.mesh.nodes.ravel().copy()
     targets = np.linspace(0.0, parameters.delta_max, parameters.steps + 1)
     rows_delta, rows_force, rows_lower, rows_positions, rows_contacts = [0.0], [0.0], [0.0], [x.copy()], [0]
-    rows_unstable = [False]
+    rows_unstable, row_shift = [False], None
     iterations_total, substeps, max_reaction = 0, 0, 0.0
     history: list = []
     delta, failure = 0.0, None
@@ -299,7 +305,8 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
                     guess = _tangent_predictor(problem, x, trial_delta - delta, linear_solver, pattern)
                 problem.set_delta(trial_delta)
                 guess = problem.project(guess)
-                solution, iterations, converged, reason = _newton(problem, guess, linear_solver, parameters, pattern)
+                solution, iterations, converged, reason, last_shift = _newton(problem, guess, linear_solver, parameters,
+                                                                             pattern)
                 iterations_total += iterations
                 history.append((trial_delta, iterations, reason))
                 if not converged:
@@ -311,7 +318,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
                                    f"try a finer mesh (mesh_size/pole_size), more steps, or linear elements (element p1)")
                         break
                     continue
-                x, delta = solution, trial_delta
+                x, delta, row_shift = solution, trial_delta, last_shift
             if failure:
                 break
             force_upper, force_lower, contacts, reaction = plate_forces(problem, x)
@@ -321,7 +328,8 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
             rows_lower.append(force_lower)
             rows_positions.append(x.copy())
             rows_contacts.append(contacts)
-            rows_unstable.append(is_saddle(problem, x, linear_solver, pattern))
+            # the last factorisation's inertia answers for free when it needed no shift; otherwise check
+            rows_unstable.append(row_shift != MIN_SHIFT and is_saddle(problem, x, linear_solver, pattern))
             if progress is not None:
                 progress(delta)
     finally:
