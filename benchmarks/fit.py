@@ -123,12 +123,13 @@ def main():
                 d, f = synthetic(curve, 0.75, 0.01, index)
                 pd.DataFrame({"displacement": d, "force": f}).to_csv(folder / f"c{index:04d}.csv", index=False)
             out = args.out or folder / "fits"
-            start = time.perf_counter()
-            result = fit_files([folder], settings, out, plots=False)
-            wall = time.perf_counter() - start
-            table = pd.read_csv(Path(out) / "fits.csv")
-            print(f"{args.curves} curves via fit_files (read CSV + both fits, no plots): {wall:.1f} s; "
-                  f"E median {table['youngs_modulus'].median():.1f} Pa, errors {len(result['errors'])}")
+            for label, options in (("in process", {"dask": False}), ("Dask, 2 local workers", {"workers": 2})):
+                start = time.perf_counter()
+                result = fit_files([folder], settings, out, plots=False, **options)
+                wall = time.perf_counter() - start
+                table = pd.read_csv(Path(out) / "fits.csv")
+                print(f"{args.curves} curves via fit_files (read CSV + both fits, no plots, {label}): {wall:.1f} s; "
+                      f"E median {table['youngs_modulus'].median():.1f} Pa, errors {len(result['errors'])}")
             start = time.perf_counter()
             fit_files(sorted(folder.glob("c000*.csv"))[:5], settings, folder / "plots", plots=True)
             print(f"5 curves with plots: {time.perf_counter() - start:.1f} s")

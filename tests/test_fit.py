@@ -214,9 +214,38 @@ def test_bad_files_are_refused_naming_the_file(tmp_path, content, needle):
 
 def test_mastercurve_command_reads_the_shipped_curve(tmp_path):
     out = tmp_path / "curve.csv"
-    result = runner.invoke(mastercurve_app, ["--poisson-ratio", "0.48", "--out", str(out)])
+    result = runner.invoke(mastercurve_app, ["compression", "--poisson-ratio", "0.48", "--out", str(out)])
     assert result.exit_code == 0, result.output
     assert "shipped" in result.output
     assert out.read_text().startswith("# {")
-    result = runner.invoke(mastercurve_app, ["--poisson-ratio", "0.6"])
+    result = runner.invoke(mastercurve_app, ["compression", "--poisson-ratio", "0.6"])
     assert result.exit_code == 2 and "--poisson-ratio" in result.output
+
+
+def test_dask_execution_gives_the_loops_fits_csv(tmp_path, master):
+    """Three files (one given twice, so a duplicate curve name) through a 1-worker local Dask cluster; reference:
+    the in-process loop's fits.csv, same columns, same row order and names, every numeric column equal to
+    rtol 1e-12 except the timing column fit_time_s; the plots are renamed like the loop's."""
+    from elastocell.fit import fit_files
+
+    files = [write_csv(tmp_path / f"cell{i}.csv", *synthetic(master, seed=20 + i, n=200)[:2]) for i in range(3)]
+    files.append(files[1])
+    settings = FitSettings(radius=R)
+    loop = fit_files(files, settings, tmp_path / "loop", plots=True)
+    dask = fit_files(files, settings, tmp_path / "dask", plots=True, workers=1)
+    assert loop["execution"].startswith("plain loop") and dask["execution"].startswith("dask local cluster")
+    a, b = pd.read_csv(tmp_path / "loop" / "fits.csv"), pd.read_csv(tmp_path / "dask" / "fits.csv")
+    assert list(a.columns) == list(b.columns)
+    assert list(a["file"]) == list(b["file"]) == ["cell0", "cell1", "cell2", "cell1_1"]
+    numeric = [c for c in a.columns if a[c].dtype.kind in "fi" and c != "fit_time_s"]
+    assert np.allclose(a[numeric].to_numpy(float), b[numeric].to_numpy(float), rtol=1e-12, equal_nan=True)
+    assert sorted(p.name for p in (tmp_path / "dask").iterdir()) == sorted(p.name for p in (tmp_path / "loop").iterdir())
+    assert json.loads((tmp_path / "dask" / "fit_settings.json").read_text())["execution"].startswith("dask")
+
+
+def test_dask_options_are_checked():
+    result = runner.invoke(app, ["fit", "afm", "x.csv", "--radius", "8um", "--workers", "0"])
+    assert result.exit_code == 2 and "--workers" in result.output
+    result = runner.invoke(app, ["fit", "afm", "x.csv", "--radius", "8um", "--workers", "2", "--scheduler",
+                                 "tcp://h:8786"])
+    assert result.exit_code == 2 and "--workers" in result.output

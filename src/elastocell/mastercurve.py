@@ -167,27 +167,38 @@ def cache_path(poisson_ratio: float, material: str = "neo-hookean") -> Path:
     return cache_directory() / f"mastercurve-compression-{digest}.csv"
 
 
+def shipped_file(name: str):
+    """The packaged data file ``name`` (``elastocell/data``), or None."""
+    resource = resources.files("elastocell") / "data" / name
+    return resource if resource.is_file() else None
+
+
 def shipped(poisson_ratio: float, material: str = "neo-hookean") -> MasterCurve | None:
-    resource = resources.files("elastocell") / "data" / shipped_name(poisson_ratio, material)
-    if not resource.is_file():
-        return None
-    return MasterCurve.from_csv(resource)
+    resource = shipped_file(shipped_name(poisson_ratio, material))
+    return None if resource is None else MasterCurve.from_csv(resource)
+
+
+def shipped_or_cached(shipped_curve, cached: Path, read, kind: str, poisson_ratio: float, material: str, hint: str = "",
+                      shipped_ratios=SHIPPED_POISSON_RATIOS):
+    """The shipped curve, else the cached file read with ``read``; otherwise a ParameterError naming the
+    ``elastocell mastercurve KIND`` command that computes it."""
+    if shipped_curve is not None:
+        return shipped_curve
+    if cached.exists():
+        return read(cached)
+    shipped_list = ", ".join(f"{nu:g}" for nu in shipped_ratios)
+    raise ParameterError(
+        "poisson_ratio",
+        f"no {kind} master curve for nu={poisson_ratio:g} ({material}); shipped: {shipped_list} (neo-hookean); "
+        f"compute it with: elastocell mastercurve {kind} --poisson-ratio {poisson_ratio:g} --material {material}"
+        + (f" ({hint})" if hint else ""))
 
 
 def load_master_curve(poisson_ratio: float = 0.48, material: str = "neo-hookean") -> MasterCurve:
     """The shipped curve, else a cached one; otherwise a ParameterError naming the command that computes it."""
     _check_inputs(poisson_ratio, material)
-    curve = shipped(poisson_ratio, material)
-    if curve is not None:
-        return curve
-    path = cache_path(poisson_ratio, material)
-    if path.exists():
-        return MasterCurve.from_csv(path)
-    shipped_list = ", ".join(f"{nu:g}" for nu in SHIPPED_POISSON_RATIOS)
-    raise ParameterError(
-        "poisson_ratio",
-        f"no master curve for nu={poisson_ratio:g} ({material}); shipped: {shipped_list} (neo-hookean); compute it "
-        f"with: elastocell mastercurve compression --poisson-ratio {poisson_ratio:g} --material {material}")
+    return shipped_or_cached(shipped(poisson_ratio, material), cache_path(poisson_ratio, material),
+                             MasterCurve.from_csv, "compression", poisson_ratio, material)
 
 
 def compute_master_curve(poisson_ratio: float = 0.48, material: str = "neo-hookean", use_cache: bool = True,
