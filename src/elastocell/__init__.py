@@ -16,6 +16,14 @@ def __getattr__(name: str):
         from .runner import shear
 
         return shear
+    if name == "reproduce":
+        from .studies import reproduce
+
+        return reproduce
+    if name == "study":
+        from .studies import run_study
+
+        return run_study
     raise AttributeError(f"module 'elastocell' has no attribute {name!r}")
 
-__all__ = ["cell_parameters", "compress", "equivalent", "shear", "ParameterError", "__version__"]
+__all__ = ["cell_parameters", "compress", "equivalent", "shear", "study", "reproduce", "ParameterError", "__version__"]

@@ -120,10 +120,10 @@ def compress(
     body = Cell.from_parameters(cell)
     primary = body.equivalent() if equivalent else body
     label = "homogeneous equivalent" if equivalent else _describe(cell)
-    summary = _run_and_write(out, primary, scenario, cell, solver, progress, label)
+    summary = _run_and_write(out, primary, scenario, cell, solver, progress, label, vtk)
     if compare and not equivalent:
         other = _run_and_write(out / "equivalent", body.equivalent(), scenario, cell, solver, progress,
-                               "homogeneous equivalent")
+                               "homogeneous equivalent", vtk)
         _write_comparison(out, summary, other, cell)
         summary["equivalent_summary"] = other
     return summary
@@ -157,7 +157,7 @@ def _progress_bar(enabled: bool):
 
 
 def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell: CellParameters, solver: str,
-                   show_progress: bool, label: str) -> dict:
+                   show_progress: bool, label: str, vtk: bool = True) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     clock = Stopwatch()
     with _progress_bar(show_progress) as progress:
@@ -185,7 +185,7 @@ def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell:
     from .plotting import plot_compression
 
     plot_compression(out / "compression.png", [{"label": label, **table}], cell.material.poisson_ratio, title=label)
-    if _vtk_enabled():
+    if vtk and _vtk_enabled():
         stresses = [body.element_cauchy_stress(x) for x in result.positions]
         cell_data = [{
             "youngs_modulus": body.youngs_moduli * cell.youngs_modulus,

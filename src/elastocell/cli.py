@@ -345,6 +345,11 @@ from .cli_fit import fit_app, mastercurve_app  # noqa: E402
 app.add_typer(mastercurve_app, name="mastercurve")
 app.add_typer(fit_app, name="fit")
 
+from .cli_study import reproduce, study_app  # noqa: E402
+
+app.add_typer(study_app, name="study")
+app.command("reproduce")(reproduce)
+
 
 if __name__ == "__main__":  # pragma: no cover
     app()

@@ -81,7 +81,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, thread
                                                     "OPENBLAS_NUM_THREADS")}
     with dask.config.set({"distributed.worker.daemon": False, "logging.distributed": "error"}):
         cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
-                               dashboard_address=None, env=environment, silence_logs=40)
+                               dashboard_address=":0", env=environment, silence_logs=40)
         client = Client(cluster)
         try:
             yield client

@@ -633,6 +633,7 @@ def pipe(
     checkpoint_every: int = 20,
     vtk_interval: float | None = 1.0,
     flow_options: dict | None = None,
+    capillary_number_modulus: str = "reference",
     **cell_options,
 ) -> dict:
     """A cell in a capillary; writes ``out/timeseries.csv``, ``summary.json``, ``pipe.png``, ``vtk/`` and
@@ -644,6 +645,9 @@ def pipe(
     stationary_tolerance: stop once the running mean of ``stationary_observable`` ("strain_axial" or
     "deformation") over the last unit of time changes by less than this fraction of it (see
     :class:`~elastocell.runner.StopCriteria`). flow_options: further :class:`PipeFlowParameters`.
+    capillary_number_modulus: "reference" (Ca_w against the simulated cell's mu: mu_eff with ``equivalent``)
+    or "mu_c" (against the described cell's mu_c; with ``equivalent`` the run uses Ca_w / gamma_eff, i.e. the
+    same pressure gradient G as the heterogeneous cell, as the paper compares them).
     """
     from .api import _describe
     from .cell import Cell
@@ -667,8 +671,17 @@ def pipe(
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     body = Cell.from_parameters(cell)
+    if capillary_number_modulus not in ("reference", "mu_c"):
+        raise ParameterError("capillary_number_modulus",
+                             f"must be 'reference' or 'mu_c', got {capillary_number_modulus!r}")
+    capillary_number_mu_c = capillary_number_wall
     if equivalent:
         body = body.equivalent()
+        if capillary_number_modulus == "mu_c":  # same G: Ca_w,eff = G R_ch / (2 mu_eff)
+            capillary_number_wall = capillary_number_wall / body.effective_stiffness_ratio
+            params = PipeFlowParameters(**{**params.model_dump(), "capillary_number_wall": capillary_number_wall})
+        else:
+            capillary_number_mu_c = capillary_number_wall * body.effective_stiffness_ratio
     run = PipeRun(body, params, record_interval=record_interval)
     resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
                                     description=f"pipe Ca_w={capillary_number_wall:g}",
@@ -676,6 +689,7 @@ def pipe(
     label = "homogeneous equivalent" if equivalent else _describe(cell)
     summary = {"scenario": "pipe", "label": label}
     summary.update(run.summary())
+    summary["capillary_number_wall_mu_c"] = capillary_number_mu_c
     summary.update(directory_summary(run, body, cell, params, clock, resumed, equivalent))
     write_json(out / "summary.json", summary)
     plot_pipe(out / "pipe.png", run.arrays(), summary,

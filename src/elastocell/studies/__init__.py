@@ -1,0 +1,178 @@
+"""The paper's figures as studies: declarative runs executed on Dask, one tidy table each, figures, and a report
+that sets every claim of the paper beside what was measured.
+
+    from elastocell.studies import run_studies, reproduce
+    run_studies(["compression-stiffness"], out="paper", quick=True)   # = elastocell study run ... --quick
+    reproduce(out="paper", quick=True)                                # = elastocell reproduce --quick
+
+``quick`` uses coarse meshes (linear tetrahedra, edge 0.3 R, 15 load steps) and coarse lattices (R/dx = 5,
+a few strain units): every study on a 2-core machine in minutes, as a first look and a smoke test. Its
+numbers carry the discretisation error of those meshes; the report says which mode produced it. The full
+mode uses the converged defaults of each scenario.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+from ..parameters import ParameterError
+from .base import Claim, Study, read_study_table, run_members, write_study_table
+from .cell_models import STUDY as CELL_MODELS
+from .compression import STUDIES as COMPRESSION_STUDIES
+from .equivalent_modulus import STUDY as EQUIVALENT_MODULUS
+from .flow import STUDIES as FLOW_STUDIES
+
+STUDIES: dict[str, Study] = {s.name: s for s in [CELL_MODELS, *COMPRESSION_STUDIES, *FLOW_STUDIES,
+                                                EQUIVALENT_MODULUS]}
+
+
+def study_names() -> list[str]:
+    return list(STUDIES)
+
+
+def get_study(name: str) -> Study:
+    if name not in STUDIES:
+        raise ParameterError("name", f"unknown study {name!r}; one of: {', '.join(STUDIES)}")
+    return STUDIES[name]
+
+
+def run_studies(names, out, quick: bool = False, scheduler: str | None = None, workers: int | None = None,
+                progress: bool = False) -> dict:
+    """Run the named studies (their distinct runs once, through Dask), then write each study's table, figure
+    and claims and ``out/report.md``. Finished runs in ``out/runs`` are reused: kill and rerun to resume.
+
+    Returns ``{name: {"runs", "failed", "figures", "claims"}}``."""
+    from ..distributed import check_execution
+
+    studies = [get_study(name) for name in names]
+    check_execution(scheduler, workers)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    _check_mode(out, quick)
+    members = {study.name: study.members(quick) for study in studies}
+    everything = [member for group in members.values() for member in group]
+    start = time.perf_counter()
+    pairs, failures = run_members(everything, out, scheduler=scheduler, workers=workers, progress=progress)
+    records = {id(member): record for member, record in pairs}
+    summary = {}
+    for study in studies:
+        own = [(member, records[id(member)]) for member in members[study.name]]
+        frame = study.table(own, out, quick)
+        failed = sorted({record["run_id"] for _, record in own if record["status"] == "failed"})
+        write_study_table(frame, out, study.name, {
+            "study": study.name, "title": study.title, "figure": study.figure, "description": study.description,
+            "quick": quick, "runs": len({record["run_id"] for _, record in own}), "failed_runs": failed,
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **_versions()})
+        summary[study.name] = _finish(study, frame, out)
+        summary[study.name].update({"runs": len({record["run_id"] for _, record in own}), "failed": failed})
+    from .report import write_report
+
+    write_report(out)
+    summary["_wall_time_s"] = time.perf_counter() - start
+    summary["_failures"] = failures
+    _log_timing(out, names, quick, scheduler, workers, summary["_wall_time_s"], pairs)
+    return summary
+
+
+def _log_timing(out: Path, names, quick: bool, scheduler, workers, wall_time: float, pairs) -> None:
+    """Append this invocation to ``out/timings.jsonl`` (read by ``benchmarks/studies.py``)."""
+    from ..distributed import default_workers
+
+    records = {record["run_id"]: record for _, record in pairs}
+    entry = {"studies": list(names), "quick": quick, "scheduler": scheduler,
+             "workers": None if scheduler else (workers or default_workers()), "wall_time_s": wall_time,
+             "runs": len(records), "run_time_sum_s": sum(r.get("wall_time_s") or 0.0 for r in records.values()),
+             "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    with open(out / "timings.jsonl", "a") as handle:
+        handle.write(json.dumps(entry) + "\n")
+
+
+def run_study(name: str, out, quick: bool = False, scheduler: str | None = None, workers: int | None = None,
+              progress: bool = False) -> dict:
+    """One study (``elastocell study run NAME``): :func:`run_studies` with a single name."""
+    return run_studies([name], out, quick=quick, scheduler=scheduler, workers=workers, progress=progress)
+
+
+def reproduce(out, quick: bool = False, scheduler: str | None = None, workers: int | None = None,
+              progress: bool = False) -> dict:
+    """Every study, sharing runs, into one directory with one report."""
+    return run_studies(study_names(), out, quick=quick, scheduler=scheduler, workers=workers, progress=progress)
+
+
+def plot_study(name: str, directory) -> dict:
+    """Redraw a study's figure and re-derive its claims from its table (no simulation); rewrite the report."""
+    study = get_study(name)
+    directory = Path(directory)
+    frame, _ = read_study_table(directory, name)
+    result = _finish(study, frame, directory)
+    from .report import write_report
+
+    write_report(directory)
+    return result
+
+
+def _finish(study: Study, frame, out: Path) -> dict:
+    figures = study.plot(frame, out, study.name)
+    claims, moved = judge(study, frame)
+    from ..io import write_json
+
+    write_json(out / f"{study.name}.claims.json", {"study": study.name, "claims": [asdict(c) for c in claims],
+                                                    "discretisation": moved})
+    return {"figures": [str(p) for p in figures], "claims": claims}
+
+
+def judge(study: Study, frame) -> tuple[list[Claim], dict]:
+    """The study's claims on its primary discretisation, each with its verdict on the other discretisations
+    (does it survive on the converged mesh?), and how far the others move each curve (:func:`locking`)."""
+    from .compression import locking
+
+    if not study.by_discretisation or "discretisation" not in frame or frame.empty:
+        return study.claims(frame), {}
+    names = list(dict.fromkeys(frame["discretisation"]))
+    claims = study.claims(frame[frame["discretisation"] == names[0]])
+    for claim in claims:
+        claim.discretisation = names[0]
+    for name in names[1:]:
+        others = {c.claim: c for c in study.claims(frame[frame["discretisation"] == name])}
+        for claim in claims:
+            if claim.claim in others:
+                claim.other_discretisations[name] = {"verdict": others[claim.claim].verdict,
+                                                     "measured": others[claim.claim].measured}
+    return claims, locking(frame)
+
+
+def _check_mode(out: Path, quick: bool) -> None:
+    """A directory holds one mode: mixing quick and full runs in one report would mislead."""
+    marker = out / "study_mode.json"
+    mode = "quick" if quick else "full"
+    if marker.exists():
+        previous = json.loads(marker.read_text()).get("mode")
+        if previous != mode:
+            raise ParameterError("out", f"{out} holds {previous} results; use another directory for {mode} runs")
+    else:
+        marker.write_text(json.dumps({"mode": mode}) + "\n")
+
+
+def _versions() -> dict:
+    from .. import __version__
+    from ..io import software_versions
+
+    return {"elastocell_version": __version__, "software": software_versions()}
+
+
+def load_claims(directory) -> list[Claim]:
+    """Every claim recorded in ``directory``, in the order of the studies."""
+    directory = Path(directory)
+    claims = []
+    for name in STUDIES:
+        path = directory / f"{name}.claims.json"
+        if path.exists():
+            claims += [Claim(**c) for c in json.loads(path.read_text())["claims"]]
+    return claims
+
+
+__all__ = ["STUDIES", "Claim", "Study", "get_study", "load_claims", "plot_study", "reproduce", "run_studies", "run_study",
+           "study_names"]

@@ -1,0 +1,310 @@
+"""What a study is, how its runs execute (through Dask, resumable) and how their results become one tidy table.
+
+A :class:`Study` declares its runs (scenario + options, exactly the keyword arguments of the Python API, so
+every run is reproducible with ``elastocell compress/shear/pipe``), the figure drawn from its table, and the
+paper's claims it tests. Runs are identified by their options (:attr:`Run.run_id`), so that studies sharing
+a run (the reference cell appears in four figures) compute it once, and a killed study resumes: a run whose
+``run.json`` exists is not repeated, an interrupted flow run continues from its checkpoint.
+
+Directory layout of ``elastocell study run NAME --out DIR`` (and of ``reproduce``, which runs every study):
+``DIR/runs/<run_id>/`` (the scenario's own files plus ``run.json``), ``DIR/<name>.parquet`` and ``.csv`` (one
+tidy table), ``DIR/<name>.png`` and ``.pdf``, ``DIR/<name>.claims.json``, and ``DIR/report.md`` / ``.html``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..parameters import ParameterError
+
+RUN_FILE = "run.json"
+
+
+@dataclass(frozen=True)
+class Run:
+    """One simulation: ``scenario`` ("compress", "shear" or "pipe") and the API keyword arguments."""
+
+    scenario: str
+    options: tuple  # sorted (name, value) pairs: hashable, stable
+
+    @classmethod
+    def of(cls, scenario: str, **options) -> Run:
+        clean = {k: (tuple(v) if isinstance(v, list) else v) for k, v in options.items()}
+        return cls(scenario, tuple(sorted(clean.items())))
+
+    @property
+    def kwargs(self) -> dict:
+        return dict(self.options)
+
+    @property
+    def run_id(self) -> str:
+        """Readable and unique: scenario, the leading options, and a hash of all of them."""
+        text = json.dumps([self.scenario, [list(p) for p in self.options]], sort_keys=True, default=str)
+        digest = hashlib.sha1(text.encode()).hexdigest()[:10]
+        options = self.kwargs
+        parts = [self.scenario]
+        if options.get("random"):
+            parts.append(f"random{options.get('seed', 0)}")
+        elif options.get("nucleus") == "none":
+            parts.append("homogeneous")
+        else:
+            parts.append(f"g{options.get('stiffness_ratio', 2):g}")
+        if options.get("material") == "mooney-rivlin":
+            parts.append("mr")
+        if options.get("offset"):
+            parts.append(f"off{options['offset']:g}{options.get('offset_axis', 'x')}")
+        if options.get("nucleus") == "ellipsoid":
+            parts.append(f"ell{options.get('nucleus_axis', 'x')}")
+        if options.get("equivalent"):
+            parts.append("eq")
+        for name, short in (("capillary_number", "ca"), ("capillary_number_wall", "caw")):
+            if name in options:
+                parts.append(f"{short}{options[name]:g}")
+        return "-".join(parts) + "-" + digest
+
+
+@dataclass
+class Member:
+    """A run as a study sees it: the run and the labels that place it in the study's table and figure."""
+
+    run: Run
+    labels: dict
+
+
+@dataclass
+class Claim:
+    """One statement of the paper beside what elastocell measured.
+
+    verdict: "agree", "partly", "disagree", or "not measured" (with the reason in ``measured``); ``criterion``
+    states the rule that turns the measurement into the verdict."""
+
+    study: str
+    claim: str
+    source: str
+    measured: str
+    verdict: str
+    criterion: str
+    values: dict = field(default_factory=dict)
+    discretisation: str = ""
+    other_discretisations: dict = field(default_factory=dict)  # {name: {"verdict", "measured"}}
+
+
+@dataclass
+class Study:
+    """A named study: its runs (full or quick), its figure and its claims, all from its tidy table."""
+
+    name: str
+    title: str
+    figure: str  # the paper's figure label
+    description: str
+    members: Callable[[bool], list[Member]]
+    table: Callable[[list[tuple[Member, dict]], Path, bool], object]  # (pairs, directory, quick) -> DataFrame
+    plot: Callable[[object, Path, Path], list[Path]]  # (table, directory, out stem) -> files written
+    claims: Callable[[object], list[Claim]] = lambda table: []
+    by_discretisation: bool = False  # judge the claims on each discretisation of the table (compression)
+
+
+# =========================================================================== executing one run
+def execute_run(task: tuple[Run, str]) -> dict:
+    """Run one simulation in ``runs/<run_id>`` (on a Dask worker); return its result record.
+
+    A finished run (``run.json`` present) is read back, not repeated. Flow runs resume from their checkpoint.
+    A compression curve that stops early keeps its converged rows (status "partial")."""
+    run, runs_directory = task
+    directory = Path(runs_directory) / run.run_id
+    record_path = directory / RUN_FILE
+    if record_path.exists():
+        return json.loads(record_path.read_text())
+    directory.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    options = run.kwargs
+    record = {"run_id": run.run_id, "scenario": run.scenario, "options": options, "status": "complete",
+              "error": None}
+    if run.scenario == "compress":
+        record.update(_execute_compression(directory, options))
+    elif run.scenario in ("shear", "pipe"):
+        record.update(_execute_flow(run.scenario, directory, options))
+    else:
+        raise ParameterError("scenario", f"unknown scenario {run.scenario!r}")
+    record["wall_time_s"] = time.perf_counter() - start
+    from ..io import write_json
+
+    write_json(record_path, record)
+    return record
+
+
+def _execute_compression(directory: Path, options: dict) -> dict:
+    from ..api import compress
+    from ..compression import CompressionError
+
+    out = {}
+    try:
+        summary = compress(out=directory, progress=False, **options)
+    except CompressionError as error:
+        summary = json.loads((directory / "metadata.json").read_text())
+        out = {"status": "partial", "error": str(error).split(" (rows up to")[0]}
+    table = np.genfromtxt(directory / "compression.csv", delimiter=",", names=True)
+    solver = summary.get("solver", {})
+    out.update({
+        "effective_stiffness_ratio": summary["effective_stiffness_ratio"],
+        "delta_reached": summary.get("delta_reached", float(table["delta"][-1])),
+        "first_unstable_delta": solver.get("first_unstable_delta"),
+        "nodes": summary["mesh"]["n_nodes"],
+        "curve": {name: np.atleast_1d(table[name]).tolist()
+                  for name in ("delta", "force_per_Ec_R2", "force_per_Eeff_R2")},
+    })
+    return out
+
+
+FLOW_SUMMARY_KEYS = {
+    "shear": ("capillary_number", "capillary_number_mu_c", "effective_stiffness_ratio", "taylor_deformation_mean",
+              "taylor_deformation_std", "inclination_deg_mean", "inclination_deg_std", "tank_treading_frequency",
+              "volume_change_max_abs", "transient_strain", "duration_strain", "stop_reason", "reynolds_number"),
+    "pipe": ("capillary_number_wall", "effective_stiffness_ratio", "strain_axial_mean", "strain_axial_std",
+             "strain_radial_mean", "strain_radial_std", "deformation_mean", "projected_area_mean",
+             "radial_position", "volume_change_max_abs", "stop_reason", "reynolds_number"),
+}
+
+
+def _execute_flow(scenario: str, directory: Path, options: dict) -> dict:
+    if scenario == "shear":
+        from ..runner import shear as simulate
+    else:
+        from ..pipe import pipe as simulate
+    summary = simulate(out=directory, progress=False, resume=True, **options)
+    out = {key: summary.get(key) for key in FLOW_SUMMARY_KEYS[scenario]}
+    out["resolution"] = summary.get("lattice", {}).get("radius")
+    out["nodes"] = summary.get("mesh", {}).get("n_nodes")
+    if scenario == "pipe":
+        _save_final_shape(directory, summary, options)
+    return out
+
+
+def _save_final_shape(directory: Path, summary: dict, options: dict) -> None:
+    """The final node positions relative to the cell centre, in units of R, and which nodes belong to the
+    nucleus: the study's snapshot of the stationary shape (``shape.npz``)."""
+    from ..api import cell_parameters
+    from ..cell import Cell
+    from ..parameters import CellParameters
+
+    with np.load(directory / "checkpoint.npz", allow_pickle=False) as data:
+        positions = np.array(data["positions"])
+    cell = CellParameters.model_validate(summary["cell"]) if "cell" in summary else cell_parameters()
+    mesh = Cell.from_parameters(cell).mesh
+    nucleus = np.zeros(len(mesh.nodes), dtype=bool)
+    nucleus[np.unique(mesh.elements[mesh.region == 1])] = True
+    radius = float(summary["lattice"]["radius"])
+    relative = (positions - positions.mean(axis=0)) / radius
+    np.savez(directory / "shape.npz", positions=relative, nucleus=nucleus)
+
+
+# =========================================================================== running studies
+def run_members(members: list[Member], out: Path, scheduler: str | None = None, workers: int | None = None,
+                progress: bool = False) -> tuple[list[tuple[Member, dict]], list[tuple[str, str]]]:
+    """Execute the distinct runs of ``members`` through Dask; return (member, record) pairs and failures.
+
+    Runs already finished in ``out/runs`` are read without starting a cluster."""
+    from ..distributed import TaskFailure, run_tasks
+
+    runs_directory = Path(out) / "runs"
+    runs_directory.mkdir(parents=True, exist_ok=True)
+    distinct = list(dict.fromkeys(member.run for member in members))
+    records, pending = {}, []
+    for run in distinct:
+        path = runs_directory / run.run_id / RUN_FILE
+        if path.exists():
+            records[run] = json.loads(path.read_text())
+        else:
+            pending.append(run)
+    pending.sort(key=_expected_cost, reverse=True)  # longest first: better packing on the workers
+    failures = []
+    if pending:
+        tasks = [(run, str(runs_directory)) for run in pending]
+        for index, result in run_tasks(execute_run, tasks, scheduler=scheduler, workers=workers,
+                                       progress=progress, description=f"{len(pending)} runs"):
+            run = pending[index]
+            if isinstance(result, TaskFailure):
+                failures.append((run.run_id, str(result)))
+                records[run] = {"run_id": run.run_id, "scenario": run.scenario, "options": run.kwargs,
+                                "status": "failed", "error": str(result)}
+            else:
+                records[run] = result
+    return [(member, records[member.run]) for member in members], failures
+
+
+def _expected_cost(run: Run) -> float:
+    options = run.kwargs
+    if run.scenario == "compress":
+        return 1.0
+    resolution = options.get("resolution") or 8.0
+    return 10.0 * (resolution / 5.0) ** 4 * float(options.get("duration", 6.0))
+
+
+def flat_parameters(options: dict) -> dict:
+    """Options as table columns: scalars as they are, anything else as JSON text."""
+    return {f"option_{k}": (v if isinstance(v, (int, float, str, bool)) else json.dumps(v))
+            for k, v in options.items()}
+
+
+def rows_per_run(pairs: list[tuple[Member, dict]], scalar_keys: tuple[str, ...]) -> list[dict]:
+    """One row per run: labels, status, the listed outputs, the run's options, its directory."""
+    rows = []
+    for member, record in pairs:
+        row = {**member.labels, "run_id": record["run_id"], "status": record["status"],
+               "error": record.get("error") or ""}
+        row.update({key: record.get(key) for key in scalar_keys})
+        row["wall_time_s"] = record.get("wall_time_s")
+        row["run_directory"] = f"runs/{record['run_id']}"
+        row.update(flat_parameters(record["options"]))
+        rows.append(row)
+    return rows
+
+
+def rows_per_delta(pairs: list[tuple[Member, dict]]) -> list[dict]:
+    """Compression: one row per converged delta of every run (tidy), labels and options repeated."""
+    rows = []
+    for member, record in pairs:
+        base = {**member.labels, "run_id": record["run_id"], "status": record["status"],
+                "error": record.get("error") or "", "effective_stiffness_ratio": record.get("effective_stiffness_ratio"),
+                "delta_reached": record.get("delta_reached"), "nodes": record.get("nodes"),
+                "wall_time_s": record.get("wall_time_s"), "run_directory": f"runs/{record['run_id']}",
+                **flat_parameters(record["options"])}
+        curve = record.get("curve") or {"delta": [np.nan], "force_per_Ec_R2": [np.nan], "force_per_Eeff_R2": [np.nan]}
+        for delta, force_c, force_eff in zip(curve["delta"], curve["force_per_Ec_R2"], curve["force_per_Eeff_R2"],
+                                             strict=True):
+            rows.append({**base, "delta": delta, "force_per_Ec_R2": force_c, "force_per_Eeff_R2": force_eff})
+    return rows
+
+
+def write_study_table(frame, out: Path, name: str, metadata: dict) -> None:
+    """``out/name.parquet`` (metadata in the schema) and ``out/name.csv``, each replaced atomically."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from ..io import _replace_atomically
+
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    table = table.replace_schema_metadata({**(table.schema.metadata or {}),
+                                           b"elastocell": json.dumps(metadata, default=str).encode()})
+    _replace_atomically(out / f"{name}.parquet", lambda temporary: pq.write_table(table, temporary))
+    _replace_atomically(out / f"{name}.csv",
+                        lambda temporary: frame.to_csv(temporary, index=False, float_format="%.8g"))
+
+
+def read_study_table(out: Path, name: str):
+    """The table written by :func:`write_study_table` and its metadata."""
+    import pyarrow.parquet as pq
+
+    path = Path(out) / f"{name}.parquet"
+    if not path.exists():
+        raise ParameterError("directory", f"{path} not found: run `elastocell study run {name} --out {out}` first")
+    table = pq.read_table(path)
+    metadata = json.loads((table.schema.metadata or {}).get(b"elastocell", b"{}"))
+    return table.to_pandas(), metadata
