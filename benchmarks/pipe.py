@@ -12,7 +12,7 @@ Run::
 
 Defaults (``PipeFlowParameters``): R/dx = 8, R_ch/R = 2, box 8R, tau = 1, particle Reynolds number 0.1 (with
 the wall shear rate), trilinear kernel, uniform p1 mesh with edges of 2 dx; Ca_w = 0.2
-(``pipe.DEFAULT_CAPILLARY_NUMBER_WALL``). Time is in units of the inverse wall shear rate 1/gdot_w.
+(``pipe_flow.DEFAULT_CAPILLARY_NUMBER_WALL``). Time is in units of the inverse wall shear rate 1/gdot_w.
 Stationary values are means over the second half of each run. The equivalent runs at the same pressure
 gradient G and E_c (the paper's "same flow conditions"), i.e. at Ca_w(mu_eff) = Ca_w/gamma_eff.
 MLUPS = all lattice nodes (fluid and solid) x steps / second; the fluid fraction is printed beside it.
@@ -36,7 +36,8 @@ except ImportError:  # a source checkout without installing
 
 import numba
 
-from elastocell import flow, pipe
+from elastocell import flow
+from elastocell import pipe_flow as pipe
 from elastocell.cell import Cell
 
 

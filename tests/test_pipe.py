@@ -14,7 +14,7 @@ import pytest
 from elastocell import cell_parameters
 from elastocell.cell import Cell
 from elastocell.parameters import ParameterError
-from elastocell.pipe import (
+from elastocell.pipe_flow import (
     PIPE_COLUMNS,
     PipeFlowParameters,
     PipeRun,

@@ -16,6 +16,10 @@ def __getattr__(name: str):
         from .runner import shear
 
         return shear
+    if name == "pipe":
+        from .pipe_flow import pipe
+
+        return pipe
     if name == "reproduce":
         from .studies import reproduce
 
@@ -26,4 +30,4 @@ def __getattr__(name: str):
         return run_study
     raise AttributeError(f"module 'elastocell' has no attribute {name!r}")
 
-__all__ = ["cell_parameters", "compress", "equivalent", "shear", "study", "reproduce", "ParameterError", "__version__"]
+__all__ = ["cell_parameters", "compress", "equivalent", "shear", "pipe", "study", "reproduce", "ParameterError", "__version__"]

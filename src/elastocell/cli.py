@@ -256,8 +256,8 @@ def pipe(
     """A cell in pressure-driven flow through a cylindrical capillary: migration and bullet shape."""
     from .flow import FlowError
     from .parameters import ParameterError, parse_quantity
-    from .pipe import PipeFlowParameters
-    from .pipe import pipe as run
+    from .pipe_flow import PipeFlowParameters
+    from .pipe_flow import pipe as run
     from .runner import StopCriteria
 
     mesh_size = mesh_size if mesh_size is not None else _shear_mesh(resolution)

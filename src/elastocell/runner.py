@@ -19,7 +19,7 @@ chunks only (Python never loops over nodes or lattice cells):
   steps are deterministic), so its time series equals an uninterrupted run's.
 
 A scenario is a thin subclass: :class:`ShearRun` here (plane Couette flow, time in strain units) and
-:class:`elastocell.pipe.PipeRun` (capillary flow, time in units of 1/gdot_w). It defines the lattice setup
+:class:`elastocell.pipe_flow.PipeRun` (capillary flow, time in units of 1/gdot_w). It defines the lattice setup
 (``lattice_units``, ``setup``), the time unit, the columns and how a row is measured, its wall guard, the
 VTK slice and its summary. :func:`run_in_directory`, :func:`directory_summary` and :class:`VTKWriter` write
 the output directory every scenario shares (``timeseries.csv``, ``summary.json``, ``vtk/``,

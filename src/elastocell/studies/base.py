@@ -177,7 +177,7 @@ def _execute_flow(scenario: str, directory: Path, options: dict) -> dict:
     if scenario == "shear":
         from ..runner import shear as simulate
     else:
-        from ..pipe import pipe as simulate
+        from ..pipe_flow import pipe as simulate
     summary = simulate(out=directory, progress=False, resume=True, **options)
     out = {key: summary.get(key) for key in FLOW_SUMMARY_KEYS[scenario]}
     out["resolution"] = summary.get("lattice", {}).get("radius")

@@ -72,7 +72,7 @@ def shear_offset_members(quick: bool) -> list[Member]:
 
 
 def pipe_members(quick: bool) -> list[Member]:
-    from ..pipe import DEFAULT_CAPILLARY_NUMBER_WALL
+    from ..pipe_flow import DEFAULT_CAPILLARY_NUMBER_WALL
 
     base = {**pipe_settings(quick), "capillary_number_wall": DEFAULT_CAPILLARY_NUMBER_WALL}
     members = []
