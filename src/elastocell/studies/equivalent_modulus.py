@@ -30,8 +30,8 @@ def members(quick: bool):
 
 
 def _phases_of(row_gamma: float, row_size: float, gamma_eff: float, random: bool):
-    """Phases of a cell: the random cell's U[1, 10]; a nucleus cell's two phases with the meshed volume fraction
-    phi = (gamma_eff - 1)/(gamma - 1) (so Voigt equals the simulated equivalent exactly)."""
+    """Phases of a cell: the random cell's U[1, 10] distribution; a nucleus cell's two phases with the meshed
+    volume fraction phi = (gamma_eff - 1)/(gamma - 1) (so Voigt equals the simulated equivalent exactly)."""
     if random:
         return uniform_phases(1.0, 10.0)
     phi = (gamma_eff - 1) / (row_gamma - 1) if row_gamma != 1 else row_size ** 3
@@ -100,11 +100,32 @@ def shear_fits(frame) -> list[dict]:
     return out
 
 
+SCENARIO_OPTIONS = ("steps", "delta_max", "vtk", "equivalent", "capillary_number", "capillary_number_modulus",
+                    "resolution", "duration", "stationary_tolerance", "vtk_interval", "solver")
+
+
+def _mesh_phases(info):
+    """The random cell's own phases: every tetrahedron's stiffness ratio and volume fraction (rebuilt from the
+    run's options; the mesh is cached), so that its Voigt value is the simulated equivalent's."""
+    from ..api import cell_parameters
+    from ..cell import Cell
+    from ..runner import flow_cell
+
+    options = {k[len("option_"):]: v for k, v in info.items() if k.startswith("option_") and v == v and v is not None}
+    options = {k: v for k, v in options.items() if k not in SCENARIO_OPTIONS}
+    if "resolution" in info.index or "capillary_number_mu_c" in info.index:  # a flow run's cell
+        parameters = flow_cell(None, options, float(info.get("option_resolution") or 8.0))
+    else:
+        parameters = cell_parameters(**options)
+    body = Cell.from_parameters(parameters)
+    return body.youngs_moduli, body.element_volumes / body.volume
+
+
 def _row(loading, cell, discretisation, info, gamma_eff, fit, residual, reach) -> dict:
     random = cell == "random"
     gamma = float(info.get("stiffness_ratio", np.nan)) if not random else np.nan
     size = float(info.get("size_ratio", 0.5)) if not random else np.nan
-    stiffness, fractions = _phases_of(gamma, size, gamma_eff, random)
+    stiffness, fractions = _mesh_phases(info) if random else _phases_of(gamma, size, gamma_eff, random)
     estimates = all_estimates(stiffness, fractions)
     row = {"loading": loading, "cell": cell, "discretisation": discretisation, "stiffness_ratio": gamma,
            "size_ratio": size, "volume_fraction": float(fractions[-1]) if not random else np.nan,
