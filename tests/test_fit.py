@@ -141,6 +141,10 @@ def test_heterogeneous_conversion(master):
     assert row["effective_stiffness_ratio"] == pytest.approx(1.125)
     assert row["youngs_modulus_cytoplasm"] == pytest.approx(row["youngs_modulus"] / 1.125)
     assert row["youngs_modulus_nucleus"] == pytest.approx(2 * row["youngs_modulus"] / 1.125)
+    # HS upper bound lies between the harmonic (Reuss, 1.0588) and arithmetic (1.125) means of the phases
+    hs = row["effective_stiffness_ratio_hashin_shtrikman_upper"]
+    assert 1 / (0.875 + 0.125 / 2) < hs < 1.125
+    assert row["youngs_modulus_cytoplasm_hashin_shtrikman_upper"] == pytest.approx(row["youngs_modulus"] / hs)
 
 
 def test_fits_csv_contract_plot_and_settings(tmp_path, master):
