@@ -223,3 +223,32 @@ def test_report_lists_every_verdict(tmp_path):
     for i, verdict in enumerate(verdicts):
         assert f"measured {i}.5 %" in text and f"**{verdict if verdict != 'disagree' else 'DISAGREE'}**" in text
     assert "quick" in (tmp_path / "report.html").read_text()
+
+
+def test_a_failed_run_leaves_the_analysis_standing(tmp_path):
+    """One failed run (no curve) and one curve that stopped after its first row: tables, claims, figures and the
+    equivalent-modulus fits still come out, the failed cell simply absent."""
+    from elastocell.studies.base import rows_per_delta
+    from elastocell.studies.compression import plot_stiffness, stiffness_members
+    from elastocell.studies.equivalent_modulus import compression_fits
+
+    delta = list(np.linspace(0, 0.5, 6))
+    pairs = []
+    for member in stiffness_members(True):
+        gamma = member.labels["stiffness_ratio"] if member.labels["cell"] != "random" else 5.5
+        record = {"run_id": member.run.run_id, "options": member.run.kwargs, "status": "complete",
+                  "effective_stiffness_ratio": 1.5, "delta_reached": 0.5, "nodes": 10, "wall_time_s": 1.0,
+                  "curve": {"delta": delta, "force_per_Ec_R2": [d ** 1.5 * (1 + gamma / 10) for d in delta],
+                            "force_per_Eeff_R2": [d ** 1.5 for d in delta]}}
+        if member.labels["cell"] == "gamma 5" and member.labels["equivalent"]:
+            record = {"run_id": member.run.run_id, "options": member.run.kwargs, "status": "failed", "error": "boom"}
+        if member.labels["cell"] == "gamma 10" and not member.labels["equivalent"]:
+            record["curve"] = {k: v[:1] for k, v in record["curve"].items()}
+            record["status"] = "partial"
+        pairs.append((member, record))
+    frame = pd.DataFrame(rows_per_delta(pairs))
+    claims = claims_stiffness(frame)
+    assert claims[0].verdict == "agree"  # gamma 1, 2, 20 still ordered; 5 and 10 left out
+    assert "gamma 5" not in claims[0].measured and "gamma 10" not in claims[0].measured
+    assert plot_stiffness(frame, tmp_path, "s")[0].exists()
+    assert {row["cell"] for row in compression_fits(frame)} == {"gamma 2", "gamma 20", "random"}

@@ -350,6 +350,10 @@ from .cli_study import reproduce, study_app  # noqa: E402
 app.add_typer(study_app, name="study")
 app.command("reproduce")(reproduce)
 
+from .cli_lut import lut  # noqa: E402
+
+app.command("lut")(lut)
+
 
 if __name__ == "__main__":  # pragma: no cover
     app()

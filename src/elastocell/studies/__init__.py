@@ -49,13 +49,14 @@ def run_studies(names, out, quick: bool = False, scheduler: str | None = None, w
 
     studies = [get_study(name) for name in names]
     check_execution(scheduler, workers)
-    out = Path(out)
+    out = Path(out).resolve()  # workers of a remote cluster need the absolute path
     out.mkdir(parents=True, exist_ok=True)
     _check_mode(out, quick)
     members = {study.name: study.members(quick) for study in studies}
     everything = [member for group in members.values() for member in group]
     start = time.perf_counter()
-    pairs, failures = run_members(everything, out, scheduler=scheduler, workers=workers, progress=progress)
+    pairs, failures, executed = run_members(everything, out, scheduler=scheduler, workers=workers,
+                                            progress=progress)
     records = {id(member): record for member, record in pairs}
     summary = {}
     for study in studies:
@@ -66,25 +67,32 @@ def run_studies(names, out, quick: bool = False, scheduler: str | None = None, w
             "study": study.name, "title": study.title, "figure": study.figure, "description": study.description,
             "quick": quick, "runs": len({record["run_id"] for _, record in own}), "failed_runs": failed,
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **_versions()})
-        summary[study.name] = _finish(study, frame, out)
+        try:
+            summary[study.name] = _finish(study, frame, out)
+        except Exception as error:  # one study's analysis must not cost the others their figures and the report
+            summary[study.name] = {"figures": [], "claims": []}
+            failures.append((study.name, f"analysis failed: {type(error).__name__}: {error}"))
         summary[study.name].update({"runs": len({record["run_id"] for _, record in own}), "failed": failed})
     from .report import write_report
 
     write_report(out)
     summary["_wall_time_s"] = time.perf_counter() - start
     summary["_failures"] = failures
-    _log_timing(out, names, quick, scheduler, workers, summary["_wall_time_s"], pairs)
+    _log_timing(out, names, quick, scheduler, workers, summary["_wall_time_s"], pairs, executed)
     return summary
 
 
-def _log_timing(out: Path, names, quick: bool, scheduler, workers, wall_time: float, pairs) -> None:
-    """Append this invocation to ``out/timings.jsonl`` (read by ``benchmarks/studies.py``)."""
+def _log_timing(out: Path, names, quick: bool, scheduler, workers, wall_time: float, pairs, executed) -> None:
+    """Append this invocation to ``out/timings.jsonl`` (read by ``benchmarks/studies.py``): the runs it
+    executed and their summed run time (runs read back from earlier invocations are counted apart)."""
     from ..distributed import default_workers
 
     records = {record["run_id"]: record for _, record in pairs}
+    ran = [records[run_id] for run_id in executed if run_id in records]
     entry = {"studies": list(names), "quick": quick, "scheduler": scheduler,
              "workers": None if scheduler else (workers or default_workers()), "wall_time_s": wall_time,
-             "runs": len(records), "run_time_sum_s": sum(r.get("wall_time_s") or 0.0 for r in records.values()),
+             "runs": len(ran), "runs_reused": len(records) - len(ran),
+             "run_time_sum_s": sum(r.get("wall_time_s") or 0.0 for r in ran),
              "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
     with open(out / "timings.jsonl", "a") as handle:
         handle.write(json.dumps(entry) + "\n")

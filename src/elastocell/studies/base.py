@@ -45,8 +45,10 @@ class Run:
 
     @property
     def run_id(self) -> str:
-        """Readable and unique: scenario, the leading options, and a hash of all of them."""
-        text = json.dumps([self.scenario, [list(p) for p in self.options]], sort_keys=True, default=str)
+        """Readable and unique: scenario, the leading options, and a hash of all of them and the code version."""
+        from .. import __version__
+
+        text = json.dumps([self.scenario, [list(p) for p in self.options], __version__], sort_keys=True, default=str)
         digest = hashlib.sha1(text.encode()).hexdigest()[:10]
         options = self.kwargs
         parts = [self.scenario]
@@ -167,7 +169,7 @@ FLOW_SUMMARY_KEYS = {
     "shear": ("capillary_number", "capillary_number_mu_c", "effective_stiffness_ratio", "taylor_deformation_mean",
               "taylor_deformation_std", "inclination_deg_mean", "inclination_deg_std", "tank_treading_frequency",
               "volume_change_max_abs", "transient_strain", "duration_strain", "stop_reason", "reynolds_number"),
-    "pipe": ("capillary_number_wall", "effective_stiffness_ratio", "strain_axial_mean", "strain_axial_std",
+    "pipe": ("capillary_number_wall", "capillary_number_wall_mu_c", "effective_stiffness_ratio", "strain_axial_mean", "strain_axial_std",
              "strain_radial_mean", "strain_radial_std", "deformation_mean", "projected_area_mean",
              "radial_position", "volume_change_max_abs", "stop_reason", "reynolds_number"),
 }
@@ -207,8 +209,9 @@ def _save_final_shape(directory: Path, summary: dict, options: dict) -> None:
 
 # =========================================================================== running studies
 def run_members(members: list[Member], out: Path, scheduler: str | None = None, workers: int | None = None,
-                progress: bool = False) -> tuple[list[tuple[Member, dict]], list[tuple[str, str]]]:
-    """Execute the distinct runs of ``members`` through Dask; return (member, record) pairs and failures.
+                progress: bool = False) -> tuple[list[tuple[Member, dict]], list[tuple[str, str]], list[str]]:
+    """Execute the distinct runs of ``members`` through Dask; return (member, record) pairs, failures and the
+    ids of the runs executed now.
 
     Runs already finished in ``out/runs`` are read without starting a cluster."""
     from ..distributed import TaskFailure, run_tasks
@@ -236,7 +239,7 @@ def run_members(members: list[Member], out: Path, scheduler: str | None = None, 
                                 "status": "failed", "error": str(result)}
             else:
                 records[run] = result
-    return [(member, records[member.run]) for member in members], failures
+    return [(member, records[member.run]) for member in members], failures, [run.run_id for run in pending]
 
 
 def _expected_cost(run: Run) -> float:

@@ -146,8 +146,12 @@ def tidy(pairs, directory: Path, quick: bool = False):
 def curves(frame) -> dict:
     """{(pair, equivalent): (delta, F/(E_c R^2), F*)} for every run with rows."""
     out = {}
+    if frame.empty or "pair" not in frame:
+        return out
     for (pair, equivalent), group in frame.groupby(["pair", "equivalent"], sort=False):
-        group = group.dropna(subset=["delta"]).sort_values("delta")
+        group = group.dropna(subset=["delta", "force_per_Ec_R2"]).sort_values("delta")
+        if len(group) < 2:  # a failed run (one NaN row) or a curve that stopped at its first step
+            continue
         out[(pair, bool(equivalent))] = (group["delta"].to_numpy(), group["force_per_Ec_R2"].to_numpy(),
                                          group["force_per_Eeff_R2"].to_numpy())
     return out
@@ -156,7 +160,9 @@ def curves(frame) -> dict:
 def ratio(curve, reference, delta_min: float = DELTA_MIN):
     """(delta, F/F_reference) where both curves have rows and delta >= delta_min (reference interpolated)."""
     delta, force = curve[0], curve[1]
-    upper = min(delta[-1], reference[0][-1]) if len(delta) and len(reference[0]) else -1
+    if not len(delta) or not len(reference[0]):
+        return np.array([]), np.array([])
+    upper = min(delta[-1], reference[0][-1])
     keep = (delta >= delta_min) & (delta <= upper + 1e-12)
     return delta[keep], force[keep] / np.interp(delta[keep], reference[0], reference[1])
 
@@ -266,6 +272,7 @@ def claims_stiffness(frame) -> list[Claim]:
     out = []
     gammas = [g for g in STIFFNESS_RATIOS if f"gamma {g:g}" in devs]
     # force grows with gamma at the largest delta every cell reached
+    gammas = [g for g in gammas if (f"gamma {g:g}", False) in table]
     common = min((table[(f"gamma {g:g}", False)][0][-1] for g in gammas), default=np.nan)
     forces = [float(np.interp(common, *table[(f"gamma {g:g}", False)][:2])) for g in gammas]
     monotone = bool(np.all(np.diff(forces) > 0)) if len(forces) > 1 else False
@@ -302,16 +309,18 @@ def claims_stiffness(frame) -> list[Claim]:
         f"agree if <= {percent(AGREE)} for delta >= {DELTA_MIN} and the smallest; partly if within "
         f"{percent(PARTLY)} or the smallest for delta >= {LARGE_DELTA}", {"largest_deviation": value10,
                                                                           "large_delta": large10}))
-    slopes = {g: _slope(devs[f"gamma {g:g}"]) for g in gammas if g != 1}
+    slopes = {g: _slope(devs[f"gamma {g:g}"], DELTA_MIN) for g in gammas if g != 1}
+    slopes_large = {g: _slope(devs[f"gamma {g:g}"], LARGE_DELTA) for g in gammas if g != 1}
     expected = {g: (1 if g < 10 else -1 if g > 10 else 0) for g in slopes}
-    matches = [np.sign(slopes[g]) == expected[g] for g in slopes if expected[g] != 0]
+    matches = [np.sign(slopes[g]) == expected[g] for g in slopes if expected[g] != 0 and np.isfinite(slopes[g])]
     out.append(Claim(
         "compression-stiffness", "For 1 < gamma < 10 the nucleus cell strain-hardens more than its equivalent "
         "(F/F_eq rises with delta); for gamma > 10 less.", "Sec. 3.1",
-        "slope of F/F_eq over delta >= 0.3: " + ", ".join(f"gamma {g}: {s:+.3f}" for g, s in slopes.items()),
+        f"slope of F/F_eq over delta >= {DELTA_MIN}: " + ", ".join(f"gamma {g}: {s:+.3f}" for g, s in slopes.items())
+        + f"; over delta >= {LARGE_DELTA}: " + ", ".join(f"gamma {g}: {s:+.3f}" for g, s in slopes_large.items()),
         "not measured" if not matches else "agree" if all(matches) else "partly" if any(matches) else "disagree",
-        "sign of the least-squares slope of F/F_eq - 1 against delta (delta >= 0.3): + for gamma 2, 5; - for 20",
-        {"slopes": slopes}))
+        f"sign of the least-squares slope of F/F_eq - 1 against delta (delta >= {DELTA_MIN}): + for gamma 2, 5; "
+        "- for 20", {"slopes": slopes, "slopes_large_delta": slopes_large}))
     if "random" in devs:
         value = largest(devs["random"])
         out.append(Claim(
@@ -373,15 +382,16 @@ def claims_normalised(frame) -> list[Claim]:
     table = curves(frame)
     equivalents = [table[k] for k in table if k[1]]
     if len(equivalents) > 1:
-        delta = np.linspace(DELTA_MIN, min(c[0][-1] for c in equivalents), 30)
+        delta = np.linspace(0.1, min(c[0][-1] for c in equivalents), 30)
         stack = np.array([np.interp(delta, c[0], c[2]) for c in equivalents])
         spread = float(((stack.max(0) - stack.min(0)) / stack.mean(0)).max())
         out.append(Claim(
             "compression-normalised", "With F* = F/(E_eff R^2) all homogeneous cells collapse onto one master "
             "curve.", "Sec. 3.1, Fig. 3a",
-            f"largest relative spread of F* among the {len(equivalents)} homogeneous equivalents (each on its own "
-            f"cell's mesh): {percent(spread)}", verdict(spread, 0.01, 0.03),
-            "agree if <= 1 % (the meshes differ), partly if <= 3 %", {"spread": spread}))
+            f"largest relative spread of F* for delta >= 0.1 among the {len(equivalents)} homogeneous equivalents "
+            f"(each on its own cell's mesh): {percent(spread)}", verdict(spread, 0.01, 0.03),
+            "agree if <= 1 %, partly if <= 3 %; exact by scaling for homogeneous cells, so this measures the "
+            "mesh-to-mesh differences", {"spread": spread}))
     devs = deviations(frame)
     means = {p: float(devs[p][1].mean()) for p in pairs_of(frame, "stiffness") if p in devs and p != "gamma 1"}
     signs = {np.sign(v) for v in means.values() if abs(v) > 1e-3}
@@ -457,17 +467,21 @@ def claims_position_shape(frame) -> list[Claim]:
                        "to the plates, does not change the force: the curves overlap exactly.", "Sec. 3.1, Fig. 4a"),
             ("ellipsoid", "An equal-volume ellipsoidal nucleus (0.8, 0.4, 0.4) R, along x or y, has no notable "
                           "effect on the force.", "Sec. 3.1, Fig. 4b")):
-        values = {}
+        values, large = {}, {}
         for pair in pairs_of(frame, series):
             if (pair, False) in table:
-                _, r = ratio(table[(pair, False)], table[("reference", False)])
+                delta, r = ratio(table[(pair, False)], table[("reference", False)])
                 values[pair] = float(np.abs(r - 1).max()) if len(r) else np.nan
+                large[pair] = largest(_from((delta, r - 1), LARGE_DELTA))
         worst = max(values.values(), default=np.nan)
+        worst_large = max(large.values(), default=np.nan)
         out.append(Claim("compression-position-shape", claim, source,
-                         "largest |F/F_ref - 1|: " + ", ".join(f"{p}: {percent(v)} ({reached(frame, p)})"
-                                                                for p, v in values.items()),
-                         verdict(worst), f"agree if <= {percent(AGREE)}, partly if <= {percent(PARTLY)}",
-                         {"largest_change": values}))
+                         "largest |F/F_ref - 1|: " + ", ".join(
+                             f"{p}: {percent(v)} ({percent(large[p])} for delta >= {LARGE_DELTA}; {reached(frame, p)})"
+                             for p, v in values.items()),
+                         _tiered(worst, worst_large, PARTLY),
+                         f"agree if <= {percent(PARTLY)} for delta >= {DELTA_MIN}; partly if only for delta >= "
+                         f"{LARGE_DELTA}", {"largest_change": values, "large_delta": large}))
     base = float(np.abs(devs["reference"][1]).mean()) if "reference" in devs else np.nan
     offsets = {p: float(np.abs(devs[p][1]).mean()) for p in pairs_of(frame, "offset") if p in devs}
     better = [v < base for v in offsets.values()]

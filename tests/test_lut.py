@@ -1,0 +1,176 @@
+"""Look-up tables for deformability cytometry (elastocell lut): physics mapping, dclab format, refusals."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from elastocell.cli import app
+from elastocell.lut import (
+    capillary_number_wall,
+    compute_lut,
+    isoelastics_path,
+    lut_metadata,
+    plan,
+    pressure_gradient,
+    read_lut,
+    wall_shear_rate,
+    write_isoelastics,
+    write_lut,
+)
+
+runner = CliRunner()
+BASE = ["lut", "--channel-radius", "10um", "--flow-rate", "0.04uL/s", "--viscosity", "15mPa*s"]
+
+
+def test_flow_rate_to_capillary_number_by_hand():
+    # Q = 0.04 uL/s = 4e-11 m^3/s, R_ch = 10 um, eta = 15 mPa s, E = 1 kPa, nu = 0.48
+    g = 8 * 0.015 * 4e-11 / (math.pi * 1e-20)  # Pa/m
+    assert pressure_gradient(4e-11, 1e-5, 0.015) == pytest.approx(g, rel=1e-12)
+    assert g == pytest.approx(1.5279e8, rel=1e-4)
+    mu = 1000 / (2 * 1.48)
+    assert capillary_number_wall(4e-11, 1e-5, 0.015, 1000.0, 0.48) == pytest.approx(g * 1e-5 / (2 * mu), rel=1e-12)
+    assert capillary_number_wall(4e-11, 1e-5, 0.015, 1000.0, 0.48) == pytest.approx(2.2613, rel=1e-4)
+    assert wall_shear_rate(4e-11, 1e-5, 0.015) == pytest.approx(4 * 4e-11 / (math.pi * 1e-15), rel=1e-12)
+    # the poiseuille flow rate of the pipe module inverts G
+    from elastocell.pipe_flow import poiseuille_flow_rate
+
+    assert poiseuille_flow_rate(g, 0.015, 1e-5) == pytest.approx(4e-11, rel=1e-12)
+
+
+def test_plan_units_and_grid():
+    points, settings = plan("10um", "0.04uL/s", "15mPa*s", radii="5, 6um", moduli="1,2kPa", quick=True)
+    assert len(points) == 4
+    assert settings["channel_radius_um"] == pytest.approx(10)
+    assert settings["flow_rate_ul_s"] == pytest.approx(0.04)
+    assert settings["viscosity_mpa_s"] == pytest.approx(15)
+    first = points[0]
+    assert first["radius_um"] == pytest.approx(5) and first["emodulus_kpa"] == pytest.approx(1)
+    assert first["options"]["channel_radius_ratio"] == pytest.approx(2.0)
+    assert first["options"]["start_offset"] == 0.0 and first["options"]["nucleus"] == "none"
+    assert first["options"]["capillary_number_wall"] == pytest.approx(2.2613, rel=1e-4)
+    # plain numbers read in um, uL/s, mPa s; keys change with the inputs
+    same, _ = plan(10, 0.04, 15, radii=[5, 6], moduli=[1, 2], quick=True)
+    assert [p["key"] for p in same] == [p["key"] for p in points]
+    other, _ = plan(10, 0.08, 15, radii=[5, 6], moduli=[1, 2], quick=True)
+    assert other[0]["key"] != points[0]["key"]
+    full, settings = plan("10um", "0.04uL/s", "15mPa*s")
+    assert len(full) == 42 and settings["resolution"] == 8
+
+
+def _fake_records():
+    records = []
+    for e in (1.0, 2.0):
+        for r in (5.0, 6.0):
+            records.append({"radius_um": r, "emodulus_kpa": e, "area_um": math.pi * r**2 * 1.01,
+                            "deform": 0.05 * r / 5 / e})
+    return records
+
+
+def _settings():
+    return plan("10um", "0.04uL/s", "15mPa*s", quick=True)[1]
+
+
+def test_lut_file_header_and_columns(tmp_path):
+    meta = lut_metadata(_settings(), "elastocell-test")
+    path = write_lut(tmp_path / "lut.txt", _fake_records(), meta)
+    text = path.read_text().splitlines()
+    assert text[0].startswith("#")
+    data, parsed, header = read_lut(path)
+    assert header == ["area_um [um^2]", "deform", "emodulus [kPa]"]
+    for key, value in (("channel_width_unit", "um"), ("flow_rate_unit", "uL/s"), ("fluid_viscosity_unit", "mPa s"),
+                       ("identifier", "elastocell-test")):
+        assert parsed[key] == value
+    for key in ("channel_width", "flow_rate", "fluid_viscosity", "method", "model", "software", "date",
+                "dimensionality", "summary"):
+        assert key in parsed
+    assert parsed["channel_width"] == pytest.approx(20.0)
+    assert "square" in parsed["summary"].lower() and "cylindrical" in parsed["summary"].lower()
+    assert data.shape == (4, 3)
+    assert np.all(np.diff(data[:, 2]) >= 0)  # sorted by modulus, then area
+    iso = write_isoelastics(isoelastics_path(tmp_path / "lut.txt"), _fake_records(), meta)
+    iso_data, iso_meta, iso_header = read_lut(iso)
+    assert iso.name == "lut_isoelastics.txt"
+    assert iso_meta["lut identifier"] == "elastocell-test" and "identifier" not in iso_meta
+    assert iso_header == header and iso_data.shape == (4, 3)
+
+
+def test_dclab_loads_the_lut_and_isoelastics(tmp_path):
+    dclab = pytest.importorskip("dclab")
+    from dclab.features import emodulus
+
+    meta = lut_metadata(_settings(), "elastocell-dclab-test")
+    path = write_lut(tmp_path / "lut.txt", _fake_records(), meta)
+    lut, loaded = emodulus.load_lut(str(path))
+    assert lut.shape == (4, 3)
+    assert loaded["column features"] == ["area_um", "deform", "emodulus"]
+    emodulus.register_lut(path)
+    assert "elastocell-dclab-test" in emodulus.load.EXTERNAL_LUTS
+    iso = dclab.isoelastics.Isoelastics([])
+    iso.load_data(write_isoelastics(tmp_path / "iso.txt", _fake_records(), meta))
+
+
+@pytest.mark.parametrize("extra, option", [
+    (["--flow-rate", "-0.04uL/s"], "--flow-rate"),
+    (["--viscosity", "0"], "--viscosity"),
+    (["--radii", "12"], "--radii"),
+    (["--radii", "9.5"], "--radii"),
+    (["--flow-rate", "0.04 kg"], "--flow-rate"),
+    (["--workers", "0"], "--workers"),
+])
+def test_one_line_refusals(tmp_path, extra, option):
+    args = BASE + ["--out", str(tmp_path / "lut.txt"), "--quick"]
+    for i in range(0, len(extra), 2):  # replace or add
+        if extra[i] in args:
+            args[args.index(extra[i]) + 1] = extra[i + 1]
+        else:
+            args += extra[i:i + 2]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith(f"elastocell: error: {option}:")
+    assert not (tmp_path / "lut_runs").exists()
+
+
+def test_unknown_option_refused(tmp_path):
+    result = runner.invoke(app, BASE + ["--out", str(tmp_path / "lut.txt"), "--bogus", "1"])
+    assert result.exit_code == 2
+    assert "No such option" in result.output
+
+
+class _Client:
+    """Stands in for a Dask client: runs the task in this process."""
+
+    def submit(self, function, *args, pure=False):
+        from concurrent.futures import Future
+
+        future = Future()
+        future.set_result(function(*args))
+        return future
+
+
+def test_quick_grid_end_to_end(tmp_path, monkeypatch):
+    """Two tiny real runs (R/dx 4, 0.3 units of time) through compute_lut; the rerun reads them back."""
+    import distributed
+
+    monkeypatch.setattr(distributed, "as_completed", lambda futures: list(futures))
+    out = tmp_path / "lut.txt"
+    kwargs = dict(radii="5", moduli="1,2", quick=True, duration=0.3, client=_Client())
+    result = compute_lut(out, "10um", "0.04uL/s", "15mPa*s", **kwargs)
+    assert not result["failures"], result["failures"]
+    data, meta, header = read_lut(out)
+    assert data.shape == (2, 3) and header[0] == "area_um [um^2]"
+    assert np.all(np.isfinite(data)) and np.all(data[:, 0] > 0)
+    # area in um^2: about pi R^2 for R = 5 um
+    assert 0.5 * math.pi * 25 < data[0, 0] < 1.5 * math.pi * 25
+    assert meta["elastocell"]["finished"] == 2
+    runs = sorted((tmp_path / "lut_runs").iterdir())
+    assert len(runs) == 2 and all((r / "point.json").exists() for r in runs)
+    record = json.loads((runs[0] / "point.json").read_text())
+    assert record["options"]["start_offset"] == 0.0
+    again = compute_lut(out, "10um", "0.04uL/s", "15mPa*s", **kwargs)  # finished points are read back
+    assert [r["wall_time_s"] for r in again["records"]] == [r["wall_time_s"] for r in result["records"]]
