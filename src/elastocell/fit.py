@@ -383,10 +383,10 @@ def fit_curve(name: str, displacement, force, settings: FitSettings, curve: Mast
 
 
 def heterogeneous_moduli(row: dict, size_ratio: float, stiffness_ratio: float, poisson_ratio: float = 0.48) -> dict:
-    """E_c = E_eff / (1 + (G - 1) L^3) and E_n = G E_c (the paper's volume average, spherical nucleus), and the
-    same with the Hashin-Shtrikman upper bound E_eff/E_c (``*_hashin_shtrikman_upper``), the estimate with the
-    smallest error in the equivalent-modulus study (README: RMS 11 % against 17 % for the volume average over
-    14 compressed cells)."""
+    """E_c = E_eff / (1 + (G - 1) L^3) and E_n = G E_c (the paper's volume average, spherical nucleus), and E_c
+    with the Hashin-Shtrikman upper bound E_eff/E_c (``*_hashin_shtrikman_upper``). The equivalent-modulus study
+    (README) found the volume average closest for gamma <= 5 (errors 7-12 %) and the HS upper bound for gamma 10
+    and 20 (-9 % and +16 %, against +12 % and +58 % for the volume average)."""
     from .effective_moduli import hashin_shtrikman_upper
 
     factor = 1.0 + (stiffness_ratio - 1.0) * size_ratio**3
@@ -631,8 +631,9 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
             "Measured (equivalent-modulus study, full compression, p2 meshes; README): the best homogeneous modulus "
             "of a centred-nucleus cell is 1.233/1.611/1.896/2.127 E_c for gamma 2/5/10/20 (lambda 0.5) against the "
             "volume average 1.124/1.496/2.115/3.354, so E_c from the volume average is 10 % too high (gamma 2) to "
-            "37 % too low (gamma 20); the Hashin-Shtrikman upper bound (columns *_hashin_shtrikman_upper) has the "
-            "smallest RMS error over 14 cells (11 % against 17 %) and is the recommended conversion."),
+            "37 % too low (gamma 20). Recommended: the volume average for gamma <= 5 (closest in 11 of 13 cells, "
+            "median error 7.7 %), the Hashin-Shtrikman upper bound (columns *_hashin_shtrikman_upper) for gamma >= "
+            "10 (errors -9 % and +16 % at gamma 10 and 20)."),
         "execution": execution, "dask_auto_min_files": DASK_AUTO_MIN_FILES, "n_curves": len(rows),
         "n_errors": len(errors), "wall_time_s": wall, "software": versions,
     })
