@@ -168,6 +168,7 @@ def test_quick_grid_end_to_end(tmp_path, monkeypatch):
     # area in um^2: about pi R^2 for R = 5 um
     assert 0.5 * math.pi * 25 < data[0, 0] < 1.5 * math.pi * 25
     assert meta["elastocell"]["finished"] == 2
+    assert len(meta["elastocell"]["not_stationary"]) == 2  # 0.3 units of time, no stationarity criterion
     runs = sorted((tmp_path / "lut_runs").iterdir())
     assert len(runs) == 2 and all((r / "point.json").exists() for r in runs)
     record = json.loads((runs[0] / "point.json").read_text())

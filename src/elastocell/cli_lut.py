@@ -64,6 +64,10 @@ def lut(
         typer.echo(f"gdot_w = {settings['wall_shear_rate_1_s']:.4g} 1/s, G = {settings['pressure_gradient_pa_m']:.4g} "
                    f"Pa/m; {len(result['records'])} of {len(result['records']) + len(result['failures'])} points "
                    f"in {result['wall_time_s']:.1f} s")
+        if result["not_stationary"]:
+            typer.echo(f"warning: {len(result['not_stationary'])} point(s) reached the duration cap before a "
+                       "stationary shape (listed in the metadata, elastocell.not_stationary): raise --duration",
+                       err=True)
         for failure in result["failures"]:
             typer.echo(f"failed {failure['key']}: {failure['error']}", err=True)
         if result["records"]:

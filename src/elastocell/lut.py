@@ -227,7 +227,8 @@ def run_point(task: tuple[dict, str]) -> dict:
         "deformation_initial": summary.get("deformation_initial"),
         "strain_axial_mean": summary.get("strain_axial_mean"), "strain_radial_mean": summary.get("strain_radial_mean"),
         "volume_change_max_abs": summary.get("volume_change_max_abs"),
-        "stop_reason": summary.get("stop_reason"), "duration": summary.get("duration"),
+        "stop_reason": summary.get("stop_reason"), "stationary": summary.get("stop_reason") == "stationary",
+        "duration": summary.get("duration"),
         "steps": summary.get("steps"), "options": point["options"],
         "wall_time_s": time.perf_counter() - start,
     }
@@ -342,8 +343,10 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     channel_radius, flow_rate, viscosity: quantities ("10um", "0.04uL/s", "15mPa*s") or numbers in um, uL/s,
     mPa s. radii, moduli: comma-separated lists or sequences (numbers in um and kPa); default the full grid
     (:data:`FULL_RADII_UM` x :data:`FULL_MODULI_KPA`) or, with ``quick``, the 2 x 2 test grid. Returns a
-    summary: paths, the finished records and the failed points (key and one-line error). A failed point is
-    left out of the table (and rerun next time)."""
+    summary: paths, the finished records, the failed points (key and one-line error; left out of the table and
+    rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion
+    (kept in the table, listed in the metadata under ``elastocell.not_stationary``: their shape is a transient
+    mean, not a steady shape)."""
     from .distributed import TaskFailure, check_execution, run_tasks
 
     check_execution(scheduler, workers)
@@ -367,11 +370,12 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
             records.append(outcome)
     records.sort(key=lambda r: (r["emodulus_kpa"], r["radius_um"]))
     metadata = lut_metadata(settings, identifier)
+    not_stationary = [r["key"] for r in records if not r.get("stationary")]
     metadata["elastocell"] = {**settings, "points": len(points), "finished": len(records),
-                              "failed": [f["key"] for f in failures]}
+                              "failed": [f["key"] for f in failures], "not_stationary": not_stationary}
     result = {"lut": str(out), "isoelastics": str(isoelastics_path(out)), "runs": str(runs),
               "records": records, "failures": failures, "wall_time_s": time.perf_counter() - start,
-              "identifier": identifier, "settings": settings, "lattice": lattice}
+              "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary}
     if records:
         write_lut(out, records, metadata)
         write_isoelastics(isoelastics_path(out), records, metadata)
