@@ -81,6 +81,29 @@ def write_table(path: Path, columns: dict[str, np.ndarray]) -> None:
                                                           comments="", fmt="%.10g"))
 
 
+def write_curve_csv(path: Path, metadata: dict, columns: dict[str, np.ndarray]) -> None:
+    """A curve as CSV: one ``# {json}`` metadata line, a header row, rows at 10 significant digits; atomic."""
+    names = list(columns)
+    lines = [f"# {json.dumps(metadata, sort_keys=True)}", ",".join(names)]
+    lines += [",".join(f"{v:.10g}" for v in row)
+              for row in np.column_stack([np.asarray(columns[k], dtype=float) for k in names])]
+    _replace_atomically(Path(path), lambda temporary: temporary.write_text("\n".join(lines) + "\n"))
+
+
+def read_curve_csv(path) -> tuple[dict, dict[str, np.ndarray]]:
+    """(metadata, {column: values}) of a file written by :func:`write_curve_csv` (a path or a resource)."""
+    text = path.read_text() if hasattr(path, "read_text") else Path(path).read_text()
+    metadata, rows, names = {}, [], None
+    for line in text.splitlines():
+        if line.startswith("#"):
+            metadata.update(json.loads(line[1:]))
+        elif names is None:
+            names = line.strip().split(",")
+        elif line.strip():
+            rows.append([float(v) for v in line.split(",")])
+    return metadata, dict(zip(names, np.array(rows).T, strict=True))
+
+
 def write_vtk_series(directory: Path, stem: str, mesh: CellMesh, positions: np.ndarray, times: np.ndarray,
                      cell_data: list[dict[str, np.ndarray]]) -> Path:
     """One ``.vtu`` per state plus a ``.pvd`` collection (time = the scenario's parameter, e.g. delta)."""

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from .compression import hertz_force
+from .io import read_curve_csv, write_curve_csv
 from .parameters import ParameterError
 
 SHIPPED_POISSON_RATIOS = (0.45, 0.48, 0.49)
@@ -115,29 +116,14 @@ class MasterCurve:
         force_default_mesh = self.force_default_mesh if force_default_mesh is None else force_default_mesh
         metadata = dict(self.metadata, poisson_ratio=self.poisson_ratio, material=self.material,
                         hertz_blend_below=self.hertz_blend_below, format_version=FORMAT_VERSION)
-        columns = [self.delta, self.force, self.error]
-        names = ["delta", "force_per_E_R2", "error"]
+        columns = {"delta": self.delta, "force_per_E_R2": self.force, "error": self.error}
         if force_default_mesh is not None:
-            columns.append(np.asarray(force_default_mesh, dtype=float))
-            names.append("force_per_E_R2_default_mesh")
-        lines = [f"# {json.dumps(metadata, sort_keys=True)}", ",".join(names)]
-        lines += [",".join(f"{v:.10g}" for v in row) for row in np.column_stack(columns)]
-        temporary = path.with_name(f".{path.name}.tmp")
-        temporary.write_text("\n".join(lines) + "\n")
-        temporary.replace(path)
+            columns["force_per_E_R2_default_mesh"] = force_default_mesh
+        write_curve_csv(path, metadata, columns)
 
     @classmethod
     def from_csv(cls, path) -> MasterCurve:
-        text = Path(path).read_text() if not hasattr(path, "read_text") else path.read_text()
-        metadata, rows, names = {}, [], None
-        for line in text.splitlines():
-            if line.startswith("#"):
-                metadata.update(json.loads(line[1:]))
-            elif names is None:
-                names = line.strip().split(",")
-            elif line.strip():
-                rows.append([float(v) for v in line.split(",")])
-        table = dict(zip(names, np.array(rows).T, strict=True))
+        metadata, table = read_curve_csv(path)
         return cls(delta=table["delta"], force=table["force_per_E_R2"], error=table["error"],
                    poisson_ratio=float(metadata["poisson_ratio"]), material=metadata.get("material", "neo-hookean"),
                    hertz_blend_below=float(metadata.get("hertz_blend_below", HERTZ_BLEND_BELOW)), metadata=metadata,

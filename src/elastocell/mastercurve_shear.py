@@ -45,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .io import read_curve_csv, write_curve_csv
 from .mastercurve import shipped_file, shipped_or_cached
 from .parameters import ParameterError
 
@@ -173,24 +174,11 @@ class ShearMasterCurve:
         metadata = dict(self.metadata, poisson_ratio=self.poisson_ratio, material=self.material,
                         format_version=FORMAT_VERSION)
         names = list(COLUMNS) + [k for k in self.table if k not in COLUMNS]
-        lines = [f"# {json.dumps(metadata, sort_keys=True)}", ",".join(names)]
-        lines += [",".join(f"{v:.10g}" for v in row) for row in np.column_stack([self.table[k] for k in names])]
-        temporary = path.with_name(f".{path.name}.tmp")
-        temporary.write_text("\n".join(lines) + "\n")
-        temporary.replace(path)
+        write_curve_csv(path, metadata, {k: self.table[k] for k in names})
 
     @classmethod
     def from_csv(cls, path) -> ShearMasterCurve:
-        text = path.read_text()
-        metadata, rows, names = {}, [], None
-        for line in text.splitlines():
-            if line.startswith("#"):
-                metadata.update(json.loads(line[1:]))
-            elif names is None:
-                names = line.strip().split(",")
-            elif line.strip():
-                rows.append([float(v) for v in line.split(",")])
-        table = dict(zip(names, np.array(rows).T, strict=True))
+        metadata, table = read_curve_csv(path)
         return cls(table=table, poisson_ratio=float(metadata["poisson_ratio"]),
                    material=metadata.get("material", "neo-hookean"), metadata=metadata)
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..effective_moduli import ESTIMATES, all_estimates, uniform_phases
+from ..effective_moduli import ESTIMATES, all_estimates
 from .base import Claim, Study
 from .compression import DELTA_MIN, _figure, _save, curves, percent, size_members, stiffness_members
 from .flow import shear_capillary_members
@@ -29,11 +29,9 @@ def members(quick: bool):
     return stiffness_members(quick) + size_members(quick) + shear_capillary_members(quick)
 
 
-def _phases_of(row_gamma: float, row_size: float, gamma_eff: float, random: bool):
-    """Phases of a cell: the random cell's U[1, 10] distribution; a nucleus cell's two phases with the meshed
-    volume fraction phi = (gamma_eff - 1)/(gamma - 1) (so Voigt equals the simulated equivalent exactly)."""
-    if random:
-        return uniform_phases(1.0, 10.0)
+def _nucleus_phases(row_gamma: float, row_size: float, gamma_eff: float):
+    """A nucleus cell's two phases with the meshed volume fraction phi = (gamma_eff - 1)/(gamma - 1), so that
+    Voigt equals the simulated equivalent exactly (the random cell's phases: :func:`_mesh_phases`)."""
     phi = (gamma_eff - 1) / (row_gamma - 1) if row_gamma != 1 else row_size ** 3
     return np.array([1.0, row_gamma]), np.array([1 - phi, phi])
 
@@ -131,7 +129,7 @@ def _row(loading, cell, discretisation, info, gamma_eff, fit, residual, reach) -
     random = cell == "random"
     gamma = float(info.get("stiffness_ratio", np.nan)) if not random else np.nan
     size = float(info.get("size_ratio", 0.5)) if not random else np.nan
-    stiffness, fractions = _mesh_phases(info) if random else _phases_of(gamma, size, gamma_eff, random)
+    stiffness, fractions = _mesh_phases(info) if random else _nucleus_phases(gamma, size, gamma_eff)
     estimates = all_estimates(stiffness, fractions)
     row = {"loading": loading, "cell": cell, "discretisation": discretisation, "stiffness_ratio": gamma,
            "size_ratio": size, "volume_fraction": float(fractions[-1]) if not random else np.nan,
