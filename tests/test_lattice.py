@@ -18,6 +18,7 @@ from elastocell.lattice import (
     check_stability,
     mach_number,
 )
+from elastocell.lattice.jax_backend import JaxLattice
 from elastocell.lattice.kernels import BLOCK
 from elastocell.lattice.reference import reference_step
 
@@ -27,9 +28,19 @@ def _profile_x(lattice: Lattice) -> np.ndarray:
     return lattice.velocity()[0].mean(axis=(0, 2))
 
 
+# Every physics test below runs on both backends (the fused Numba kernels and the JAX step that also runs
+# on GPUs), with the same reference and tolerance.
+BACKENDS = {"numba": Lattice, "jax": JaxLattice}
+
+
+@pytest.fixture(params=list(BACKENDS))
+def lattice_class(request):
+    return BACKENDS[request.param]
+
+
 # --------------------------------------------------------------------------- 1. shear wave
 @pytest.mark.parametrize("collision", ["trt", "bgk"])
-def test_shear_wave_decay_gives_the_viscosity(collision):
+def test_shear_wave_decay_gives_the_viscosity(collision, lattice_class):
     # Reference: u_x(y, t) = U sin(k y) exp(-nu k^2 t), nu = (tau - 1/2)/3, k = 2 pi / ny.
     # Tolerance 1 % on the fitted nu. Measured: TRT -0.045 %, BGK +0.21 % (ny = 32, tau = 0.8).
     nx, ny, nz = 4, 32, 4
@@ -38,7 +49,7 @@ def test_shear_wave_decay_gives_the_viscosity(collision):
     y = np.arange(ny)
     velocity = np.zeros((3, nx, ny, nz))
     velocity[0] = 0.01 * np.sin(k * y)[None, :, None]
-    lattice = Lattice(params, velocity=velocity)
+    lattice = lattice_class(params, velocity=velocity)
     times, amplitudes = [], []
     for t in range(0, 1001, 50):
         if t:
@@ -55,7 +66,7 @@ def test_shear_wave_decay_gives_the_viscosity(collision):
 # --------------------------------------------------------------------------- 2. Couette
 @pytest.mark.parametrize("collision", ["trt", "bgk"])
 @pytest.mark.parametrize("dtype, tolerance", [("float64", 1e-10), ("float32", 1e-4)])
-def test_couette_profile_is_linear(collision, dtype, tolerance):
+def test_couette_profile_is_linear(collision, dtype, tolerance, lattice_class):
     # Reference: walls at y = -1/2 (u_x = -U) and y = ny - 1/2 (u_x = +U); steady
     # u_x(y) = -U + 2U (y + 1/2)/ny, exact for half-way bounce-back (any tau).
     # Tolerance: 1e-10 U (float64), 1e-4 U (float32), far inside the 1 % asked for.
@@ -65,7 +76,7 @@ def test_couette_profile_is_linear(collision, dtype, tolerance):
     params = LatticeParams(
         (nx, ny, nz), relaxation_time=1.0, collision=collision, dtype=dtype, wall_velocity=(-U, U)
     )
-    lattice = Lattice(params)
+    lattice = lattice_class(params)
     lattice.step(8000)
     u = lattice.velocity()
     exact = -U + 2 * U * (np.arange(ny) + 0.5) / ny
@@ -75,7 +86,7 @@ def test_couette_profile_is_linear(collision, dtype, tolerance):
 
 # --------------------------------------------------------------------------- 3. Poiseuille
 @pytest.mark.parametrize("relaxation_time", [0.8, 1.7])
-def test_poiseuille_profile_is_the_exact_parabola_with_trt(relaxation_time):
+def test_poiseuille_profile_is_the_exact_parabola_with_trt(relaxation_time, lattice_class):
     # Reference: u_x(y) = g/(2 nu) s (H - s), s = y + 1/2 the distance to the wall at
     # y = -1/2, H = ny. TRT with Lambda = 3/16 puts half-way walls exactly, so the
     # parabola is reproduced to round-off once steady. Tolerance 1 % of u_max.
@@ -90,7 +101,7 @@ def test_poiseuille_profile_is_the_exact_parabola_with_trt(relaxation_time):
         wall_velocity=(0.0, 0.0),
         body_force=(g, 0.0, 0.0),
     )
-    lattice = Lattice(params)
+    lattice = lattice_class(params)
     lattice.step(int(15 * ny**2 / (np.pi**2 * nu)))  # 15 viscous times
     s = np.arange(ny) + 0.5
     exact = g / (2 * nu) * s * (ny - s)
@@ -99,7 +110,7 @@ def test_poiseuille_profile_is_the_exact_parabola_with_trt(relaxation_time):
     assert error < 1e-5  # in fact exact up to the remaining transient
 
 
-def test_poiseuille_bgk_has_the_known_viscosity_dependent_slip():
+def test_poiseuille_bgk_has_the_known_viscosity_dependent_slip(lattice_class):
     # Reference as above. BGK places the wall at a tau-dependent position; at tau = 1.7
     # the measured error is 0.65 % of u_max (TRT: 3e-7). Checks 0.1 % < error < 1 %.
     nx, ny, nz, u_max, tau = 4, 32, 4, 0.01, 1.7
@@ -113,7 +124,7 @@ def test_poiseuille_bgk_has_the_known_viscosity_dependent_slip():
         wall_velocity=(0.0, 0.0),
         body_force=(g, 0.0, 0.0),
     )
-    lattice = Lattice(params)
+    lattice = lattice_class(params)
     lattice.step(int(15 * ny**2 / (np.pi**2 * nu)))
     s = np.arange(ny) + 0.5
     error = np.abs(lattice.velocity()[0] - (g / (2 * nu) * s * (ny - s))[None, :, None]).max() / u_max
@@ -142,7 +153,7 @@ def _random_state(shape, rng):
 
 
 # --------------------------------------------------------------------------- 4. mass
-def test_mass_is_conserved_to_round_off_with_walls_obstacle_and_forcing():
+def test_mass_is_conserved_to_round_off_with_walls_obstacle_and_forcing(lattice_class):
     # Reference: total mass M = sum over fluid nodes of rho is an invariant of
     # collision (Guo forcing included), streaming and half-way bounce-back (tangential
     # moving walls add zero net mass). Tolerance 1e-12 relative over 2000 steps
@@ -158,7 +169,7 @@ def test_mass_is_conserved_to_round_off_with_walls_obstacle_and_forcing():
         solid=_obstacle(shape),
         body_force=(2e-5, 0.0, -1e-5),
     )
-    lattice = Lattice(params, density=rho, velocity=u)
+    lattice = lattice_class(params, density=rho, velocity=u)
     lattice.set_force_density(force)
     mass0 = lattice.total_mass()
     drifts = []
@@ -180,7 +191,7 @@ def test_mass_is_conserved_to_round_off_with_walls_obstacle_and_forcing():
         ((3, 5, BLOCK + 5), "trt", (0.01, -0.01)),  # several z-blocks per line
     ],
 )
-def test_compiled_step_matches_numpy_reference(shape, collision, walls):
+def test_compiled_step_matches_numpy_reference(shape, collision, walls, lattice_class):
     # Reference: elastocell.lattice.reference.reference_step (textbook TRT/BGK + Guo,
     # np.roll streaming, bounce-back masks), float64. Tolerance 1e-12 absolute on f_i
     # after each of 5 steps (both AA parities); density() and velocity() against the
@@ -195,7 +206,7 @@ def test_compiled_step_matches_numpy_reference(shape, collision, walls):
         solid=_obstacle(shape),
         body_force=(1e-4, -2e-4, 3e-5),
     )
-    lattice = Lattice(params)
+    lattice = lattice_class(params)
     deviations = 0.01 * rng.standard_normal((19,) + shape)
     lattice.set_population_deviations(deviations)
     force = 1e-3 * rng.standard_normal((3,) + shape)
@@ -214,14 +225,14 @@ def test_compiled_step_matches_numpy_reference(shape, collision, walls):
         np.testing.assert_allclose(lattice.velocity()[:, fluid], u[:, fluid], rtol=0, atol=1e-12)
 
 
-def test_initial_velocity_and_density_are_returned_exactly():
+def test_initial_velocity_and_density_are_returned_exactly(lattice_class):
     # velocity() applies the Guo half-force correction; initialize() compensates it.
     # Tolerance 1e-14 (float64 round-off). Measured: 3.5e-18 (u), 0 (rho).
     shape = (5, 6, 7)
     rng = np.random.default_rng(6)
     rho, u, force = _random_state(shape, rng)
     params = LatticeParams(shape, relaxation_time=0.9, dtype="float64", body_force=(1e-5, 0.0, 0.0))
-    lattice = Lattice(params)
+    lattice = lattice_class(params)
     lattice.set_force_density(force)
     lattice.initialize(rho, u)
     np.testing.assert_allclose(lattice.density(), rho, rtol=0, atol=1e-14)
@@ -231,7 +242,7 @@ def test_initial_velocity_and_density_are_returned_exactly():
 
 
 # --------------------------------------------------------------------------- 6. float32
-def test_float32_relative_storage_keeps_mass():
+def test_float32_relative_storage_keeps_mass(lattice_class):
     # float32 populations are stored as f_i - w_i, so rounding acts on the small
     # deviations only. Reference: initial mass. Tolerance 1e-6 relative after 1000
     # steps of a forced, sheared, compressed flow. Measured: 1.5e-9.
@@ -242,7 +253,7 @@ def test_float32_relative_storage_keeps_mass():
     u[0] = 0.02 * np.sin(2 * np.pi * y / shape[1])[None, :, None]
     rho = 1.0 + 0.001 * rng.standard_normal(shape)
     params = LatticeParams(shape, relaxation_time=0.6, dtype="float32")
-    lattice = Lattice(params, density=rho, velocity=u)
+    lattice = lattice_class(params, density=rho, velocity=u)
     lattice.set_force_density(1e-5 * rng.standard_normal((3,) + shape))
     mass0 = lattice.total_mass()
     lattice.step(1000)
@@ -251,7 +262,7 @@ def test_float32_relative_storage_keeps_mass():
     assert lattice.population_deviations().dtype == np.float32
 
 
-def test_float32_and_float64_agree():
+def test_float32_and_float64_agree(lattice_class):
     # Same shear-wave run in both precisions. Tolerance 1e-6 absolute on u (U = 0.01).
     # Measured: 5.2e-9.
     shape = (4, 16, 4)
@@ -259,7 +270,7 @@ def test_float32_and_float64_agree():
     u[0] = 0.01 * np.sin(2 * np.pi * np.arange(16) / 16)[None, :, None]
     results = []
     for dtype in ("float32", "float64"):
-        lattice = Lattice(LatticeParams(shape, relaxation_time=0.8, dtype=dtype), velocity=u)
+        lattice = lattice_class(LatticeParams(shape, relaxation_time=0.8, dtype=dtype), velocity=u)
         lattice.step(101)
         results.append(lattice.velocity())
     assert np.abs(results[0] - results[1]).max() < 1e-6

@@ -193,23 +193,25 @@ class _Killed(Exception):
     pass
 
 
-def _small_run(cell):
+def _small_run(cell, backend="numba"):
     from elastocell.runner import ShearRun
 
-    params = flow.ShearFlowParameters(capillary_number=0.1, resolution=3, confinement=0.3, box_length=4)
+    params = flow.ShearFlowParameters(capillary_number=0.1, resolution=3, confinement=0.3, box_length=4,
+                                      backend=backend)
     return ShearRun(cell, params, record_interval=0.1)
 
 
-def test_resume_after_a_kill_reproduces_the_uninterrupted_time_series(coarse_cell, tmp_path):
-    # Reference: the uninterrupted run. The compiled steps are deterministic and the checkpoint holds the
-    # complete state, so the resumed series must be identical (bitwise; tolerance 0).
+@pytest.mark.parametrize("backend", ["numba", "jax"])
+def test_resume_after_a_kill_reproduces_the_uninterrupted_time_series(coarse_cell, tmp_path, backend):
+    # Reference: the uninterrupted run. The compiled steps are deterministic (on the CPU) and the checkpoint
+    # holds the complete state, so the resumed series must be identical (bitwise; tolerance 0).
     from elastocell.runner import StopCriteria
 
     stop = StopCriteria(duration=1.0)
-    uninterrupted = _small_run(coarse_cell)
+    uninterrupted = _small_run(coarse_cell, backend)
     uninterrupted.run(stop)
     checkpoint = tmp_path / "checkpoint.npz"
-    killed = _small_run(coarse_cell)
+    killed = _small_run(coarse_cell, backend)
 
     def kill(row, run):
         if run.n_records - 1 == 7:  # records 7.. are lost: the last checkpoint holds 6
@@ -218,7 +220,7 @@ def test_resume_after_a_kill_reproduces_the_uninterrupted_time_series(coarse_cel
     with pytest.raises(_Killed):
         killed.run(stop, observers=(kill,), checkpoint=checkpoint, checkpoint_every=3)
     assert not list(tmp_path.glob(".*.tmp"))  # atomic writes leave no temporary file
-    resumed = _small_run(coarse_cell)
+    resumed = _small_run(coarse_cell, backend)
     resumed.load(checkpoint)
     assert resumed.n_records - 1 == 6
     resumed.run(stop, checkpoint=checkpoint, checkpoint_every=3)
@@ -228,11 +230,14 @@ def test_resume_after_a_kill_reproduces_the_uninterrupted_time_series(coarse_cel
         np.testing.assert_array_equal(a[name], b[name], err_msg=name)
     np.testing.assert_array_equal(uninterrupted.tracker.angles, resumed.tracker.angles)
     np.testing.assert_array_equal(uninterrupted.system.positions, resumed.system.positions)
-    other = flow.ShearFlowParameters(capillary_number=0.2, resolution=3, confinement=0.3, box_length=4)
+    other = flow.ShearFlowParameters(capillary_number=0.2, resolution=3, confinement=0.3, box_length=4,
+                                     backend=backend)
     from elastocell.runner import ShearRun
 
     with pytest.raises(ParameterError, match="resume"):
         ShearRun(coarse_cell, other, record_interval=0.1).load(checkpoint)
+    with pytest.raises(ParameterError, match="resume"):  # a checkpoint of the other backend
+        _small_run(coarse_cell, {"numba": "jax", "jax": "numba"}[backend]).load(checkpoint)
 
 
 def test_stop_criteria_wall_clock_and_stationary(coarse_cell):

@@ -62,6 +62,24 @@ def stream_triad_bandwidth(elements: int = TRIAD_ELEMENTS, repeats: int = 8) -> 
     return _bandwidth_cache[elements]
 
 
+def jax_triad_bandwidth(elements: int = TRIAD_ELEMENTS, repeats: int = 8) -> float:
+    """Best triad a = b + s c bandwidth (GB/s, 24 B per float64 element) on JAX's default device: the
+    roofline of the JAX backend, measured the same way as :func:`stream_triad_bandwidth`."""
+    import jax
+    import jax.numpy as jnp
+
+    triad = jax.jit(lambda b, c, scalar: b + scalar * c)
+    b = jnp.ones(elements)
+    c = jnp.full(elements, 2.0)
+    triad(b, c, 3.0).block_until_ready()
+    best = np.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        triad(b, c, 3.0).block_until_ready()
+        best = min(best, time.perf_counter() - start)
+    return 24.0 * elements / best / 1e9
+
+
 def bytes_per_update(dtype) -> int:
     """Minimum memory traffic of one D3Q19 node update (B): load and store 19 populations."""
     return 2 * 19 * np.dtype(dtype).itemsize
@@ -84,21 +102,32 @@ def _best_rate(advance, nodes: int, repeats: int, target_seconds: float) -> tupl
     return nodes * steps / best / 1e6, cpu_at_best / best
 
 
-def _lattice(size: int, dtype: str):
+def _lattice(size: int, dtype: str, backend: str = "numba"):
     from .lattice import Lattice, LatticeParams
 
-    return Lattice(LatticeParams((size, size, size), relaxation_time=0.8, dtype=str(np.dtype(dtype))),
-                   velocity=(0.01, 0.0, 0.0))
+    lattice_class = Lattice
+    if backend == "jax":
+        from .lattice.jax_backend import JaxLattice as lattice_class
+    return lattice_class(LatticeParams((size, size, size), relaxation_time=0.8, dtype=str(np.dtype(dtype))),
+                         velocity=(0.01, 0.0, 0.0))
 
 
-def lattice_mlups(size: int, dtype: str = "float32", repeats: int = 5, target_seconds: float = 0.5):
-    """(MLUPS, CPU use) of the pure fused LB step on a periodic size^3 lattice (TRT, no force)."""
-    lattice = _lattice(size, dtype)
+def lattice_mlups(size: int, dtype: str = "float32", repeats: int = 5, target_seconds: float = 0.5,
+                  backend: str = "numba"):
+    """(MLUPS, CPU use) of the pure LB step on a periodic size^3 lattice (TRT, no force): the fused Numba
+    kernel, or the JAX step on JAX's default device (timed to completion on the device)."""
+    lattice = _lattice(size, dtype, backend)
+    if backend == "jax":
+        def advance(n):
+            lattice.step(n)
+            lattice.deviations.block_until_ready()
+
+        return _best_rate(advance, size**3, repeats, target_seconds)
     return _best_rate(lattice.step, size**3, repeats, target_seconds)
 
 
 def lattice_with_cell_mlups(size: int, dtype: str = "float32", radius: float | None = None, repeats: int = 5,
-                            target_seconds: float = 0.5) -> tuple[float, float, int]:
+                            target_seconds: float = 0.5, backend: str = "numba") -> tuple[float, float, int]:
     """(MLUPS, CPU use, markers) of the same lattice carrying the reference cell of radius R = size/8 dx
     (default), linear elements of about 2 dx, E_c = 1e-4 in lattice units (stable, small deformation)."""
     from . import cell_parameters
@@ -108,30 +137,47 @@ def lattice_with_cell_mlups(size: int, dtype: str = "float32", radius: float | N
     radius = size / 8.0 if radius is None else float(radius)
     mesh_size = min(0.5, max(2.0 / radius, 0.08))
     cell = Cell.from_parameters(cell_parameters(element="p1", mesh_size=mesh_size, pole_size=mesh_size))
-    lattice = _lattice(size, dtype)
-    system = ImmersedCell(lattice, cell, centre=np.full(3, size / 2.0), radius=radius, youngs_modulus=1e-4)
+    lattice = _lattice(size, dtype, backend)
+    cell_class = ImmersedCell
+    if backend == "jax":
+        from .flow_jax import JaxImmersedCell as cell_class
+    system = cell_class(lattice, cell, centre=np.full(3, size / 2.0), radius=radius, youngs_modulus=1e-4)
     mlups, cpu = _best_rate(system.advance, size**3, repeats, target_seconds)
     return mlups, cpu, cell.mesh.n_nodes
 
 
-def run_benchmark(size: int = 128, dtype: str = "float32", with_cell: bool = True, threads: int | None = None) -> dict:
-    """Measure bandwidth, pure-LB and with-cell MLUPS at size^3 in this process.
+def _device_name(backend: str) -> str:
+    if backend == "jax":
+        import jax
+
+        return str(jax.devices()[0].device_kind)
+    import platform
+
+    return platform.processor() or platform.machine()
+
+
+def run_benchmark(size: int = 128, dtype: str = "float32", with_cell: bool = True, threads: int | None = None,
+                  backend: str = "numba") -> dict:
+    """Measure bandwidth, pure-LB and with-cell MLUPS at size^3 in this process, on a backend: "numba" (the
+    CPU kernels against a STREAM triad on the CPU) or "jax" (JAX's default device, against a triad on that
+    device).
 
     Keys: ``mlups``, ``mlups_with_cell``, ``bandwidth_gbs`` (STREAM triad), ``roofline_fraction`` (mlups over
     bandwidth / bytes per update), ``roofline_mlups``, ``bytes_per_update``, ``with_cell_slowdown`` (pure over
     with-cell MLUPS), ``markers``, ``size``, ``dtype``, ``threads``, ``cpu_utilisation``.
     """
     threads = set_threads(threads)
-    bandwidth = stream_triad_bandwidth()
-    mlups, cpu = lattice_mlups(size, dtype)
+    bandwidth = jax_triad_bandwidth() if backend == "jax" else stream_triad_bandwidth()
+    mlups, cpu = lattice_mlups(size, dtype, backend=backend)
     nbytes = bytes_per_update(dtype)
     roofline = bandwidth * 1e9 / nbytes / 1e6
     result = {
         "size": int(size), "dtype": str(np.dtype(dtype)), "threads": threads, "bandwidth_gbs": bandwidth,
         "bytes_per_update": nbytes, "roofline_mlups": roofline, "mlups": mlups, "roofline_fraction": mlups / roofline,
         "cpu_utilisation": cpu, "mlups_with_cell": None, "with_cell_slowdown": None, "markers": 0,
+        "backend": backend, "device": _device_name(backend),
     }
     if with_cell:
-        with_cell_mlups, _, markers = lattice_with_cell_mlups(size, dtype)
+        with_cell_mlups, _, markers = lattice_with_cell_mlups(size, dtype, backend=backend)
         result.update(mlups_with_cell=with_cell_mlups, with_cell_slowdown=mlups / with_cell_mlups, markers=markers)
     return result

@@ -133,6 +133,7 @@ class Cell:
         self._kernels.update(
             energy=jax.jit(energy),
             gradient=jax.jit(jax.grad(energy)),
+            min_jacobian=jax.jit(lambda x: jnp.min(jnp.linalg.det(deformation_gradients(x)))),
             hessians=jax.jit(element_hessians),
             stresses=jax.jit(stresses),
         )

@@ -71,6 +71,15 @@ RESUME = typer.Option(False, "--resume", help="Continue from DIR/checkpoint.npz 
 QUIET = typer.Option(False, "--quiet", help="No progress bar, no summary.")
 
 
+class Backend(str, Enum):
+    numba = "numba"
+    jax = "jax"
+
+
+BACKEND = typer.Option(Backend.numba, "--backend", help="Compute engine: numba (fused CPU kernels, fastest on a "
+                       "CPU) or jax (the same physics on JAX's default device: a GPU when JAX has CUDA).")
+
+
 @app.command()
 @_user_errors
 def compress(
@@ -136,6 +145,7 @@ def shear(
     checkpoint_every: int = CHECKPOINT_EVERY,
     vtk_interval: float = typer.Option(1.0, "--vtk-interval", help="Strain between VTK snapshots."),
     resume: bool = RESUME,
+    backend: Backend = BACKEND,
     quiet: bool = QUIET,
 ):
     """A cell in plane Couette (shear) flow: lattice Boltzmann fluid + immersed boundary."""
@@ -160,7 +170,7 @@ def shear(
         capillary_number = 2 * (1 + poisson_ratio) * eta * rate / cell.youngs_modulus  # Ca with mu_c
     if capillary_number is None:
         raise ParameterError("capillary_number", "required (or --viscosity with --shear-rate)")
-    flow_options = {"confinement": confinement}
+    flow_options = {"confinement": confinement, "backend": backend.value}
     ShearFlowParameters(capillary_number=capillary_number, resolution=resolution, **flow_options)  # validate early
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance)
     try:
@@ -251,6 +261,7 @@ def pipe(
     checkpoint_every: int = CHECKPOINT_EVERY,
     vtk_interval: float = typer.Option(1.0, "--vtk-interval", help="Time between VTK snapshots (1/gdot_w)."),
     resume: bool = RESUME,
+    backend: Backend = BACKEND,
     quiet: bool = QUIET,
 ):
     """A cell in pressure-driven flow through a cylindrical capillary: migration and bullet shape."""
@@ -278,7 +289,8 @@ def pipe(
             capillary_number_wall /= effective(cell)["effective_stiffness_ratio"]
     if capillary_number_wall is None:
         raise ParameterError("capillary_number_wall", "required (or --pressure-gradient)")
-    flow_options = {"channel_radius_ratio": channel_radius_ratio, "start_offset": start_offset, "resolution": resolution}
+    flow_options = {"channel_radius_ratio": channel_radius_ratio, "start_offset": start_offset, "resolution": resolution,
+                    "backend": backend.value}
     PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)  # validate early
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                  stationary_observable=stationary_observable.value, unit="units of 1/gdot_w")
@@ -315,6 +327,7 @@ def bench_lattice(
     dtype: Precision = typer.Option(Precision.float32, "--dtype", help="Population storage precision."),
     no_cell: bool = typer.Option(False, "--no-cell", help="Skip the run with an immersed cell."),
     threads: int | None = typer.Option(None, "--threads", help="Numba threads (default: all)."),  # noqa: UP007
+    backend: Backend = BACKEND,
     as_json: bool = typer.Option(False, "--json", help="Print the figures as one JSON line (last line)."),
 ):
     """MLUPS of the fused D3Q19 step, with and without a cell, against the memory roofline measured in the
@@ -326,11 +339,12 @@ def bench_lattice(
         raise ParameterError("size", f"must be in [8, 1024] lattice nodes per side, got {size}")
     if threads is not None and threads < 1:
         raise ParameterError("threads", f"must be >= 1, got {threads}")
-    result = run_benchmark(size, dtype.value, with_cell=not no_cell, threads=threads)
+    result = run_benchmark(size, dtype.value, with_cell=not no_cell, threads=threads, backend=backend.value)
     if as_json:
         typer.echo(json.dumps(result))
         return
-    typer.echo(f"{result['size']}^3 {result['dtype']}, {result['threads']} threads: STREAM triad "
+    typer.echo(f"{result['size']}^3 {result['dtype']}, backend {result['backend']} on {result['device']}, "
+               f"{result['threads']} threads: triad "
                f"{result['bandwidth_gbs']:.1f} GB/s -> roofline {result['roofline_mlups']:.1f} MLUPS "
                f"({result['bytes_per_update']} B/update)")
     typer.echo(f"pure LB: {result['mlups']:.1f} MLUPS = {100 * result['roofline_fraction']:.1f} % of the roofline "

@@ -291,6 +291,39 @@ def _coupled_steps(
     return parity, n_steps, j_min, np.sqrt(max_speed)
 
 
+def immersed_cell(backend: str, lattice_params: LatticeParams, velocity, cell, units, kernel: str):
+    """The coupled system on a backend ("numba" or "jax"): a lattice at the equilibrium of ``velocity``
+    (3, nx, ny, nz) and the cell at ``units.centre`` with radius ``units.radius`` (dx) and modulus
+    ``units.youngs_modulus`` (lattice units)."""
+    if backend == "jax":
+        from .flow_jax import JaxImmersedCell, JaxLattice
+
+        lattice_class, cell_class = JaxLattice, JaxImmersedCell
+    elif backend == "numba":
+        lattice_class, cell_class = Lattice, ImmersedCell
+    else:
+        raise ValueError(f"backend must be 'numba' or 'jax', got {backend!r}")
+    lattice = lattice_class(lattice_params)
+    lattice.initialize(velocity=velocity)
+    return cell_class(lattice, cell, units.centre, units.radius, units.youngs_modulus, kernel=kernel)
+
+
+def raise_flow_failure(time_step: int, j_min: float, max_speed: float) -> None:
+    """Raise the :class:`FlowError` of a chunk that stopped at ``time_step``: a non-finite fluid
+    (``j_min`` = -inf or a non-finite marker speed) or an inverted element (det F = ``j_min`` <= 0)."""
+    if j_min == -np.inf or not np.isfinite(max_speed):
+        raise FlowError(
+            f"the fluid became non-finite at step {time_step} (marker speed {max_speed:.3g} dx/dt): "
+            "the elastic forces are too stiff for the time step; lower the lattice shear rate "
+            "(reynolds_number) or raise capillary_number"
+        )
+    raise FlowError(
+        f"an element inverted at step {time_step} (det F = {j_min:.3g}): the elastic time step is "
+        "unstable or the deformation too large; lower the lattice shear rate (reynolds_number) or use "
+        "a coarser mesh"
+    )
+
+
 class ImmersedCell:
     """An elastic cell immersed in a lattice Boltzmann fluid (immersed boundary, every node a marker).
 
@@ -311,6 +344,8 @@ class ImmersedCell:
     State: :attr:`positions` (n_nodes, 3) in dx (unwrapped: periodic images are taken by the kernels),
     :attr:`time_step`. Lattice velocities are dx/dt; forces rho0 dx^4/dt^2.
     """
+
+    backend = "numba"
 
     def __init__(self, lattice: Lattice, cell, centre, radius: float, youngs_modulus: float,
                  kernel: str = "trilinear"):
@@ -373,17 +408,25 @@ class ImmersedCell:
         self._has_spread = self._has_spread or done > 0 or not (j_min > 0)
         self.max_speed = float(max_speed)
         if not j_min > 0:
-            if j_min == -np.inf or not np.isfinite(max_speed):
-                raise FlowError(
-                    f"the fluid became non-finite at step {self.time_step} (marker speed {max_speed:.3g} dx/dt): "
-                    "the elastic forces are too stiff for the time step; lower the lattice shear rate "
-                    "(reynolds_number) or raise capillary_number"
-                )
-            raise FlowError(
-                f"an element inverted at step {self.time_step} (det F = {j_min:.3g}): the elastic time step is "
-                "unstable or the deformation too large; lower the lattice shear rate (reynolds_number) or use "
-                "a coarser mesh"
-            )
+            raise_flow_failure(self.time_step, j_min, max_speed)
+
+    def fluid_velocity_at(self, positions) -> np.ndarray:
+        """The fluid velocity (half-force corrected) interpolated at points (n, 3) in dx."""
+        return ibm.interpolate_lattice_velocity(self.lattice, positions, self.kernel)
+
+    def state_arrays(self) -> dict:
+        """The coupled state for a checkpoint (NumPy arrays)."""
+        return {**self.lattice.state_arrays(), "positions": self.positions,
+                "spread_positions": self._spread_positions, "has_spread": np.array(self._has_spread),
+                "time_step": np.array(self.time_step), "max_speed": np.array(self.max_speed)}  # fmt: skip
+
+    def load_state_arrays(self, data) -> None:
+        self.lattice.load_state_arrays(data)
+        self.positions[...] = data["positions"]
+        self._spread_positions[...] = data["spread_positions"]
+        self._has_spread = bool(data["has_spread"])
+        self.time_step = int(data["time_step"])
+        self.max_speed = float(data["max_speed"])
 
     # ------------------------------------------------------------------ reference path (public APIs only)
     def advance_reference(self, n_steps: int) -> None:
@@ -506,6 +549,8 @@ class ShearFlowParameters(BaseModel):
         allowed one; refused if it breaks a limit.
     max_steps_per_strain: refuse a run needing more LB steps per unit strain (1/shear_rate).
     dtype: LB storage precision.
+    backend: compute engine: "numba" (fused compiled CPU kernels, the fastest on a CPU) or "jax" (the same
+        physics in JAX on its default device: a GPU when JAX has CUDA/ROCm, else the CPU).
     """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
@@ -521,6 +566,7 @@ class ShearFlowParameters(BaseModel):
     lattice_shear_rate: float | None = None
     max_steps_per_strain: float = 1.0e6
     dtype: Literal["float32", "float64"] = "float32"
+    backend: Literal["numba", "jax"] = "numba"
 
     @model_validator(mode="after")
     def _check(self) -> ShearFlowParameters:
@@ -754,13 +800,12 @@ def shear_setup(cell, params: ShearFlowParameters, units: ShearUnits | None = No
     units = shear_lattice_units(cell, params) if units is None else units
     nx, ny, nz = units.shape
     u = units.wall_speed
-    lattice = Lattice(LatticeParams(units.shape, relaxation_time=units.relaxation_time, dtype=params.dtype,
-                                    wall_velocity=(-u, u), velocity_limit=max(params.velocity_limit, u) * 1.2))
+    lattice_params = LatticeParams(units.shape, relaxation_time=units.relaxation_time, dtype=params.dtype,
+                                   wall_velocity=(-u, u), velocity_limit=max(params.velocity_limit, u) * 1.2)
     profile = -u + 2.0 * u * (np.arange(ny) + 0.5) / ny
     velocity = np.zeros((3,) + units.shape)
     velocity[0] = profile[None, :, None]
-    lattice.initialize(velocity=velocity)
-    return ImmersedCell(lattice, cell, units.centre, units.radius, units.youngs_modulus, kernel=params.kernel)
+    return immersed_cell(params.backend, lattice_params, velocity, cell, units, params.kernel)
 
 
 def stationary_summary(series: dict, transient: float) -> dict:

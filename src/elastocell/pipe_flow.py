@@ -45,7 +45,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, model_validator
 
 from . import ibm
-from .flow import FlowError, ImmersedCell, shear_rate_limits
+from .flow import FlowError, ImmersedCell, immersed_cell, shear_rate_limits
 from .lattice import Lattice, LatticeParams
 from .observables import moments
 from .parameters import ParameterError
@@ -208,6 +208,8 @@ class PipeFlowParameters(BaseModel):
         a limit.
     max_steps_per_time: refuse a run needing more LB steps per unit time 1/gdot_w.
     dtype: LB storage precision.
+    backend: compute engine: "numba" (fused compiled CPU kernels, the fastest on a CPU) or "jax" (the same
+        physics in JAX on its default device: a GPU when JAX has CUDA/ROCm, else the CPU).
     """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
@@ -224,6 +226,7 @@ class PipeFlowParameters(BaseModel):
     lattice_wall_shear_rate: float | None = None
     max_steps_per_time: float = 1.0e6
     dtype: Literal["float32", "float64"] = "float32"
+    backend: Literal["numba", "jax"] = "numba"
 
     @model_validator(mode="after")
     def _check(self) -> PipeFlowParameters:
@@ -402,15 +405,14 @@ def pipe_setup(cell, params: PipeFlowParameters, units: PipeUnits | None = None)
     """Channel lattice (Poiseuille profile already established) and the immersed cell at its start."""
     units = pipe_lattice_units(cell, params) if units is None else units
     shape = units.shape
-    lattice = Lattice(LatticeParams(
+    lattice_params = LatticeParams(
         shape, relaxation_time=units.relaxation_time, dtype=params.dtype,
         solid=channel_solid(shape, units.channel_radius), body_force=(units.body_force, 0.0, 0.0),
-        velocity_limit=max(params.velocity_limit, units.centre_speed) * 1.2))
+        velocity_limit=max(params.velocity_limit, units.centre_speed) * 1.2)
     velocity = np.zeros((3,) + shape)
     velocity[0] = poiseuille_velocity(radial_distance(shape), units.body_force, units.viscosity,
                                       units.channel_radius)[None]
-    lattice.initialize(velocity=velocity)
-    return ImmersedCell(lattice, cell, units.centre, units.radius, units.youngs_modulus, kernel=params.kernel)
+    return immersed_cell(params.backend, lattice_params, velocity, cell, units, params.kernel)
 
 
 # =========================================================================== observables
@@ -465,7 +467,7 @@ class PipeRun(FlowRun):
         self.reference_extent = mesh.nodes.max(axis=0) - mesh.nodes.min(axis=0)
         """Undeformed extent of the mesh along x, y, z (units of R): the 2R of the strains."""
         self.volume0 = moments(self.system.positions_in_radii(), mesh.elements).volume
-        velocity = ibm.interpolate_lattice_velocity(self.system.lattice, self.system.positions, self.params.kernel)
+        velocity = self.system.fluid_velocity_at(self.system.positions)
         self._append(self._row(velocity, 0.0))
 
     def _measure(self) -> dict:

@@ -315,14 +315,9 @@ class FlowRun:
     def save(self, path: str | Path) -> None:
         """Write the complete state to ``path`` atomically (temporary file, then ``os.replace``)."""
         path = Path(path)
-        system, lattice = self.system, self.system.lattice
         arrays = {
             "version": np.array(CHECKPOINT_VERSION), "fingerprint": np.array(self.fingerprint()),
-            "storage": lattice._storage, "parity": np.array(lattice._parity),
-            "lattice_time_step": np.array(lattice.time_step), "force_density": lattice.force_density,
-            "positions": system.positions, "spread_positions": system._spread_positions,
-            "has_spread": np.array(system._has_spread), "time_step": np.array(system.time_step),
-            "max_speed": np.array(system.max_speed), "volume0": np.array(self.volume0),
+            **self.system.state_arrays(), "volume0": np.array(self.volume0),
             "elapsed": np.array(self.elapsed), "wall_time": np.array(self.wall_time_cumulative),
         }  # fmt: skip
         arrays.update(self._extra_state())
@@ -343,16 +338,7 @@ class FlowRun:
                     "resume", f"{path} was written for other cell or flow parameters: rerun without --resume "
                     "or with the original options",
                 )
-            system, lattice = self.system, self.system.lattice
-            lattice._storage[...] = data["storage"]
-            lattice._parity = int(data["parity"])
-            lattice.time_step = int(data["lattice_time_step"])
-            lattice.force_density[...] = data["force_density"]
-            system.positions[...] = data["positions"]
-            system._spread_positions[...] = data["spread_positions"]
-            system._has_spread = bool(data["has_spread"])
-            system.time_step = int(data["time_step"])
-            system.max_speed = float(data["max_speed"])
+            self.system.load_state_arrays(data)
             self.volume0 = float(data["volume0"])
             self.elapsed = float(data["elapsed"])
             self.wall_time_before = float(data["wall_time"]) if "wall_time" in data.files else self.elapsed

@@ -246,6 +246,21 @@ class Lattice:
         )
         self.time_step += n
 
+    # ------------------------------------------------------------------ checkpoints
+    backend = "numba"
+
+    def state_arrays(self) -> dict:
+        """Everything :meth:`load_state_arrays` needs to continue bit-identically (NumPy arrays)."""
+        field = np.zeros((3,) + self.shape, self.dtype) if self._force_field is None else self._force_field
+        return {"storage": self._storage, "parity": np.array(self._parity),
+                "lattice_time_step": np.array(self.time_step), "force_density": field}
+
+    def load_state_arrays(self, data) -> None:
+        self._storage[...] = data["storage"]
+        self._parity = int(data["parity"])
+        self.time_step = int(data["lattice_time_step"])
+        self.set_force_density(data["force_density"])
+
     # ------------------------------------------------------------------ observables
     def _moments(self) -> tuple[np.ndarray, np.ndarray]:
         """(rho - 1, u) from one compiled pass, storage dtype, solid nodes not yet masked."""
