@@ -99,6 +99,8 @@ def main(argv=None) -> int:
     parser.add_argument("--no-lbmpy", action="store_true", help="skip the lbmpy comparison")
     parser.add_argument("--no-cell", action="store_true", help="skip the runs with an immersed cell")
     parser.add_argument("--threads", type=int, default=THREADS, help="Numba threads (default 2)")
+    parser.add_argument("--backends", nargs="+", default=["numba"], choices=["numba", "jax"],
+                        help="numba (CPU kernels) and/or jax (JAX's default device, its own triad roofline)")
     args = parser.parse_args(argv)
 
     THREADS_SETTING["threads"] = args.threads
@@ -108,20 +110,20 @@ def main(argv=None) -> int:
     print(f"threads: {threads}   load average (1 min) before the run: {load:.2f} on {os.cpu_count()} CPUs")
     print(f"STREAM triad (numba, parallel, 3 x {TRIAD_ELEMENTS * 8 / 2**20:.0f} MiB): {bandwidth:.1f} GB/s")
     print(
-        f"{'size':>6} {'dtype':>8} {'MLUPS':>8} {'B/update':>9} {'roof MLUPS':>11} {'of roof':>8} {'CPU use':>8} "
+        f"{'backend':>7} {'size':>6} {'dtype':>8} {'MLUPS':>8} {'B/update':>9} {'roof MLUPS':>11} {'of roof':>8} {'CPU use':>8} "
         f"{'+cell MLUPS':>11} {'markers':>7} {'slowdown':>8}"
     )
     results = {}
-    for size in args.sizes:
-        for dtype in args.dtypes:
-            r = run_benchmark(size, dtype, with_cell=not args.no_cell, threads=threads)
+    for backend, size, dtype in ((b, s, d) for b in args.backends for s in args.sizes for d in args.dtypes):
+        r = run_benchmark(size, dtype, with_cell=not args.no_cell, threads=threads, backend=backend)
+        if backend == "numba":
             results[(size, r["dtype"])] = r
-            cell = (f"{r['mlups_with_cell']:11.1f} {r['markers']:7d} {r['with_cell_slowdown']:7.2f}x"
-                    if r["mlups_with_cell"] is not None else "")
-            print(
-                f"{size:>5}^3 {r['dtype']:>8} {r['mlups']:8.1f} {r['bytes_per_update']:9d} "
-                f"{r['roofline_mlups']:11.1f} {100 * r['roofline_fraction']:7.1f}% {r['cpu_utilisation']:7.2f}x {cell}"
-            )
+        cell = (f"{r['mlups_with_cell']:11.1f} {r['markers']:7d} {r['with_cell_slowdown']:7.2f}x"
+                if r["mlups_with_cell"] is not None else "")
+        print(
+            f"{backend:>7} {size:>5}^3 {r['dtype']:>8} {r['mlups']:8.1f} {r['bytes_per_update']:9d} "
+            f"{r['roofline_mlups']:11.1f} {100 * r['roofline_fraction']:7.1f}% {r['cpu_utilisation']:7.2f}x {cell}"
+        )
     if args.no_lbmpy:
         print("lbmpy: skipped (--no-lbmpy)")
     else:

@@ -324,7 +324,30 @@ def raise_flow_failure(time_step: int, j_min: float, max_speed: float) -> None:
     )
 
 
-class ImmersedCell:
+class MarkerState:
+    """What every backend's immersed cell exposes about its markers (positions in dx, radius R in dx)."""
+
+    positions: np.ndarray
+    radius: float
+    _marker_forces: np.ndarray
+    _velocity: np.ndarray
+
+    @property
+    def marker_forces(self) -> np.ndarray:
+        """Elastic nodal forces -dE/dx at the last spread (rho0 dx^4/dt^2), (n_nodes, 3)."""
+        return self._marker_forces
+
+    @property
+    def marker_velocities(self) -> np.ndarray:
+        """Fluid velocity interpolated at the markers in the last step (dx/dt), (n_nodes, 3)."""
+        return self._velocity
+
+    def positions_in_radii(self) -> np.ndarray:
+        """Node positions in units of R (origin at the lattice origin)."""
+        return self.positions / self.radius
+
+
+class ImmersedCell(MarkerState):
     """An elastic cell immersed in a lattice Boltzmann fluid (immersed boundary, every node a marker).
 
     Parameters
@@ -370,20 +393,6 @@ class ImmersedCell:
         self.time_step = 0
         self.max_speed = 0.0
         """Largest marker speed |u| (dx/dt) seen in the last :meth:`advance`."""
-
-    @property
-    def marker_forces(self) -> np.ndarray:
-        """Elastic nodal forces -dE/dx at the last spread (rho0 dx^4/dt^2), (n_nodes, 3)."""
-        return self._marker_forces
-
-    @property
-    def marker_velocities(self) -> np.ndarray:
-        """Fluid velocity interpolated at the markers in the last step (dx/dt), (n_nodes, 3)."""
-        return self._velocity
-
-    def positions_in_radii(self) -> np.ndarray:
-        """Node positions in units of R (origin at the lattice origin)."""
-        return self.positions / self.radius
 
     def advance(self, n_steps: int) -> None:
         """n_steps coupled steps in one compiled call; raises :class:`FlowError` on an inverted element or a

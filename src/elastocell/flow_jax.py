@@ -22,6 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import ibm
+from .flow import MarkerState, raise_flow_failure
 from .lattice.jax_backend import JaxLattice, LatticeTables, collide_and_stream, total_force
 from .lattice.stencil import VELOCITIES
 
@@ -123,7 +124,7 @@ def _coupled_steps(n_steps, deviations, positions, scale, gradient, min_jacobian
     return jax.lax.while_loop(running, body, init)
 
 
-class JaxImmersedCell:
+class JaxImmersedCell(MarkerState):
     """An elastic cell immersed in a :class:`JaxLattice` (same parameters, state and units as
     :class:`~elastocell.flow.ImmersedCell`, which documents them)."""
 
@@ -151,20 +152,6 @@ class JaxImmersedCell:
         self._gradient, self._min_jacobian = kernels["gradient"], kernels["min_jacobian"]
         self._setup = (tuple(lattice.shape), kernel, not lattice.params.has_walls, self.radius)
 
-    @property
-    def marker_forces(self) -> np.ndarray:
-        """Elastic nodal forces -dE/dx at the last spread (rho0 dx^4/dt^2), (n_nodes, 3)."""
-        return self._marker_forces
-
-    @property
-    def marker_velocities(self) -> np.ndarray:
-        """Fluid velocity interpolated at the markers in the last step (dx/dt), (n_nodes, 3)."""
-        return self._velocity
-
-    def positions_in_radii(self) -> np.ndarray:
-        """Node positions in units of R (origin at the lattice origin)."""
-        return self.positions / self.radius
-
     def fluid_velocity_at(self, positions) -> np.ndarray:
         """The fluid velocity (half-force corrected) interpolated at points (n, 3) in dx."""
         return ibm.interpolate(self.lattice.velocity(), positions, self.kernel, not self.lattice.params.has_walls)
@@ -172,8 +159,6 @@ class JaxImmersedCell:
     def advance(self, n_steps: int) -> None:
         """n_steps coupled steps in one compiled loop on the device; raises :class:`FlowError` as
         :meth:`ImmersedCell.advance` does."""
-        from .flow import raise_flow_failure
-
         n_steps = int(n_steps)
         if n_steps <= 0:
             return

@@ -35,7 +35,7 @@ import numpy as np
 
 from .. import materials  # noqa: F401  (sets jax_enable_x64 before jax is used)
 from .params import LatticeParams
-from .solver import Lattice
+from .solver import Lattice, step_count
 from .stencil import OPPOSITE, VELOCITIES, WEIGHTS, Q
 
 
@@ -206,9 +206,7 @@ class JaxLattice(Lattice):
     # ------------------------------------------------------------------ stepping
     def step(self, n: int = 1) -> None:
         """Advance n time steps in one compiled loop on the device."""
-        if int(n) != n or n < 0:
-            raise ValueError(f"n (number of steps) must be an integer >= 0, got {n!r}")
-        n = int(n)
+        n = step_count(n)
         if n == 0:
             return
         self._deviations = _run_steps(self._deviations, n, self._force_field, self._tables_jax)

@@ -39,6 +39,13 @@ def equilibrium_deviation(density, velocity) -> np.ndarray:
     return w * ((rho - 1.0) + rho * (3.0 * cu + 4.5 * cu * cu - 1.5 * usq))
 
 
+def step_count(n) -> int:
+    """n as a number of time steps (an integer >= 0); ValueError otherwise."""
+    if int(n) != n or n < 0:
+        raise ValueError(f"n (number of steps) must be an integer >= 0, got {n!r}")
+    return int(n)
+
+
 class Lattice:
     """D3Q19 lattice Boltzmann fluid (TRT or BGK, Guo forcing, half-way bounce-back).
 
@@ -230,9 +237,7 @@ class Lattice:
     # ------------------------------------------------------------------ time stepping
     def step(self, n: int = 1) -> None:
         """Advance n time steps (one compiled call; stream + collide + force + bounce-back)."""
-        if int(n) != n or n < 0:
-            raise ValueError(f"n (number of steps) must be an integer >= 0, got {n!r}")
-        n = int(n)
+        n = step_count(n)
         if n == 0:
             return
         self._parity = kernels.run_steps(
