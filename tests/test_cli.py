@@ -68,6 +68,23 @@ def test_module_entry_point_help():
     assert completed.returncode == 0 and "compress" in completed.stdout
 
 
+@pytest.mark.parametrize("arguments, named", [
+    (["compress", "--bogus", "1"], "--bogus"),                  # unknown option
+    (["compress", "--stiffness-ratio", "abc"], "--stiffness-ratio"),  # wrong type
+    (["shear", "--capillary-number", "0.1", "--backend", "cuda"], "--backend"),  # not a choice
+    (["compress"], "--out"),                                    # missing option
+])
+def test_usage_errors_are_one_line_naming_the_option_with_exit_code_2(tmp_path, arguments, named):
+    # The console command (elastocell.cli:main, also behind python -m elastocell) reports click's usage errors
+    # as one line, like every other user error, instead of a framed box.
+    out = [] if arguments == ["compress"] else ["--out", str(tmp_path / "x")]
+    completed = subprocess.run([sys.executable, "-m", "elastocell", *arguments, *out], capture_output=True, text=True)
+    assert completed.returncode == 2
+    lines = completed.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("elastocell: error:") and named in lines[0], completed.stderr
+    assert not (tmp_path / "x").exists()
+
+
 def test_equivalent_run_prints_summary_and_conflicting_flags_are_refused(tmp_path):
     result = runner.invoke(app, ["compress", "--out", str(tmp_path / "eq"), "--equivalent", "--delta-max", "0.05",
                                  "--steps", "1", "--mesh-size", "0.5", "--pole-size", "0.25"])

@@ -369,5 +369,34 @@ from .cli_lut import lut  # noqa: E402
 app.command("lut")(lut)
 
 
+def _click_exceptions():
+    """(UsageError, NoArgsIsHelpError, Abort) of the click that typer runs on (typer >= 0.26 vendors it)."""
+    try:
+        from typer._click.exceptions import NoArgsIsHelpError, UsageError
+    except ImportError:
+        from click.exceptions import NoArgsIsHelpError, UsageError
+    return UsageError, NoArgsIsHelpError, typer.Abort
+
+
+def main(argv: list[str] | None = None) -> None:
+    """The ``elastocell`` console command: the typer app, with a usage error (an unknown or missing option, a
+    value of the wrong type) reported as one line naming the option, exit code 2, as every other user error."""
+    usage_error, no_args_is_help, abort = _click_exceptions()
+    try:
+        code = app(args=argv, prog_name="elastocell", standalone_mode=False)
+    except no_args_is_help as error:
+        error.show()
+        raise SystemExit(error.exit_code) from None
+    except usage_error as error:
+        command = error.ctx.command_path if error.ctx is not None else "elastocell"
+        message = " ".join(error.format_message().split())
+        typer.echo(f"elastocell: error: {message} (see '{command} --help')", err=True)
+        raise SystemExit(2) from None
+    except abort:
+        typer.echo("elastocell: aborted", err=True)
+        raise SystemExit(130) from None
+    raise SystemExit(code if isinstance(code, int) else 0)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    app()
+    main()
