@@ -228,16 +228,65 @@ def test_jax_backend_coupled_steps_match_the_numba_kernels(coarse_cells, element
     assert np.abs(numba_system.marker_forces).max() > 1e-4  # large forces: the check is not trivial
 
 
-def test_jax_backend_stops_at_an_inverted_element_like_the_numba_kernels(coarse_cells):
-    # Reference: the Numba path's failure. A node pushed through its element makes det F <= 0 at the first
-    # step; both backends stop before that step and raise FlowError naming the inverted element.
+@pytest.mark.parametrize("kernel", KERNELS)
+@pytest.mark.parametrize("geometry", ["walls", "solid"])
+def test_jax_spreading_and_interpolation_match_ibm_at_walls_and_solids(kernel, geometry):
+    # Reference: elastocell.ibm (spread; interpolate_lattice_velocity, which reads u = 0 at solid nodes and drops
+    # kernel nodes beyond the y-walls). Markers are placed where the kernel support crosses a y-wall or covers
+    # solid nodes of a channel; random populations, force field and body force. float64 round-off (tolerance
+    # 1e-13 on forces of order 1 and velocities of order 0.01).
+    from elastocell import flow_jax
+    from elastocell.lattice.jax_backend import JaxLattice
+
+    rng = np.random.default_rng(11)
+    shape = (9, 12, 10)
+    if geometry == "walls":
+        params = LatticeParams(shape, relaxation_time=0.8, dtype="float64", wall_velocity=(-0.01, 0.01))
+        y = rng.choice([0.1, 0.6, 1.4, 10.2, 10.7, 10.95], 40)
+    else:
+        yy, zz = np.meshgrid(np.arange(shape[1]), np.arange(shape[2]), indexing="ij")
+        solid = np.broadcast_to(((yy - 5.5) ** 2 + (zz - 4.5) ** 2 > 4.2**2)[None], shape).copy()
+        params = LatticeParams(shape, relaxation_time=0.8, dtype="float64", solid=solid, body_force=(1e-3, 0, 0))
+        y = rng.uniform(1.5, 9.5, 40)
+    positions = np.column_stack([rng.uniform(-3, 12, 40), y, rng.uniform(0.5, 9.0, 40)])  # x unwrapped
+    forces = rng.standard_normal((40, 3))
+    periodic_y = not params.has_walls
+    flat, weights = flow_jax.kernel_stencil(flow_jax.jnp.asarray(positions), shape, kernel, periodic_y)
+    field = np.asarray(flow_jax.spread(flow_jax.jnp.asarray(forces), flat, weights, shape, np.float64))
+    np.testing.assert_allclose(field, ibm.spread(forces, positions, shape, kernel, periodic_y), rtol=0, atol=1e-13)
+    deviations = 0.01 * rng.standard_normal((19,) + shape)
+    numba_lattice, jax_lattice = Lattice(params), JaxLattice(params)
+    for lattice in (numba_lattice, jax_lattice):
+        lattice.set_population_deviations(deviations)
+        lattice.set_force_density(1e-3 * field)
+    expected = ibm.interpolate_lattice_velocity(numba_lattice, positions, kernel)
+    force = flow_jax.total_force(jax_lattice.force_density, jax_lattice._tables_jax, shape, np.float64)
+    velocity = flow_jax.interpolate_velocity(jax_lattice.deviations, force, flat, weights, jax_lattice._tables_jax.fluid)
+    np.testing.assert_allclose(np.asarray(velocity), expected, rtol=0, atol=1e-13)
+    assert np.abs(expected).max() > 1e-3  # the check is not trivial
+
+
+def _invert_first_element(system):
+    element = system.cell.mesh.elements[0]
+    system.positions[element[0]] = system.positions[element[1:4]].mean(axis=0) * 2 - system.positions[element[0]]
+
+
+def _poison_fluid(system):
+    system.lattice.set_population_deviations(np.full((19,) + system.lattice.shape, np.nan))
+
+
+@pytest.mark.parametrize("backend", ["numba", "jax"])
+@pytest.mark.parametrize("damage, message, steps_done", [(_invert_first_element, "inverted", 0),
+                                                          (_poison_fluid, "non-finite", 1)])
+def test_failures_stop_the_chunk_with_flow_error_on_both_backends(coarse_cells, backend, damage, message, steps_done):
+    # Reference: the Numba path's semantics. A node pushed through its element makes det F <= 0: the chunk stops
+    # before the first step. Non-finite populations give NaN marker velocities in the first (here also the last)
+    # step of the chunk: the step is counted and the fluid is reported non-finite.
     cell = coarse_cells["p1", "neo-hookean", "none"]
-    params = flow.ShearFlowParameters(capillary_number=0.05, resolution=3.0, confinement=0.3, box_length=4.0)
-    units = flow.shear_lattice_units(cell, params)
-    for backend in ("numba", "jax"):
-        system = flow.shear_setup(cell, params.model_copy(update={"backend": backend}), units)
-        element = cell.mesh.elements[0]
-        system.positions[element[0]] = system.positions[element[1:4]].mean(axis=0) * 2 - system.positions[element[0]]
-        with pytest.raises(flow.FlowError, match="inverted"):
-            system.advance(5)
-        assert system.time_step == 0
+    params = flow.ShearFlowParameters(capillary_number=0.05, resolution=3.0, confinement=0.3, box_length=4.0,
+                                      backend=backend)
+    system = flow.shear_setup(cell, params)
+    damage(system)
+    with pytest.raises(flow.FlowError, match=message):
+        system.advance(1 if damage is _poison_fluid else 5)
+    assert system.time_step == steps_done

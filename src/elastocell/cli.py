@@ -372,10 +372,14 @@ app.command("lut")(lut)
 def _click_exceptions():
     """(UsageError, NoArgsIsHelpError, Abort) of the click that typer runs on (typer >= 0.26 vendors it)."""
     try:
-        from typer._click.exceptions import NoArgsIsHelpError, UsageError
+        from typer._click import exceptions
     except ImportError:
-        from click.exceptions import NoArgsIsHelpError, UsageError
-    return UsageError, NoArgsIsHelpError, typer.Abort
+        from click import exceptions
+
+    class NoSuchException(Exception):
+        """Stands in for NoArgsIsHelpError where click has none (click < 8.2)."""
+
+    return exceptions.UsageError, getattr(exceptions, "NoArgsIsHelpError", NoSuchException), typer.Abort
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -71,19 +71,22 @@ def spread(forces, flat, weights, shape, dtype):
     return field.reshape((3,) + tuple(shape))
 
 
-def interpolate_velocity(deviations, force, flat, weights):
-    """u = (sum_i c_i d_i + F/2)/(1 + sum_i d_i) at the kernel nodes, weighted to the markers (n, 3)."""
+def interpolate_velocity(deviations, force, flat, weights, fluid=None):
+    """u = (sum_i c_i d_i + F/2)/(1 + sum_i d_i) at the kernel nodes (float64; 0 at solid nodes, where
+    ``fluid`` (nx, ny, nz) is False), weighted to the markers (n, 3)."""
     q = deviations.shape[0]
-    d = deviations.reshape(q, -1)[:, flat]  # (19, n, s^3)
+    d = deviations.reshape(q, -1)[:, flat].astype(jnp.float64)  # (19, n, s^3)
     drho = jnp.sum(d, axis=0)
-    momentum = jnp.einsum("ia,ins->ans", jnp.asarray(VELOCITIES, d.dtype), d)
+    momentum = jnp.einsum("ia,ins->ans", jnp.asarray(VELOCITIES, jnp.float64), d)
     if force is not None:
-        momentum = momentum + 0.5 * force.reshape(3, -1)[:, flat]
+        momentum = momentum + 0.5 * force.reshape(3, -1)[:, flat].astype(jnp.float64)
     u = momentum / (1.0 + drho)
-    return jnp.einsum("ans,ns->na", u.astype(weights.dtype), weights)
+    if fluid is not None:
+        u = jnp.where(fluid.reshape(-1)[flat], u, 0.0)
+    return jnp.einsum("ans,ns->na", u, weights)
 
 
-@partial(jax.jit, static_argnums=(4, 5, 6, 7))
+@partial(jax.jit, static_argnums=(4, 5, 7))
 def _coupled_steps(n_steps, deviations, positions, scale, gradient, min_jacobian, tables: LatticeTables,
                    setup: tuple):  # fmt: skip
     """Up to n_steps coupled steps; stops after an inverted element or a non-finite/absurd marker speed.
@@ -101,7 +104,7 @@ def _coupled_steps(n_steps, deviations, positions, scale, gradient, min_jacobian
         flat, weights = kernel_stencil(x, shape, kernel, periodic_y)
         field = spread(forces, flat, weights, shape, dtype)
         force = total_force(field, tables, shape, dtype)
-        velocity = interpolate_velocity(d, force, flat, weights)
+        velocity = interpolate_velocity(d, force, flat, weights, tables.fluid)
         speed = jnp.max(jnp.sum(velocity * velocity, axis=1))
         ok_elements = j > 0.0
         d_new = collide_and_stream(d, force, tables)
@@ -178,8 +181,10 @@ class JaxImmersedCell(MarkerState):
         self._velocity[...] = np.asarray(velocity)
         j_min, max_speed = float(j_min), float(np.sqrt(float(max_speed)))
         self.max_speed = max_speed
-        if done < n_steps:
-            raise_flow_failure(self.time_step, j_min if j_min <= 0 else -np.inf, max_speed)
+        if not max_speed < 1.0:  # NaN or absurd: the fluid blew up (possibly in the chunk's last step)
+            raise_flow_failure(self.time_step, -np.inf, max_speed)
+        if done < n_steps:  # stopped before a step that would invert an element
+            raise_flow_failure(self.time_step, j_min, max_speed)
 
     def state_arrays(self) -> dict:
         """The coupled state for a checkpoint (NumPy arrays)."""

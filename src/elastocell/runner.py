@@ -62,7 +62,7 @@ SERIES_COLUMNS = (
 )  # fmt: skip
 """Columns of the shear time series (see :class:`~elastocell.flow.ShearResult`)."""
 
-CHECKPOINT_VERSION = 1
+CHECKPOINT_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -317,7 +317,7 @@ class FlowRun:
         path = Path(path)
         arrays = {
             "version": np.array(CHECKPOINT_VERSION), "fingerprint": np.array(self.fingerprint()),
-            **self.system.state_arrays(), "volume0": np.array(self.volume0),
+            "backend": np.array(self.system.backend), **self.system.state_arrays(), "volume0": np.array(self.volume0),
             "elapsed": np.array(self.elapsed), "wall_time": np.array(self.wall_time_cumulative),
         }  # fmt: skip
         arrays.update(self._extra_state())
@@ -333,6 +333,11 @@ class FlowRun:
     def load(self, path: str | Path) -> None:
         """Restore the state saved by :meth:`save` (same cell, parameters and record interval)."""
         with np.load(path, allow_pickle=False) as data:
+            backend = str(data["backend"]) if "backend" in data.files else "numba"
+            if backend != self.system.backend:
+                raise ParameterError(
+                    "resume", f"{path} was written by the {backend} backend: resume with --backend {backend}"
+                )
             if int(data["version"]) != CHECKPOINT_VERSION or str(data["fingerprint"]) != self.fingerprint():
                 raise ParameterError(
                     "resume", f"{path} was written for other cell or flow parameters: rerun without --resume "

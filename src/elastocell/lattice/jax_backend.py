@@ -27,8 +27,6 @@ JAX path exists for accelerators.
 
 from __future__ import annotations
 
-from functools import partial
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -44,18 +42,23 @@ def default_device() -> str:
     return jax.default_backend()
 
 
+@jax.tree_util.register_pytree_node_class
 class LatticeTables:
-    """Static per-lattice data of a step, as JAX arrays: relaxation rates, bounce-back masks, wall terms."""
+    """Per-lattice data of a step: relaxation rates, body force and wall terms (static: part of the compiled
+    program, compared by value, so lattices with the same parameters share it) and the bounce-back masks
+    (device arrays passed to the compiled step, not baked into it)."""
 
-    def __init__(self, params: LatticeParams, dtype):
+    def __init__(self, params: LatticeParams | None, dtype=None):
+        if params is None:  # unflattening
+            return
         nx, ny, nz = params.shape
-        self.dtype = dtype
         self.omega_plus = float(1.0 / params.relaxation_time_plus)
         self.omega_minus = float(1.0 / params.relaxation_time_minus)
         self.body_force = tuple(float(g) for g in params.body_force)
         self.has_body_force = any(g != 0.0 for g in self.body_force)
         solid = params.solid
         self.has_solid = solid is not None and bool(solid.any())
+        self.bounce = self.fluid = None
         if self.has_solid:
             bounce = np.zeros((Q, nx, ny, nz), dtype=bool)
             for i in range(1, Q):
@@ -66,10 +69,25 @@ class LatticeTables:
             self.bounce = jnp.asarray(bounce)
             self.fluid = jnp.asarray(~solid)
         self.has_walls = bool(params.has_walls)
+        self.wall_bottom = self.wall_top = (0.0,) * Q
         if self.has_walls:
             bottom, top = (np.asarray(v, dtype=np.float64) for v in params.wall_velocity)
-            self.wall_bottom = 6.0 * WEIGHTS * (VELOCITIES @ bottom)  # for c_iy = +1, entering y = 0
-            self.wall_top = 6.0 * WEIGHTS * (VELOCITIES @ top)  # for c_iy = -1, entering y = ny - 1
+            self.wall_bottom = tuple(6.0 * WEIGHTS * (VELOCITIES @ bottom))  # for c_iy = +1, entering y = 0
+            self.wall_top = tuple(6.0 * WEIGHTS * (VELOCITIES @ top))  # for c_iy = -1, entering y = ny - 1
+
+    _STATIC = ("omega_plus", "omega_minus", "body_force", "has_body_force", "has_solid", "has_walls",
+               "wall_bottom", "wall_top")
+
+    def tree_flatten(self):
+        return (self.bounce, self.fluid), tuple(getattr(self, name) for name in self._STATIC)
+
+    @classmethod
+    def tree_unflatten(cls, static, arrays):
+        tables = cls(None)
+        tables.bounce, tables.fluid = arrays
+        for name, value in zip(cls._STATIC, static, strict=True):
+            setattr(tables, name, value)
+        return tables
 
 
 def moments(deviations, force, tables: LatticeTables):
@@ -125,14 +143,14 @@ def collide_and_stream(deviations, force, tables: LatticeTables):
     return new
 
 
-@partial(jax.jit, static_argnums=(3,))
+@jax.jit
 def _run_steps(deviations, n_steps, field, tables: LatticeTables):
     shape = deviations.shape[1:]
     force = total_force(field, tables, shape, deviations.dtype)
     return jax.lax.fori_loop(0, n_steps, lambda _, d: collide_and_stream(d, force, tables), deviations)
 
 
-@partial(jax.jit, static_argnums=(2,))
+@jax.jit
 def _moments(deviations, field, tables: LatticeTables):
     force = total_force(field, tables, deviations.shape[1:], deviations.dtype)
     return moments(deviations, force, tables)
@@ -155,7 +173,7 @@ class JaxLattice(Lattice):
         self.shape = tuple(params.shape)
         self.time_step = 0
         self._solid = params.solid
-        self._tables_jax = LatticeTables(params, self.dtype)
+        self._tables_jax = LatticeTables(params)
         self._deviations = jnp.zeros((Q,) + self.shape, dtype=self.dtype)
         self._force_field = None
         self.device = default_device()
@@ -218,7 +236,8 @@ class JaxLattice(Lattice):
 
     # ------------------------------------------------------------------ checkpoints
     def state_arrays(self) -> dict:
-        """Everything :meth:`load_state_arrays` needs to continue bit-identically (NumPy arrays)."""
+        """Everything :meth:`load_state_arrays` needs to continue (NumPy arrays): bit-identically on the CPU;
+        on a GPU the scatter-add of the immersed cell sums in a varying order."""
         field = np.zeros((3,) + self.shape, self.dtype) if self._force_field is None else np.asarray(self._force_field)
         return {"populations": np.asarray(self._deviations), "lattice_time_step": np.array(self.time_step),
                 "force_density": field}
