@@ -105,7 +105,11 @@ R_FZ = 28
 N_ROWS = 29
 BUFFER_LENGTH = N_ROWS * BLOCK
 
-FASTMATH = False
+FASTMATH = {"contract", "arcp", "reassoc", "nsz"}
+"""LLVM fast-math flags of the kernels: fused multiply-adds, reciprocal and reassociation (no ``nnan``/``ninf``,
+so a non-finite population still propagates and the runner's guards see it). Measured (128^3 float32, 2 threads):
+the local (even) AA step 92 -> 116 MLUPS, the neighbour (odd) step unchanged at 73 MLUPS; the float64 reference
+tests still agree to round-off."""
 
 U = np.uint64
 """Cast for z indices whose sign LLVM cannot prove: Numba skips the negative-index
