@@ -142,6 +142,12 @@ def _folded(problem: _Problem, x: np.ndarray) -> bool:
     return bool((z > problem.upper[problem.surface_z[0]] + slack).any() or (z < -1.0 - slack).any())
 
 
+STAGNATION_TOLERANCE = 1e-7
+"""Relative unbalanced force below which a Newton solve that stops making progress counts as converged."""
+STAGNATION_WINDOW = 3
+"""Iterations over which the residual must fall by half to count as progress."""
+
+
 def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: CompressionParameters,
             pattern) -> tuple[np.ndarray, int, bool, str, float | None]:
     """Projected Newton on E(x) subject to the plate bounds.
@@ -158,13 +164,17 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
     if not np.isfinite(energy):
         return x, 0, False, "inverted element in the predictor", None
     shift, last_shift = MIN_SHIFT, None
+    residuals: list[float] = []
     gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
     for iteration in range(1, parameters.max_newton_iterations + 1):
         active, at_lower, at_upper, residual, force_scale = _active_set(problem, x, gradient, pinned)
         if DEBUG:
             print(f"  it {iteration} residual {residual:.3e} dof {np.argmax(np.where(active, 0, np.abs(gradient)))} "
                   f"active {active.sum()} energy {energy:.12e}")
-        if residual < parameters.tolerance * force_scale:
+        residuals.append(residual / force_scale)
+        stagnated = (len(residuals) > STAGNATION_WINDOW and residuals[-1] < STAGNATION_TOLERANCE
+                     and residuals[-1] > 0.5 * residuals[-1 - STAGNATION_WINDOW])
+        if residual < parameters.tolerance * force_scale or stagnated:
             if _folded(problem, x):
                 return x, iteration - 1, False, FOLDED, last_shift
             return x, iteration - 1, True, "", last_shift
