@@ -282,6 +282,7 @@ def test_cli_shear_writes_the_contract_files_and_resumes(tmp_path):
                 "tank_treading_frequency", "lattice", "reynolds_number", "wall_time_s"):
         assert key in summary
     assert summary["capillary_number"] == 0.1 and summary["lattice"]["shape"] == [24, 20, 24]
+    assert summary["backend"] == "numba" and summary["device"] == "cpu"
     assert (out / "taylor_deformation.png").stat().st_size > 1000
     assert (out / "vtk" / "cell.pvd").exists() and len(list((out / "vtk").glob("cell_*.vtu"))) == 2
     assert (out / "vtk" / "fluid.pvd").exists()

@@ -296,6 +296,8 @@ class FlowRun:
             "time_stepping_session_s": self.session_elapsed,
             "lattice": self.units.as_dict(),
             "reynolds_number": self.units.reynolds_number,
+            "backend": self.system.backend,
+            "device": getattr(self.system.lattice, "device", "cpu"),
         }
 
     # ------------------------------------------------------------------ checkpoints
