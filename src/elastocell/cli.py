@@ -396,10 +396,10 @@ def main(argv: list[str] | None = None) -> None:
         message = " ".join(error.format_message().split())
         typer.echo(f"elastocell: error: {message} (see '{command} --help')", err=True)
         raise SystemExit(2) from None
-    except abort:
+    except (abort, KeyboardInterrupt):
         typer.echo("elastocell: aborted", err=True)
         raise SystemExit(130) from None
-    raise SystemExit(code if isinstance(code, int) else 0)
+    raise SystemExit(code if isinstance(code, int) and not isinstance(code, bool) else 0)
 
 
 if __name__ == "__main__":  # pragma: no cover

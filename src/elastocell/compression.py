@@ -171,7 +171,9 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
         if DEBUG:
             print(f"  it {iteration} residual {residual:.3e} dof {np.argmax(np.where(active, 0, np.abs(gradient)))} "
                   f"active {active.sum()} energy {energy:.12e}")
-        residuals.append(residual / force_scale)
+        # relative to the plate force itself (force_scale has a floor of E_c R^2 for the convergence test)
+        plate_force = float(np.abs(gradient[(at_lower | at_upper) & active]).sum()) / 2
+        residuals.append(residual / max(plate_force, 1e-300))
         stagnated = (len(residuals) > STAGNATION_WINDOW and residuals[-1] < STAGNATION_TOLERANCE
                      and residuals[-1] > 0.5 * residuals[-1 - STAGNATION_WINDOW])
         if residual < parameters.tolerance * force_scale or stagnated:

@@ -335,12 +335,15 @@ class FlowRun:
     def load(self, path: str | Path) -> None:
         """Restore the state saved by :meth:`save` (same cell, parameters and record interval)."""
         with np.load(path, allow_pickle=False) as data:
-            backend = str(data["backend"]) if "backend" in data.files else "numba"
+            if int(data["version"]) != CHECKPOINT_VERSION:
+                raise ParameterError("resume", f"{path} was written by another elastocell version: rerun without "
+                                     "--resume")
+            backend = str(data["backend"])
             if backend != self.system.backend:
                 raise ParameterError(
                     "resume", f"{path} was written by the {backend} backend: resume with --backend {backend}"
                 )
-            if int(data["version"]) != CHECKPOINT_VERSION or str(data["fingerprint"]) != self.fingerprint():
+            if str(data["fingerprint"]) != self.fingerprint():
                 raise ParameterError(
                     "resume", f"{path} was written for other cell or flow parameters: rerun without --resume "
                     "or with the original options",

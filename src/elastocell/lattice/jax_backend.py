@@ -240,12 +240,13 @@ class JaxLattice(Lattice):
         on a GPU the scatter-add of the immersed cell sums in a varying order."""
         field = np.zeros((3,) + self.shape, self.dtype) if self._force_field is None else np.asarray(self._force_field)
         return {"populations": np.asarray(self._deviations), "lattice_time_step": np.array(self.time_step),
-                "force_density": field}
+                "force_density": field, "has_force_density": np.array(self._force_field is not None)}
 
     def load_state_arrays(self, data) -> None:
         self._deviations = jnp.asarray(data["populations"], dtype=self.dtype)
         self.time_step = int(data["lattice_time_step"])
-        self._force_field = jnp.asarray(data["force_density"], dtype=self.dtype)
+        has_field = bool(data["has_force_density"])
+        self._force_field = jnp.asarray(data["force_density"], dtype=self.dtype) if has_field else None
 
     def __repr__(self) -> str:
         return "Jax" + super().__repr__() + f" on {self.device}"

@@ -258,13 +258,14 @@ class Lattice:
         """Everything :meth:`load_state_arrays` needs to continue bit-identically (NumPy arrays)."""
         field = np.zeros((3,) + self.shape, self.dtype) if self._force_field is None else self._force_field
         return {"storage": self._storage, "parity": np.array(self._parity),
-                "lattice_time_step": np.array(self.time_step), "force_density": field}
+                "lattice_time_step": np.array(self.time_step), "force_density": field,
+                "has_force_density": np.array(self._force_field is not None)}
 
     def load_state_arrays(self, data) -> None:
         self._storage[...] = data["storage"]
         self._parity = int(data["parity"])
         self.time_step = int(data["lattice_time_step"])
-        self.set_force_density(data["force_density"])
+        self.set_force_density(data["force_density"] if bool(data["has_force_density"]) else None)
 
     # ------------------------------------------------------------------ observables
     def _moments(self) -> tuple[np.ndarray, np.ndarray]:
