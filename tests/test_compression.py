@@ -125,3 +125,16 @@ def test_unreachable_deformation_is_reported():
         compress(cell, CompressionParameters(delta_max=0.95, steps=2, max_newton_iterations=3))
     partial = caught.value.partial  # the converged rows are kept
     assert partial is not None and partial.delta[0] == 0 and len(partial.delta) == len(partial.force)
+
+
+def test_newton_stagnation_accepts_a_plateau_below_1e7_only():
+    # The Newton acceptance for a creeping solve (measured: 7,705-node p2 mesh at delta 0.51, relative unbalanced
+    # force 5.8e-9 -> 6.9e-9 over 20 iterations along an unstable direction) must not cut quadratic convergence
+    # short, nor accept a plateau above the 1e-7 threshold.
+    from elastocell.compression import stagnated
+
+    assert stagnated([1e-2, 4e-3, 6e-9, 5.8e-9, 6.1e-9, 6.5e-9])  # the measured plateau
+    assert not stagnated([1e-2, 1e-4, 1e-8, 1e-16])  # quadratic convergence
+    assert not stagnated([3e-8, 2e-8, 1.2e-8])  # too few iterations to judge
+    assert not stagnated([1e-3, 9e-4, 9.5e-4, 9.7e-4, 9.9e-4])  # a plateau far from equilibrium
+    assert not stagnated([4e-8, 2e-8, 1e-8, 0.6e-8, 0.4e-8])  # slow but still halving: 0.4e-8 < 0.5 * 2e-8

@@ -148,6 +148,13 @@ STAGNATION_WINDOW = 3
 """Iterations over which the residual must fall by half to count as progress."""
 
 
+def stagnated(residuals: list[float]) -> bool:
+    """True when the relative unbalanced forces of successive Newton iterates have reached a plateau below
+    :data:`STAGNATION_TOLERANCE`: the last one did not halve over :data:`STAGNATION_WINDOW` iterations."""
+    return (len(residuals) > STAGNATION_WINDOW and residuals[-1] < STAGNATION_TOLERANCE
+            and residuals[-1] > 0.5 * residuals[-1 - STAGNATION_WINDOW])
+
+
 def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: CompressionParameters,
             pattern) -> tuple[np.ndarray, int, bool, str, float | None]:
     """Projected Newton on E(x) subject to the plate bounds.
@@ -174,9 +181,7 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
         # relative to the plate force itself (force_scale has a floor of E_c R^2 for the convergence test)
         plate_force = float(np.abs(gradient[(at_lower | at_upper) & active]).sum()) / 2
         residuals.append(residual / max(plate_force, 1e-300))
-        stagnated = (len(residuals) > STAGNATION_WINDOW and residuals[-1] < STAGNATION_TOLERANCE
-                     and residuals[-1] > 0.5 * residuals[-1 - STAGNATION_WINDOW])
-        if residual < parameters.tolerance * force_scale or stagnated:
+        if residual < parameters.tolerance * force_scale or stagnated(residuals):
             if _folded(problem, x):
                 return x, iteration - 1, False, FOLDED, last_shift
             return x, iteration - 1, True, "", last_shift
