@@ -20,7 +20,7 @@ import numpy as np
 
 from . import materials  # noqa: F401  (enables float64 in JAX before any array is made)
 from .elements import ElementGeometry, reference_element
-from .materials import Law, law
+from .materials import Law, determinant, law
 from .mesh import NUCLEUS, CellMesh, build_mesh
 from .parameters import CellParameters
 
@@ -126,14 +126,14 @@ class Cell:
         def stresses(x):
             f = deformation_gradients(x)
             piola = jax.vmap(jax.vmap(jax.grad(lambda ff, p: energy_law(ff, p)), in_axes=(0, None)))(f, params)
-            j = jnp.linalg.det(f)
+            j = determinant(f)
             sigma = piola @ jnp.swapaxes(f, -1, -2) / j[..., None, None]
             return jnp.einsum("eq,eqij->eij", weights, sigma) / jnp.sum(weights, axis=1)[:, None, None]
 
         self._kernels.update(
             energy=jax.jit(energy),
             gradient=jax.jit(jax.grad(energy)),
-            min_jacobian=jax.jit(lambda x: jnp.min(jnp.linalg.det(deformation_gradients(x)))),
+            min_jacobian=jax.jit(lambda x: jnp.min(determinant(deformation_gradients(x)))),
             hessians=jax.jit(element_hessians),
             stresses=jax.jit(stresses),
         )
@@ -174,7 +174,13 @@ class Cell:
 
 
 class StiffnessPattern:
-    """CSR sparsity pattern of the global stiffness and the map from element-matrix entries into it."""
+    """CSR sparsity pattern of the global stiffness and the maps from element-matrix entries into it.
+
+    The full matrix (``assemble``) serves general use; the Newton solvers work on its upper triangle
+    (``assemble_upper``, row <= col), the symmetric storage the factorisation reads, assembled by one sparse
+    matrix-vector product with a fixed 0/1 operator (1.0 against 5.0 ms for the full bincount, 1,592-node p2
+    mesh).
+    """
 
     def __init__(self, elements: np.ndarray, n_nodes: int):
         import scipy.sparse as sp
@@ -189,20 +195,64 @@ class StiffnessPattern:
         self.rows = (unique_keys // n).astype(np.int64)
         self.cols = (unique_keys % n).astype(np.int64)
         self.shape = (n, n)
-        indptr = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(np.bincount(self.rows, minlength=n), out=indptr[1:])
-        self._template = sp.csr_matrix((np.zeros(len(unique_keys)), self.cols, indptr), shape=self.shape)
+        self._template = _csr(np.zeros(len(unique_keys)), self.rows, self.cols, self.shape)
         self.diagonal_entries = np.flatnonzero(self.rows == self.cols)
+        # upper triangle: its rows and columns, where the diagonal sits among them, and the operator that sums
+        # the element-matrix entries into it
+        upper = np.flatnonzero(self.rows <= self.cols)
+        self.upper_rows, self.upper_cols = self.rows[upper], self.cols[upper]
+        self.upper_diagonal = np.flatnonzero(self.upper_rows == self.upper_cols)
+        self._upper_template = _csr(np.zeros(len(upper)), self.upper_rows, self.upper_cols, self.shape)
+        position = np.full(len(unique_keys), -1, dtype=np.int64)
+        position[upper] = np.arange(len(upper))
+        entries = np.flatnonzero(rows <= cols)
+        self._upper_assembly = sp.csr_matrix(
+            (np.ones(len(entries)), (position[self.entry_to_data[entries]], entries)), shape=(len(upper), rows.size)
+        )
 
     @property
     def nnz(self) -> int:
         return len(self.rows)
 
     def assemble(self, element_matrices: np.ndarray):
+        """The full global matrix (CSR) from the element matrices (n_elements, 3k, 3k)."""
         data = np.bincount(self.entry_to_data, weights=element_matrices.ravel(), minlength=self.nnz)
         matrix = self._template.copy()
         matrix.data = data
         return matrix
+
+    def assemble_upper(self, element_matrices: np.ndarray):
+        """The upper triangle (CSR, sorted indices, row <= col) of the global matrix."""
+        matrix = self._upper_template.copy()
+        matrix.data = self._upper_assembly @ element_matrices.ravel()
+        return matrix
+
+    def constrained_upper(self, upper, constrained: np.ndarray, regularisation: float = 0.0):
+        """Copy of the upper triangle ``upper`` with the ``constrained`` dofs' rows and columns zeroed and
+        their diagonal set to the mean diagonal magnitude; ``regularisation`` (relative to that mean) is added
+        to the free diagonal: it changes a Newton path, never an equilibrium. The pattern is kept, so a
+        factorisation's symbolic analysis can be reused."""
+        data = upper.data.copy()
+        data[constrained[self.upper_rows] | constrained[self.upper_cols]] = 0.0
+        diagonal = self.upper_diagonal
+        scale = np.abs(upper.data[diagonal]).mean()
+        data[diagonal] = np.where(constrained[self.upper_rows[diagonal]], scale, data[diagonal] + regularisation * scale)
+        result = self._upper_template.copy()
+        result.data = data
+        return result
+
+    def symmetric_product(self, upper, vector: np.ndarray) -> np.ndarray:
+        """K v for the symmetric K whose upper triangle is ``upper``."""
+        return upper @ vector + upper.T @ vector - upper.data[self.upper_diagonal] * vector
+
+
+def _csr(data: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int]):
+    """CSR matrix from entries already sorted by (row, col)."""
+    import scipy.sparse as sp
+
+    indptr = np.zeros(shape[0] + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=shape[0]), out=indptr[1:])
+    return sp.csr_matrix((data, cols, indptr), shape=shape)
 
 
 def element_stiffness_ratios(parameters: CellParameters, mesh: CellMesh) -> np.ndarray:

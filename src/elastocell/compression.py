@@ -33,11 +33,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .cell import Cell
-from .linalg import SparseSolver, constrain
+from .linalg import SparseSolver
 from .parameters import CompressionParameters
 
 DEBUG = bool(os.environ.get('ELASTOCELL_DEBUG'))
 MIN_SHIFT, MAX_SHIFT = 1e-10, 1e3  # Levenberg-Marquardt diagonal shift relative to the mean diagonal
+FORCE_FLOOR = 1e-4  # smallest force scale of the convergence test (E_c R^2; the plate force near delta = 0.005)
 MAX_NODE_STEP = 0.05  # largest nodal move of one Newton iteration (units of R)
 
 
@@ -76,12 +77,23 @@ class CompressionResult:
 
 
 @dataclass
+class _Factorised:
+    """The system the linear solver has factorised: its held dofs, Levenberg-Marquardt shift and (upper)
+    stiffness. Later solves with the same held dofs may reuse it instead of factorising again."""
+
+    held: np.ndarray
+    shift: float
+    stiffness: object
+
+
+@dataclass
 class _Problem:
     cell: Cell
     surface_z: np.ndarray  # z dof indices of surface nodes
     pinned: np.ndarray  # dof indices held to remove rigid modes
     lower: np.ndarray
     upper: np.ndarray
+    factorised: _Factorised | None = None  # what the linear solver holds now
 
     def set_delta(self, delta: float) -> None:
         self.upper[self.surface_z] = 1.0 - 2.0 * delta
@@ -123,8 +135,8 @@ def _active_set(problem: _Problem, x: np.ndarray, gradient: np.ndarray, pinned: 
     at_upper = x >= problem.upper
     active = (at_lower & (gradient > 0)) | (at_upper & (gradient < 0)) | pinned
     residual = float(np.abs(gradient[~active]).max())
-    # unbalanced force relative to the plate force (or to E_c R^2 before the plates carry any)
-    force_scale = max(1.0, float(np.abs(gradient[(at_lower | at_upper) & active]).sum()) / 2)
+    # unbalanced force relative to the plate force (with a floor before the plates carry any)
+    force_scale = max(FORCE_FLOOR, float(np.abs(gradient[(at_lower | at_upper) & active]).sum()) / 2)
     return active, at_lower, at_upper, residual, force_scale
 
 
@@ -155,13 +167,52 @@ def stagnated(residuals: list[float]) -> bool:
             and residuals[-1] > 0.5 * residuals[-1 - STAGNATION_WINDOW])
 
 
+def _descends(rhs: np.ndarray, direction: np.ndarray) -> bool:
+    return bool(np.all(np.isfinite(direction))
+                and rhs @ direction > 1e-8 * np.linalg.norm(rhs) * np.linalg.norm(direction))
+
+
+def _into_plate(direction: np.ndarray, at_lower, at_upper, active) -> np.ndarray:
+    """Free dofs on a plate that ``direction`` pushes into it."""
+    return ((at_lower & (direction < 0)) | (at_upper & (direction > 0))) & ~active
+
+
+def _newton_direction(problem: _Problem, x: np.ndarray, gradient: np.ndarray, solver: SparseSolver, pattern,
+                      active: np.ndarray, at_lower, at_upper, shift: float):
+    """(direction, shift, held dofs) of a full Newton iteration with the stiffness at ``x``; direction None
+    when no shift gives a descent direction.
+
+    Levenberg-Marquardt safeguard: where the stiffness restricted to the free dofs is indefinite (far from
+    equilibrium, or a faceted surface touching a plate at one node), its diagonal is shifted until the
+    factorisation (Cholesky) succeeds (or, with SuperLU, which cannot tell, until the step descends)."""
+    cell = problem.cell
+    problem.factorised = None
+    stiffness = pattern.assemble_upper(cell.element_stiffness(x.reshape(-1, 3)))
+    rhs = np.where(active, 0.0, -gradient)
+    for _ in range(4):
+        direction, shift = _shifted_newton_direction(solver, stiffness, pattern, active, rhs, shift)
+        if direction is None:
+            return None, shift, active
+        # A node on a plate with a tensile force is free, but the coupled Newton step may still push it
+        # into the plate; the projection would then clip it at every iteration and stall the solver.
+        # Hold such nodes for this iteration and solve again.
+        blocked = _into_plate(direction, at_lower, at_upper, active)
+        if not blocked.any():
+            break
+        active = active | blocked
+        rhs = np.where(active, 0.0, -gradient)
+    problem.factorised = _Factorised(active.copy(), shift, stiffness)
+    return direction, shift, active
+
+
 def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: CompressionParameters,
             pattern) -> tuple[np.ndarray, int, bool, str, float | None]:
     """Projected Newton on E(x) subject to the plate bounds.
 
     Returns (x, iterations, converged, reason, last_shift): ``last_shift`` is the Levenberg-Marquardt shift of
-    the last factorisation (None if none was needed); MIN_SHIFT means PARDISO found no negative eigenvalue of
-    the free-dof stiffness at the last iterate, i.e. (to within that step) the equilibrium is a minimum."""
+    the last factorisation (None if none was needed); MIN_SHIFT means PARDISO's Cholesky factorisation of the
+    free-dof stiffness at the last factorised iterate succeeded (no negative eigenvalue), i.e. (to within
+    that step) the equilibrium is a minimum."""
     cell = problem.cell
     pinned = np.zeros(x.size, dtype=bool)
     pinned[problem.pinned] = True
@@ -178,32 +229,19 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
         if DEBUG:
             print(f"  it {iteration} residual {residual:.3e} dof {np.argmax(np.where(active, 0, np.abs(gradient)))} "
                   f"active {active.sum()} energy {energy:.12e}")
-        # relative to the plate force itself (force_scale has a floor of E_c R^2 for the convergence test)
+        # relative to the plate force itself (force_scale has a floor for the convergence test)
         plate_force = float(np.abs(gradient[(at_lower | at_upper) & active]).sum()) / 2
         residuals.append(residual / max(plate_force, 1e-300))
         if residual < parameters.tolerance * force_scale or stagnated(residuals):
             if _folded(problem, x):
                 return x, iteration - 1, False, FOLDED, last_shift
             return x, iteration - 1, True, "", last_shift
-        stiffness = cell.stiffness_pattern.assemble(cell.element_stiffness(x.reshape(-1, 3)))
-        rhs = np.where(active, 0.0, -gradient)
-        # Levenberg-Marquardt safeguard: where the stiffness restricted to the free dofs is indefinite (far
-        # from equilibrium, or a faceted surface touching a plate at one node), shift its diagonal until the
-        # factorisation has no negative eigenvalue (or, without inertia, until the step descends).
-        shift = max(MIN_SHIFT, shift * 1e-4)  # start near the last accepted shift
-        for _ in range(4):
-            direction, shift = _shifted_newton_direction(solver, stiffness, pattern, active, rhs, shift)
-            last_shift = shift
-            if direction is None:
-                return x, iteration, False, "no descent direction", last_shift
-            # A node on a plate with a tensile force is free, but the coupled Newton step may still push it
-            # into the plate; the projection would then clip it at every iteration and stall the solver.
-            # Hold such nodes for this iteration and solve again.
-            blocked = ((at_lower & (direction < 0)) | (at_upper & (direction > 0))) & ~active
-            if not blocked.any():
-                break
-            active = active | blocked
-            rhs = np.where(active, 0.0, -gradient)
+        shift = max(MIN_SHIFT, shift * 1e-2)  # start one rung below the last accepted shift
+        direction, shift, active = _newton_direction(problem, x, gradient, solver, pattern, active, at_lower,
+                                                     at_upper, shift)
+        last_shift = shift
+        if direction is None:
+            return x, iteration, False, "no descent direction", last_shift
         largest = np.abs(direction).max()
         if largest > MAX_NODE_STEP:
             direction *= MAX_NODE_STEP / largest
@@ -228,19 +266,23 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
 
 def is_saddle(problem: _Problem, x: np.ndarray, solver: SparseSolver, pattern) -> bool:
     """True when the equilibrium ``x`` is a saddle of the discrete energy: the stiffness restricted to the free
-    dofs (contacts and rigid-mode pins held) has a negative eigenvalue, counted by PARDISO's inertia (SciPy's
-    fallback cannot count and reports False)."""
+    dofs (contacts and rigid-mode pins held) has a negative eigenvalue, i.e. PARDISO's Cholesky factorisation
+    of it fails (SciPy's fallback cannot tell and reports False)."""
     cell = problem.cell
     pinned = np.zeros(x.size, dtype=bool)
     pinned[problem.pinned] = True
     gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
     active = _active_set(problem, x, gradient, pinned)[0]
-    stiffness = cell.stiffness_pattern.assemble(cell.element_stiffness(x.reshape(-1, 3)))
-    system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, active, MIN_SHIFT)
+    stiffness = cell.stiffness_pattern.assemble_upper(cell.element_stiffness(x.reshape(-1, 3)))
+    system = pattern.constrained_upper(stiffness, active, MIN_SHIFT)
+    problem.factorised = None
     try:
-        return bool(solver.factorize(system))
+        not_definite = solver.factorize(system)
     except Exception:
         return False
+    if not_definite is False:
+        problem.factorised = _Factorised(active, MIN_SHIFT, stiffness)
+    return bool(not_definite)
 
 
 def _shifted_newton_direction(solver: SparseSolver, stiffness, pattern, active: np.ndarray, rhs: np.ndarray,
@@ -248,14 +290,14 @@ def _shifted_newton_direction(solver: SparseSolver, stiffness, pattern, active: 
     """Newton direction with the smallest Levenberg-Marquardt shift (x100 ladder from ``shift``) for which the
     factorised free-dof stiffness has no negative eigenvalue and the direction descends."""
     while shift <= MAX_SHIFT:
-        system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, active, shift)
+        system = pattern.constrained_upper(stiffness, active, shift)
         try:
             negative = solver.factorize(system)
         except Exception:  # a singular or failed factorisation: shift more
             negative = 1
         if not negative:
             direction = solver.solve(rhs)
-            if np.all(np.isfinite(direction)) and rhs @ direction > 1e-8 * np.linalg.norm(rhs) * np.linalg.norm(direction):
+            if _descends(rhs, direction):
                 return direction, shift
         shift *= 100
     return None, shift
@@ -263,7 +305,9 @@ def _shifted_newton_direction(solver: SparseSolver, stiffness, pattern, active: 
 
 def _tangent_predictor(problem: _Problem, x: np.ndarray, increment: float, solver: SparseSolver, pattern) -> np.ndarray:
     """Linearised response to moving the upper plate by -2 increment with the current contact set held:
-    K_ff du_f = -K_fc du_c, du = -2 increment on upper contacts, 0 on lower contacts and pins."""
+    K_ff du_f = -K_fc du_c, du = -2 increment on upper contacts, 0 on lower contacts and pins. The stiffness
+    is the one the last Newton iteration factorised when it held the same dofs (an iterate or two before the
+    converged ``x``: a guess needs no more), otherwise the stiffness at ``x``."""
     cell = problem.cell
     gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
     upper = (x >= problem.upper) & (gradient < 0)
@@ -271,16 +315,21 @@ def _tangent_predictor(problem: _Problem, x: np.ndarray, increment: float, solve
     held = upper | lower
     held[problem.pinned] = True
     prescribed = np.where(upper, -2.0 * increment, 0.0)
-    stiffness = cell.stiffness_pattern.assemble(cell.element_stiffness(x.reshape(-1, 3)))
-    rhs = -(stiffness @ prescribed)
+    factorised = problem.factorised
+    if factorised is not None and factorised.shift == MIN_SHIFT and np.array_equal(factorised.held, held):
+        stiffness = factorised.stiffness
+    else:
+        stiffness = pattern.assemble_upper(cell.element_stiffness(x.reshape(-1, 3)))
+        problem.factorised = None
+        try:
+            indefinite = solver.factorize(pattern.constrained_upper(stiffness, held, MIN_SHIFT))
+        except Exception:
+            indefinite = True
+        if indefinite:
+            return x + prescribed  # fall back to moving only the contacts
+        problem.factorised = _Factorised(held, MIN_SHIFT, stiffness)
+    rhs = -pattern.symmetric_product(stiffness, prescribed)
     rhs[held] = 0.0
-    system = constrain(stiffness, pattern.rows, pattern.cols, pattern.diagonal_entries, held, MIN_SHIFT)
-    try:
-        indefinite = solver.factorize(system)
-    except Exception:
-        indefinite = 1
-    if indefinite:
-        return x + prescribed  # fall back to moving only the contacts
     return x + solver.solve(rhs) + prescribed
 
 
@@ -345,7 +394,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
             rows_lower.append(force_lower)
             rows_positions.append(x.copy())
             rows_contacts.append(contacts)
-            # the last factorisation's inertia answers for free when it needed no shift; otherwise check
+            # the last factorisation answers for free when it needed no shift; otherwise check
             rows_unstable.append(row_shift != MIN_SHIFT and is_saddle(problem, x, linear_solver, pattern))
             if progress is not None:
                 progress(delta)

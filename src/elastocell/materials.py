@@ -33,9 +33,18 @@ def bulk_modulus(youngs_modulus, poisson_ratio):
     return youngs_modulus / (3 * (1 - 2 * poisson_ratio))
 
 
+def determinant(matrix):
+    """det of 3x3 matrices (last two axes) by the cofactor expansion: exact to round-off and, unlike
+    ``jnp.linalg.det`` (an LU factorisation), cheap to differentiate twice."""
+    m = matrix
+    return (m[..., 0, 0] * (m[..., 1, 1] * m[..., 2, 2] - m[..., 1, 2] * m[..., 2, 1])
+            - m[..., 0, 1] * (m[..., 1, 0] * m[..., 2, 2] - m[..., 1, 2] * m[..., 2, 0])
+            + m[..., 0, 2] * (m[..., 1, 0] * m[..., 2, 1] - m[..., 1, 1] * m[..., 2, 0]))
+
+
 def _invariants(deformation_gradient):
     right_cauchy_green = jnp.swapaxes(deformation_gradient, -1, -2) @ deformation_gradient
-    volume_ratio = jnp.linalg.det(deformation_gradient)
+    volume_ratio = determinant(deformation_gradient)
     first = jnp.trace(right_cauchy_green, axis1=-2, axis2=-1)
     second = 0.5 * (first**2 - jnp.sum(right_cauchy_green * right_cauchy_green, axis=(-2, -1)))
     return volume_ratio, first, second
