@@ -2,11 +2,14 @@
 same problem solved by FElupe (a peer FE code, if installed) in the same run.
 
     python benchmarks/compression.py [--cell homogeneous|reference] [--quick] [--no-peer]
+        [--meshes p2:0.3:0.08 ...] [--reference-forces F0.1 F0.3 F0.5 F0.7]
 
 For each mesh: nodes, wall time of a full curve (0 -> 0.75, 40 steps; meshes and compiled code cached, i.e.
 a warm-up run first), Newton iterations, factorisations, and F at delta = 0.1, 0.3, 0.5, 0.7 with its error
 against the finest p2 mesh (the mesh-converged reference; its own error is estimated from the next-finest).
-Prints a table; timings are measurements of this machine, never asserted.
+Prints a table; timings are measurements of this machine, never asserted. ``--meshes`` runs only the given
+meshes (``element:mesh_size:pole_size``) and ``--reference-forces`` takes the converged F at the four deltas from
+an earlier full run instead of the finest mesh of this one (then every p2 mesh also runs on the peer).
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ MESHES = [  # (element, mesh_size, pole_size)
     ("p1", 0.12, 0.03),
     ("p2", 0.5, 0.15),
     ("p2", 0.35, 0.1),
-    ("p2", 0.3, 0.07),
+    ("p2", 0.3, 0.08),
     ("p2", 0.2, 0.05),
     ("p2", 0.15, 0.035),
 ]
@@ -51,26 +54,69 @@ def run(element: str, mesh_size: float, pole_size: float, cell_kind: str, steps:
     }
 
 
+def richardson(h: list[float], forces: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(observed order p, extrapolated F) per delta from three meshes F(h) = F* + C h^p, h decreasing. Where
+    the differences change sign or p leaves [0.5, 4] (not asymptotic), p is NaN and F* the finest value."""
+    h1, h2, h3 = h
+    f1, f2, f3 = (np.asarray(f, dtype=float) for f in forces)
+    orders, limits = [], []
+    for a, b, c in zip(f1, f2, f3, strict=True):
+        ratio = (a - b) / (b - c) if b != c else np.nan
+
+        def mismatch(p, ratio=ratio):
+            return (h1**p - h2**p) / (h2**p - h3**p) - ratio
+
+        low, high = 0.5, 4.0
+        if not (ratio > 0 and mismatch(low) * mismatch(high) < 0):
+            orders.append(np.nan)
+            limits.append(c)
+            continue
+        for _ in range(60):
+            middle = 0.5 * (low + high)
+            low, high = (middle, high) if mismatch(low) * mismatch(middle) > 0 else (low, middle)
+        p = 0.5 * (low + high)
+        orders.append(p)
+        limits.append(c - (b - c) * h3**p / (h2**p - h3**p))
+    return np.array(orders), np.array(limits)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--cell", choices=["homogeneous", "reference"], default="homogeneous")
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--no-peer", action="store_true")
     parser.add_argument("--steps", type=int, default=40)
+    parser.add_argument("--meshes", nargs="+", metavar="ELEMENT:H:H_POLE")
+    parser.add_argument("--reference-forces", nargs=4, type=float, metavar="F")
     args = parser.parse_args()
     meshes = QUICK_MESHES if args.quick else MESHES
+    if args.meshes:
+        meshes = [(m.split(":")[0], float(m.split(":")[1]), float(m.split(":")[2])) for m in args.meshes]
     rows = []
     for element, mesh_size, pole_size in meshes:
         row = run(element, mesh_size, pole_size, args.cell, args.steps)
         rows.append(row)
         print(f"  done {element} h={mesh_size} hp={pole_size}: {row['nodes']} nodes, {row['seconds']:.1f} s", flush=True)
     quadratic = [r for r in rows if r["element"] == "p2"]
-    reference = max(quadratic, key=lambda r: r["nodes"])
-    second = sorted(quadratic, key=lambda r: r["nodes"])[-2]
-    ref_error = np.abs(second["force"] / reference["force"] - 1)
     print(f"\nCompression benchmark, {args.cell} cell, {args.steps} steps to delta 0.75")
-    print(f"reference: p2 {reference['nodes']} nodes; its next-finest differs by "
-          + ", ".join(f"{e:.2%}" for e in ref_error) + " at delta " + ", ".join(f"{d:g}" for d in DELTAS))
+    if args.reference_forces:
+        reference = {"force": np.array(args.reference_forces), "nodes": None}
+        print("reference: F = " + ", ".join(f"{f:g}" for f in reference["force"]) + " (given)")
+    else:
+        reference = max(quadratic, key=lambda r: r["nodes"])
+        second = sorted(quadratic, key=lambda r: r["nodes"])[-2]
+        ref_error = np.abs(second["force"] / reference["force"] - 1)
+        print(f"reference: p2 {reference['nodes']} nodes; its next-finest differs by "
+              + ", ".join(f"{e:.2%}" for e in ref_error) + " at delta " + ", ".join(f"{d:g}" for d in DELTAS))
+        finest = sorted(quadratic, key=lambda r: r["nodes"])[-3:]
+        if len(finest) == 3:
+            order, limit = richardson([r["nodes"] ** (-1 / 3) for r in finest], [r["force"] for r in finest])
+            print("Richardson extrapolation of the three finest p2 meshes (h ~ nodes^(-1/3)): order "
+                  + ", ".join(f"{p:.2f}" for p in order) + "; finest mesh against the limit "
+                  + ", ".join(f"{e:+.2%}" for e in reference["force"] / limit - 1))
+            print("errors against the extrapolated limit: "
+                  + "; ".join(f"{r['element']} {r['nodes']} nodes " + " ".join(f"{e:+.2%}" for e in r["force"] / limit - 1)
+                              for r in rows))
     header = f"{'element':>7} {'h':>5} {'h_pole':>6} {'nodes':>6} {'time_s':>7} {'newton':>6} {'factor':>6} " + " ".join(
         f"err@{d:<4g}" for d in DELTAS)
     print(header)
@@ -88,7 +134,8 @@ def main() -> None:
     print("\nFElupe (same problem: full ball, quadratic tets, rigid-plate contact, PARDISO)")
     print(f"{'h':>5} {'h_pole':>6} {'nodes':>6} {'time_s':>7} " + " ".join(f"err@{d:<4g}" for d in DELTAS))
     peer_rows = []
-    for _, mesh_size, pole_size in [m for m in meshes if m[0] == "p2"][:-1]:
+    peer_meshes = [m for m in meshes if m[0] == "p2"]
+    for _, mesh_size, pole_size in (peer_meshes if args.reference_forces else peer_meshes[:-1]):
         try:
             peer = felupe_compression_curve(mesh_size, pole_size, delta_max=0.75, n_steps=args.steps)
         except Exception as error:  # pragma: no cover
@@ -96,16 +143,16 @@ def main() -> None:
             continue
         force = np.interp(DELTAS, peer["delta"], peer["force_per_E_R2"], right=np.nan)
         errors = force / reference["force"] - 1
-        peer_rows.append((peer["wall_time_s"], np.nanmax(np.abs(errors))))
+        peer_rows.append((peer["wall_time_s"], np.max(np.abs(np.nan_to_num(errors, nan=np.inf)))))  # early stop: no match
         print(f"{mesh_size:>5g} {pole_size:>6g} {peer['n_nodes']:>6} {peer['wall_time_s']:>7.1f} "
               + " ".join(f"{e:>+8.2%}" for e in errors), flush=True)
     ours = [(r["seconds"], np.max(np.abs(r["force"] / reference["force"] - 1))) for r in quadratic if r is not reference]
     if peer_rows and ours:
         print("\nTime at equal accuracy (max error over the four deltas), elastocell vs FElupe:")
-        for target in (0.03, 0.02, 0.01):
+        for target in (0.03, 0.02, 0.01, 0.005):
             t_ours = min((t for t, e in ours if e <= target), default=np.nan)
             t_peer = min((t for t, e in peer_rows if e <= target), default=np.nan)
-            print(f"  error <= {target:.0%}: elastocell {t_ours:.1f} s, FElupe {t_peer:.1f} s, ratio {t_peer / t_ours:.2f}")
+            print(f"  error <= {target:.1%}: elastocell {t_ours:.1f} s, FElupe {t_peer:.1f} s, ratio {t_peer / t_ours:.2f}")
 
 
 if __name__ == "__main__":

@@ -179,8 +179,8 @@ def _into_plate(direction: np.ndarray, at_lower, at_upper, active) -> np.ndarray
 
 def _newton_direction(problem: _Problem, x: np.ndarray, gradient: np.ndarray, solver: SparseSolver, pattern,
                       active: np.ndarray, at_lower, at_upper, shift: float):
-    """(direction, shift, held dofs) of a full Newton iteration with the stiffness at ``x``; direction None
-    when no shift gives a descent direction.
+    """(direction, shift) of a full Newton iteration with the stiffness at ``x``; direction None when no
+    shift gives a descent direction.
 
     Levenberg-Marquardt safeguard: where the stiffness restricted to the free dofs is indefinite (far from
     equilibrium, or a faceted surface touching a plate at one node), its diagonal is shifted until the
@@ -192,7 +192,8 @@ def _newton_direction(problem: _Problem, x: np.ndarray, gradient: np.ndarray, so
     for _ in range(4):
         direction, shift = _shifted_newton_direction(solver, stiffness, pattern, active, rhs, shift)
         if direction is None:
-            return None, shift, active
+            return None, shift
+        problem.factorised = _Factorised(active.copy(), shift, stiffness)
         # A node on a plate with a tensile force is free, but the coupled Newton step may still push it
         # into the plate; the projection would then clip it at every iteration and stall the solver.
         # Hold such nodes for this iteration and solve again.
@@ -201,8 +202,8 @@ def _newton_direction(problem: _Problem, x: np.ndarray, gradient: np.ndarray, so
             break
         active = active | blocked
         rhs = np.where(active, 0.0, -gradient)
-    problem.factorised = _Factorised(active.copy(), shift, stiffness)
-    return direction, shift, active
+        problem.factorised = None
+    return direction, shift
 
 
 def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: CompressionParameters,
@@ -237,8 +238,8 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
                 return x, iteration - 1, False, FOLDED, last_shift
             return x, iteration - 1, True, "", last_shift
         shift = max(MIN_SHIFT, shift * 1e-2)  # start one rung below the last accepted shift
-        direction, shift, active = _newton_direction(problem, x, gradient, solver, pattern, active, at_lower,
-                                                     at_upper, shift)
+        direction, shift = _newton_direction(problem, x, gradient, solver, pattern, active, at_lower, at_upper,
+                                             shift)
         last_shift = shift
         if direction is None:
             return x, iteration, False, "no descent direction", last_shift

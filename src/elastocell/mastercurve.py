@@ -2,8 +2,8 @@
 
 A homogeneous sphere of Young's modulus ``E`` and radius ``R`` squeezed between two rigid frictionless plates
 (``delta = 1 - h/(2R)``, DESIGN.md) pushes back with ``F = E R^2 f(delta; nu, law)``. ``f`` is computed once per
-Poisson ratio and material law on two meshes (the default p2 mesh and a finer one); the finer mesh gives the
-curve, the difference between the two its error estimate. Curves for nu = 0.45, 0.48, 0.49 (neo-Hookean) ship
+Poisson ratio and material law on two p2 meshes (sizes 0.35/0.1, the default until 2026-12, and 0.25/0.05);
+the finer gives the curve, the difference between the two its error estimate. Curves for nu = 0.45, 0.48, 0.49 (neo-Hookean) ship
 with the package (``elastocell/data/mastercurve_*.csv``) so that fitting needs no simulation; others are
 computed on demand by ``elastocell mastercurve compression`` and cached (``ELASTOCELL_CACHE``), keyed by the
 inputs and the package version.
@@ -35,7 +35,8 @@ from .io import read_curve_csv, write_curve_csv
 from .parameters import ParameterError
 
 SHIPPED_POISSON_RATIOS = (0.45, 0.48, 0.49)
-# (mesh_size, pole_size) of the two meshes: the default p2 mesh and a finer one (its error estimate)
+# (mesh_size, pole_size) of the two meshes: a coarse one (the default p2 mesh until 2026-12; the key and the
+# CSV column keep that name) and a finer one (its error estimate)
 MESHES = {"default": (0.35, 0.1), "fine": (0.25, 0.05)}
 DELTA_MAX = 0.75
 STEPS = 60
