@@ -58,6 +58,8 @@ def richardson(h: list[float], forces: list[np.ndarray]) -> tuple[np.ndarray, np
     """(observed order p, extrapolated F) per delta from three meshes F(h) = F* + C h^p, h decreasing. Where
     the differences change sign or p leaves [0.5, 4] (not asymptotic), p is NaN and F* the finest value."""
     h1, h2, h3 = h
+    if not h1 > h2 > h3:
+        return np.full(len(forces[0]), np.nan), np.asarray(forces[2], dtype=float)
     f1, f2, f3 = (np.asarray(f, dtype=float) for f in forces)
     orders, limits = [], []
     for a, b, c in zip(f1, f2, f3, strict=True):
@@ -92,6 +94,8 @@ def main() -> None:
     meshes = QUICK_MESHES if args.quick else MESHES
     if args.meshes:
         meshes = [(m.split(":")[0], float(m.split(":")[1]), float(m.split(":")[2])) for m in args.meshes]
+    if not args.reference_forces and sum(m[0] == "p2" for m in meshes) < 2:
+        parser.error("need two p2 meshes (the finest is the reference) or --reference-forces")
     rows = []
     for element, mesh_size, pole_size in meshes:
         row = run(element, mesh_size, pole_size, args.cell, args.steps)
@@ -111,9 +115,11 @@ def main() -> None:
         finest = sorted(quadratic, key=lambda r: r["nodes"])[-3:]
         if len(finest) == 3:
             order, limit = richardson([r["nodes"] ** (-1 / 3) for r in finest], [r["force"] for r in finest])
+            # h ~ nodes^(-1/3) assumes similar gradings; where no asymptotic order shows, "n/a"
             print("Richardson extrapolation of the three finest p2 meshes (h ~ nodes^(-1/3)): order "
                   + ", ".join(f"{p:.2f}" for p in order) + "; finest mesh against the limit "
-                  + ", ".join(f"{e:+.2%}" for e in reference["force"] / limit - 1))
+                  + ", ".join("n/a" if np.isnan(p) else f"{e:+.2%}"
+                              for p, e in zip(order, reference["force"] / limit - 1, strict=True)))
             print("errors against the extrapolated limit: "
                   + "; ".join(f"{r['element']} {r['nodes']} nodes " + " ".join(f"{e:+.2%}" for e in r["force"] / limit - 1)
                               for r in rows))

@@ -38,7 +38,7 @@ from .parameters import CompressionParameters
 
 DEBUG = bool(os.environ.get('ELASTOCELL_DEBUG'))
 MIN_SHIFT, MAX_SHIFT = 1e-10, 1e3  # Levenberg-Marquardt diagonal shift relative to the mean diagonal
-FORCE_FLOOR = 1e-4  # smallest force scale of the convergence test (E_c R^2; the plate force near delta = 0.005)
+FORCE_FLOOR = 1e-4  # smallest force scale of the convergence test (E_c R^2; Hertz's plate force near delta = 0.0015)
 MAX_NODE_STEP = 0.05  # largest nodal move of one Newton iteration (units of R)
 
 
@@ -213,7 +213,8 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
     Returns (x, iterations, converged, reason, last_shift): ``last_shift`` is the Levenberg-Marquardt shift of
     the last factorisation (None if none was needed); MIN_SHIFT means PARDISO's Cholesky factorisation of the
     free-dof stiffness at the last factorised iterate succeeded (no negative eigenvalue), i.e. (to within
-    that step) the equilibrium is a minimum."""
+    that step) the equilibrium is a minimum. Where that iteration also held nodes pushed into a plate, the
+    factorisation covers fewer free dofs than the equilibrium has, and the answer is for that subset."""
     cell = problem.cell
     pinned = np.zeros(x.size, dtype=bool)
     pinned[problem.pinned] = True
@@ -380,6 +381,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
                     increment /= 2
                     substeps += 1
                     problem.set_delta(delta)  # back to the last converged plate position
+                    problem.factorised = None  # the failed trial's stiffness is no tangent of the converged x
                     if increment < 1e-6:
                         failure = (f"compression stopped at delta={delta:.4f} (target {trial_delta:.4f}): {reason}; "
                                    f"try a finer mesh (mesh_size/pole_size), more steps, or linear elements (element p1)")

@@ -63,6 +63,7 @@ class SparseSolver:
         if self.backend == "superlu":
             from scipy.sparse.linalg import splu
 
+            self._lu = None
             self._lu = splu((upper + sp.triu(upper, k=1).T).tocsc())
             return None
         key = (upper.shape, upper.nnz, hash(upper.indices.tobytes()), hash(upper.indptr.tobytes()))
@@ -87,6 +88,8 @@ class SparseSolver:
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         if self.backend == "superlu":
+            if self._lu is None:
+                raise RuntimeError("solve: the last factorisation failed")
             return self._lu.solve(rhs)
         if self._matrix is None:
             raise RuntimeError("solve: the last factorisation failed (matrix not positive definite)")
@@ -103,7 +106,8 @@ class SparseSolver:
 def _pardiso_solver():
     """A PARDISO handle for symmetric positive-definite matrices. pypardiso looks for the MKL runtime on every
     construction, with a recursive file search where ``find_library`` fails (0.5 s here); the first path found
-    is handed to the later ones through pypardiso's own ``PYPARDISO_MKL_RT`` setting."""
+    is handed to the later ones through pypardiso's own ``PYPARDISO_MKL_RT`` setting (an environment variable,
+    so processes started from this one inherit it; a value the user set is kept)."""
     import os
 
     global _MKL_RT

@@ -305,13 +305,14 @@ class CompressionParameters(_Model):
     steps: number of equal load increments from 0 to ``delta_max`` (each is one output row; the solver
     subdivides an increment when Newton needs it).
     tolerance: Newton stops when the largest unbalanced nodal force is below ``tolerance`` times the plate
-    force (or times 1e-4 E_c R^2, the plate force near delta = 0.005, while the plate force is smaller). The
-    default 1e-7 leaves F within 1e-7 of itself. With a tighter tolerance, Newton also stops, converged, when that relative force is
-    below 1e-7 and has not halved in 3 iterations: on fine meshes past the point where the symmetric
-    equilibrium turns into a saddle of the discrete energy, Newton with its Levenberg-Marquardt shift otherwise
-    creeps along the unstable direction (measured: homogeneous p2 cell, 7,705 nodes, delta = 0.51: largest
-    unbalanced force 7.9e-9 -> 9.3e-9 E_c R^2 over 20 iterations, energy falling by 1.2e-9 E_c R^3 per iteration). Such rows are flagged
-    in ``unstable``.
+    force (or times 1e-4 E_c R^2, Hertz's plate force near delta = 0.0015, while the plate force is smaller).
+    Measured on the default mesh: the default 1e-7 moves F by less than 2e-7 of itself against a 1e-10 solve.
+    Newton also stops, converged, when that unbalanced force relative to the plate force is below 1e-7 and has
+    not halved in 3 iterations (this matters for tolerances tighter than the default): on fine meshes past the
+    point where the symmetric equilibrium turns into a saddle of the discrete energy, Newton with its
+    Levenberg-Marquardt shift otherwise creeps along the unstable direction (measured: homogeneous p2 cell,
+    7,705 nodes, delta = 0.51: largest unbalanced force 7.9e-9 -> 9.3e-9 E_c R^2 over 20 iterations, energy
+    falling by 1.2e-9 E_c R^3 per iteration). Such rows are flagged in ``unstable``.
     """
 
     delta_max: float = 0.75
