@@ -294,10 +294,10 @@ def _shifted_newton_direction(solver: SparseSolver, stiffness, pattern, active: 
     while shift <= MAX_SHIFT:
         system = pattern.constrained_upper(stiffness, active, shift)
         try:
-            negative = solver.factorize(system)
+            not_definite = solver.factorize(system)
         except Exception:  # a singular or failed factorisation: shift more
-            negative = 1
-        if not negative:
+            not_definite = True
+        if not not_definite:
             direction = solver.solve(rhs)
             if _descends(rhs, direction):
                 return direction, shift
