@@ -247,13 +247,34 @@ class FlowError(RuntimeError):
 
 
 @njit(cache=True, error_model="numpy")
+def _velocity_box(positions, support, box):
+    """box[0:3] = lowest lattice index and box[3:6] = number of indices per axis of the kernel supports of all
+    markers (unwrapped; the sweep takes them modulo the lattice)."""
+    for a in range(3):
+        lo = np.inf
+        hi = -np.inf
+        for m in range(positions.shape[0]):
+            v = positions[m, a]
+            lo = min(lo, v)
+            hi = max(hi, v)
+        first = int(math.floor(lo)) - (support // 2 - 1)
+        last = int(math.floor(hi)) + support // 2
+        box[a] = first
+        box[3 + a] = last - first + 1
+
+
+@njit(cache=True, error_model="numpy")
 def _coupled_steps(
     n_steps, A, parity, nz, field, consts, has_walls, wall_corr, cint, opp, solid, has_solid,
-    run_ptr, run_lo, run_hi, link_ptr, link_z, link_q, lb_weights, cvel, no_output,
-    positions, spread_positions, has_spread, forces, velocity, kernel,
+    run_ptr, run_lo, run_hi, link_ptr, link_z, link_q, lb_weights, cvel, fluid_velocity, box,
+    positions, spread_positions, has_spread, forces, velocity, kernel, support,
     elements, gradients, weights, params, node_ptr, node_slots, eforce, j_elem,
 ):  # fmt: skip
     """Advance ``n_steps`` coupled LB + IBM steps in compiled code (see the module docstring).
+
+    The LB step itself stores the velocity its collision used, u = (sum c f + F/2)/rho with this step's
+    force density, at the fluid nodes of the markers' kernel supports (``fluid_velocity``, storage dtype,
+    zero at solid nodes); the markers read it there, so no population is read twice.
 
     Returns (parity, steps done, smallest det F, largest marker speed); stops early (steps done <
     n_steps) when an element inverts or a marker velocity is not finite."""
@@ -272,11 +293,11 @@ def _coupled_steps(
         ibm._spread_field(forces, positions, kernel, periodic_y, field)
         spread_positions[:, :] = positions
         has_spread = True
-        ibm._interpolate_populations(A, parity, nz, field, True, consts, has_walls, wall_corr, cint, opp,
-                                     solid, has_solid, positions, kernel, velocity)
+        _velocity_box(positions, support, box)
         lb_kernels._sweep(A, parity, nz, field, True, run_ptr, run_lo, run_hi, has_walls, wall_corr,
-                          link_ptr, link_z, link_q, consts, lb_weights, cvel, cint, opp, no_output)
+                          link_ptr, link_z, link_q, consts, lb_weights, cvel, cint, opp, fluid_velocity, box)
         parity = 1 - parity
+        ibm._interpolate_field_serial(fluid_velocity, positions, kernel, periodic_y, velocity)
         for m in range(n_markers):
             vx = velocity[m, 0]
             vy = velocity[m, 1]
@@ -386,6 +407,9 @@ class ImmersedCell(MarkerState):
         self._has_spread = False
         self._marker_forces = np.zeros((n, 3))
         self._velocity = np.zeros((n, 3))
+        # the velocity the LB step stores at the markers' supports (storage dtype; solid nodes stay 0)
+        self._fluid_velocity = np.zeros((3,) + lattice.shape, dtype=lattice.dtype)
+        self._box = np.zeros(6, dtype=np.int64)
         if lattice.force_density is None:
             lattice.set_force_density(np.zeros((3,) + lattice.shape))
         else:
@@ -408,8 +432,9 @@ class ImmersedCell(MarkerState):
         parity, done, j_min, max_speed = _coupled_steps(
             n_steps, A, parity, nz, field, consts, has_walls, wall_corr, cint, opp, solid, has_solid,
             tables[0], tables[1], tables[2], tables[5], tables[6], tables[7], tables[9], tables[10],
-            lat._no_output, self.positions, self._spread_positions, self._has_spread, self._marker_forces,
-            self._velocity, self._kernel_id, *self.forces.arguments(),
+            self._fluid_velocity, self._box, self.positions, self._spread_positions, self._has_spread,
+            self._marker_forces, self._velocity, self._kernel_id, ibm.KERNEL_SUPPORT[self.kernel],
+            *self.forces.arguments(),
         )  # fmt: skip
         lat._parity = int(parity)
         lat.time_step += int(done)

@@ -109,37 +109,51 @@ def _phi_array(kernel, r):
 
 
 # --------------------------------------------------------------------------- field interpolation
+@njit(cache=True, inline="always", error_model="numpy")
+def _interpolate_marker(field, positions, m, kernel, periodic_y, out):
+    """out[m] = sum_n field(n) delta(n - X_m)."""
+    nx, ny, nz = field.shape[1], field.shape[2], field.shape[3]
+    wx = np.empty(_MAX_SUPPORT)
+    wy = np.empty(_MAX_SUPPORT)
+    wz = np.empty(_MAX_SUPPORT)
+    bx, n = _stencil(kernel, positions[m, 0], wx)
+    by, _ = _stencil(kernel, positions[m, 1], wy)
+    bz, _ = _stencil(kernel, positions[m, 2], wz)
+    ux = 0.0
+    uy = 0.0
+    uz = 0.0
+    for b in range(n):
+        y = by + b
+        if periodic_y:
+            y = _wrap(y, ny)
+        elif y < 0 or y >= ny:
+            continue
+        for a in range(n):
+            x = _wrap(bx + a, nx)
+            wxy = wx[a] * wy[b]
+            for c in range(n):
+                z = _wrap(bz + c, nz)
+                w = wxy * wz[c]
+                ux += w * field[0, x, y, z]
+                uy += w * field[1, x, y, z]
+                uz += w * field[2, x, y, z]
+    out[m, 0] = ux
+    out[m, 1] = uy
+    out[m, 2] = uz
+
+
 @njit(parallel=True, cache=True, error_model="numpy")
 def _interpolate_field(field, positions, kernel, periodic_y, out):
-    nx, ny, nz = field.shape[1], field.shape[2], field.shape[3]
     for m in prange(positions.shape[0]):
-        wx = np.empty(_MAX_SUPPORT)
-        wy = np.empty(_MAX_SUPPORT)
-        wz = np.empty(_MAX_SUPPORT)
-        bx, n = _stencil(kernel, positions[m, 0], wx)
-        by, _ = _stencil(kernel, positions[m, 1], wy)
-        bz, _ = _stencil(kernel, positions[m, 2], wz)
-        ux = 0.0
-        uy = 0.0
-        uz = 0.0
-        for b in range(n):
-            y = by + b
-            if periodic_y:
-                y = _wrap(y, ny)
-            elif y < 0 or y >= ny:
-                continue
-            for a in range(n):
-                x = _wrap(bx + a, nx)
-                wxy = wx[a] * wy[b]
-                for c in range(n):
-                    z = _wrap(bz + c, nz)
-                    w = wxy * wz[c]
-                    ux += w * field[0, x, y, z]
-                    uy += w * field[1, x, y, z]
-                    uz += w * field[2, x, y, z]
-        out[m, 0] = ux
-        out[m, 1] = uy
-        out[m, 2] = uz
+        _interpolate_marker(field, positions, m, kernel, periodic_y, out)
+
+
+@njit(cache=True, error_model="numpy")
+def _interpolate_field_serial(field, positions, kernel, periodic_y, out):
+    """The same without a parallel region (a few hundred markers in the coupled loop: cheaper than waking the
+    threads)."""
+    for m in range(positions.shape[0]):
+        _interpolate_marker(field, positions, m, kernel, periodic_y, out)
 
 
 @njit(cache=True, error_model="numpy")

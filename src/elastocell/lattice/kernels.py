@@ -458,6 +458,26 @@ def _scatter_neighbours(
             A[x, y, opp[i], U(z)] = buf[U(i * BLOCK + z - z0)]
 
 
+@njit(cache=True, error_model="numpy")
+def _in_box(i, lo, size, n):
+    """Whether lattice index i (0 <= i < n) lies in the periodic range lo, lo + 1, ..., lo + size - 1."""
+    return size >= n or (i - lo) % n < size
+
+
+@njit(cache=True, error_model="numpy")
+def _store_velocity(buf, out, x, y, z0, nb, nz, line, run_ptr, run_lo, run_hi, box):
+    """out[0:3, x, y, z] = u (the half-force corrected velocity the collision used) on the fluid nodes of the
+    block inside the box's z range; rows R_UX..R_UZ of buf hold u (see ``_moments_block``)."""
+    z1 = z0 + nb
+    for r in range(run_ptr[line], run_ptr[line + 1]):
+        for z in range(max(run_lo[r], z0), min(run_hi[r], z1)):
+            if _in_box(z, box[2], box[5], nz):
+                k = z - z0
+                out[0, x, y, U(z)] = buf[R_UX * BLOCK + k]
+                out[1, x, y, U(z)] = buf[R_UY * BLOCK + k]
+                out[2, x, y, U(z)] = buf[R_UZ * BLOCK + k]
+
+
 # --------------------------------------------------------------------------- block buffer
 @njit(cache=True, error_model="numpy")
 def _gcd(a, b):
@@ -496,6 +516,8 @@ MODE_EXPORT_EVEN = 2  # copy natural-order populations to ``out`` (A after an od
 MODE_EXPORT_ODD = 3  # stream the pending post-collision values into ``out`` (A after an even step)
 MODE_MOMENTS_EVEN = 4  # out[0] = rho - 1, out[1:4] = u, A in natural order
 MODE_MOMENTS_ODD = 5  # the same, A after an even step (pending streaming done on the fly)
+NO_BOX = np.zeros(6, dtype=np.int64)
+"""The ``box`` argument of a step that stores no velocity."""
 
 
 @njit(parallel=True, cache=True, fastmath=FASTMATH, error_model="numpy")
@@ -519,22 +541,32 @@ def _sweep(
     cint,
     opp,
     out,
+    box,
 ):
     """One parallel pass over the lattice, by x-planes and z-blocks (see MODE_*).
 
     A single compiled function serves both AA steps and the exports (populations or
-    moments) so that Numba compiles (and caches) one parallel region per dtype."""
+    moments) so that Numba compiles (and caches) one parallel region per dtype.
+
+    In the step modes, ``box`` (int64[6]: lower corner lo_x, lo_y, lo_z and sizes n_x, n_y, n_z, periodic)
+    with n_x > 0 makes the step also write the velocity u its collision used, ``(sum c_i f_i + F/2)/rho``, to
+    ``out[0:3, x, y, z]`` (out: (>= 3, nx, ny, nz)) at the fluid nodes inside the box; other nodes of ``out``
+    are left as they were. The immersed boundary reads the marker velocities there instead of re-reading the
+    populations (see ``flow._coupled_steps``)."""
     nx = A.shape[0]
     ny = A.shape[1]
     local = mode == MODE_EVEN or mode == MODE_EXPORT_EVEN or mode == MODE_MOMENTS_EVEN
     export = mode >= MODE_EXPORT_EVEN
     moments = mode >= MODE_MOMENTS_EVEN
+    store = not export and box[3] > 0
     for x in prange(nx):
         buf = _block_buffer(A)
+        store_x = store and _in_box(x, box[0], box[3], nx)
         for y in range(ny):
             line = x * ny + y
             if not export and run_ptr[line + 1] == run_ptr[line]:
                 continue  # all solid: nothing to update
+            store_line = store_x and _in_box(y, box[1], box[4], ny)
             for z0 in range(0, nz, BLOCK):
                 nb = min(BLOCK, nz - z0)
                 if local:
@@ -573,6 +605,8 @@ def _sweep(
                     continue
                 _load_force(buf, force, has_field, x, y, z0, nb, consts)
                 _collide_block(buf, nb, weights, cvel, consts)
+                if store_line:
+                    _store_velocity(buf, out, x, y, z0, nb, nz, line, run_ptr, run_lo, run_hi, box)
                 if local:
                     _scatter_local(A, buf, x, y, z0, nb, line, run_ptr, run_lo, run_hi, opp)
                 else:
@@ -624,6 +658,7 @@ def run_steps(
     """Advance n_steps time steps inside compiled code; returns the new AA parity
     (0: A in natural order, 1: A holds post-collision values in reversed order).
     ``out`` is unused here (any (19, 1, 1, 1) array of the storage dtype)."""
+    no_box = np.zeros(6, dtype=np.int64)
     for _ in range(n_steps):
         _sweep(
             A,
@@ -645,6 +680,7 @@ def run_steps(
             cint,
             opp,
             out,
+            no_box,
         )
         parity = 1 - parity
     return parity
@@ -657,7 +693,7 @@ def moments(A, parity, nz, force, has_field, tables, out):
     tables = (run_ptr, run_lo, run_hi, has_walls, wall_corr, link_ptr, link_z, link_q,
     consts, weights, cvel, cint, opp), as for ``run_steps``."""
     mode = MODE_MOMENTS_ODD if parity else MODE_MOMENTS_EVEN
-    _sweep(A, mode, nz, force, has_field, *tables, out)
+    _sweep(A, mode, nz, force, has_field, *tables, out, NO_BOX)
 
 
 def natural_populations(A, parity, nz, tables, out):
@@ -667,4 +703,4 @@ def natural_populations(A, parity, nz, tables, out):
     modifying A. ``tables`` as for :func:`moments`."""
     mode = MODE_EXPORT_ODD if parity else MODE_EXPORT_EVEN
     no_force = np.zeros((3, 1, 1, 1), dtype=A.dtype)
-    _sweep(A, mode, nz, no_force, False, *tables, out)
+    _sweep(A, mode, nz, no_force, False, *tables, out, NO_BOX)
