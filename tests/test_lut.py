@@ -10,6 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from elastocell.cli import app
+from elastocell.parameters import ParameterError
 from elastocell.lut import (
     capillary_number_wall,
     compute_lut,
@@ -60,6 +61,14 @@ def test_plan_units_and_grid():
     assert other[0]["key"] != points[0]["key"]
     full, settings = plan("10um", "0.04uL/s", "15mPa*s")
     assert len(full) == 42 and settings["resolution"] == 8
+    # a square channel of width W stands for the cylinder R_ch = 1.094 W/2 (Mietke et al. 2015; dclab LE-2D-FEM-19)
+    square, settings = plan(None, 0.04, 15, radii=[5], moduli=[1], quick=True, channel_width="20um")
+    assert settings["channel_radius_um"] == pytest.approx(10.94)
+    assert square[0]["options"]["channel_radius_ratio"] == pytest.approx(10.94 / 5)
+    assert lut_metadata(settings, "x")["channel_width"] == pytest.approx(20.0)
+    for radius, width in ((None, None), ("10um", "20um")):
+        with pytest.raises(ParameterError, match="channel_radius"):
+            plan(radius, 0.04, 15, quick=True, channel_width=width)
 
 
 def _fake_records():
@@ -88,7 +97,7 @@ def test_lut_file_header_and_columns(tmp_path):
     for key in ("channel_width", "flow_rate", "fluid_viscosity", "method", "model", "software", "date",
                 "dimensionality", "summary"):
         assert key in parsed
-    assert parsed["channel_width"] == pytest.approx(20.0)
+    assert parsed["channel_width"] == pytest.approx(20.0 / 1.094)  # the square channel R_ch = 10 um stands for
     assert "square" in parsed["summary"].lower() and "cylindrical" in parsed["summary"].lower()
     assert data.shape == (4, 3)
     assert np.all(np.diff(data[:, 2]) >= 0)  # sorted by modulus, then area
@@ -121,6 +130,7 @@ def test_dclab_loads_the_lut_and_isoelastics(tmp_path):
     (["--radii", "9.5"], "--radii"),
     (["--flow-rate", "0.04 kg"], "--flow-rate"),
     (["--workers", "0"], "--workers"),
+    (["--channel-width", "20um"], "--channel-radius"),
 ])
 def test_one_line_refusals(tmp_path, extra, option):
     args = BASE + ["--out", str(tmp_path / "lut.txt"), "--quick"]

@@ -10,7 +10,7 @@ import typer
 
 from .cli_common import _OPTION_NAMES, _fail, _user_errors
 
-for _name in ("channel_radius", "flow_rate", "viscosity", "radii", "moduli", "quick", "poisson_ratio",
+for _name in ("channel_radius", "channel_width", "flow_rate", "viscosity", "radii", "moduli", "quick", "poisson_ratio",
               "material", "resolution", "duration", "stationary_tolerance", "identifier", "scheduler",
               "workers", "out"):
     _OPTION_NAMES.setdefault(_name, "--" + _name.replace("_", "-"))
@@ -18,9 +18,13 @@ for _name in ("channel_radius", "flow_rate", "viscosity", "radii", "moduli", "qu
 
 @_user_errors
 def lut(
-    channel_radius: str = typer.Option(..., "--channel-radius",
-                                       help="Channel radius R_ch, e.g. 10um (a number: um). A square RT-DC "
-                                            "channel of width W is approximated by R_ch = W/2."),
+    channel_radius: str | None = typer.Option(None, "--channel-radius",  # noqa: UP007
+                                              help="Radius R_ch of the cylindrical channel, e.g. 10.94um (a "
+                                                   "number: um). Give this or --channel-width."),
+    channel_width: str | None = typer.Option(None, "--channel-width",  # noqa: UP007
+                                             help="Width W of a square RT-DC channel, e.g. 20um (a number: um): "
+                                                  "the cylinder R_ch = 1.094 W/2 stands for it (Mietke et al. "
+                                                  "2015; dclab's LE-2D-FEM-19)."),
     flow_rate: str = typer.Option(..., "--flow-rate", help="Flow rate Q, e.g. 0.04uL/s (a number: uL/s)."),
     viscosity: str = typer.Option(..., "--viscosity",
                                   help="Medium viscosity (Newtonian), e.g. 15mPa*s (a number: mPa s)."),
@@ -58,7 +62,7 @@ def lut(
     result = compute_lut(out, channel_radius, flow_rate, viscosity, radii=radii, moduli=moduli, quick=quick,
                          poisson_ratio=poisson_ratio, material=material, resolution=resolution, duration=duration,
                          stationary_tolerance=stationary_tolerance, identifier=identifier, scheduler=scheduler,
-                         workers=workers, progress=not quiet and sys.stderr.isatty())
+                         workers=workers, progress=not quiet and sys.stderr.isatty(), channel_width=channel_width)
     if not quiet:
         settings = result["settings"]
         typer.echo(f"gdot_w = {settings['wall_shear_rate_1_s']:.4g} 1/s, G = {settings['pressure_gradient_pa_m']:.4g} "

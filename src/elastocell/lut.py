@@ -16,10 +16,12 @@ and the stationary side-view contour gives the table's columns: ``area_um`` = pr
 the convex hull of the mesh nodes projected on the x-y plane), ``deform`` = deformation_mean
 (1 - circularity of that hull), ``emodulus`` = E (kPa).
 
-Approximation: elastocell's channel is a cylinder of radius R_ch; RT-DC channels (and the LUTs shipped with
-dclab) are square. The metadata give ``channel_width`` = 2 R_ch, the width of the square channel the
-cylinder stands for; it is not the same flow (a square channel of the same width and flow rate has a lower
-wall shear rate on its mid-planes than the inscribed cylinder). The fluid is Newtonian (one viscosity).
+Approximation: elastocell's channel is a cylinder of radius R_ch; RT-DC channels are square. A square channel
+of width W stands for the cylinder of radius R_ch = 1.094 W/2 (:data:`SQUARE_CHANNEL_RADIUS_FACTOR`), the
+equivalent radius of Mietke et al. 2015 (Biophys. J. 109, 2023, supplement S3) with which the axisymmetric FEM
+of dclab's own LE-2D-FEM-19 table was computed; ``--channel-width W`` uses it, and the metadata give
+``channel_width`` = 2 R_ch/1.094, so a table made here and LE-2D-FEM-19 describe the same channel. The fluid is
+Newtonian (one viscosity).
 
 File format (dclab ``dclab/features/emodulus/load.py``, ``load_mtext``; checked against dclab 0.73.4): comment
 lines, the metadata as JSON between ``# BEGIN METADATA`` and ``# END METADATA`` (every line prefixed by
@@ -57,6 +59,10 @@ FULL_MODULI_KPA = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0)
 FULL = {"resolution": 8.0, "duration": 20.0, "stationary_tolerance": 1e-3}
 """The full grid: 6 radii x 7 moduli = 42 runs at R/dx 8, at most 20 units of 1/gdot_w each (stopping earlier
 once the running mean of the axial strain is stationary to 1e-3)."""
+
+SQUARE_CHANNEL_RADIUS_FACTOR = 1.094
+"""R_ch/(W/2) of the cylinder that stands for a square channel of width W (Mietke et al. 2015, supplement S3;
+dclab's LE-2D-FEM-19 table)."""
 
 QUICK_RADII_UM = (5.0, 6.0)
 QUICK_MODULI_KPA = (1.0, 2.0)
@@ -110,16 +116,29 @@ def point_key(radius_um: float, emodulus_kpa: float, options: dict) -> str:
     return f"R{radius_um:g}um_E{emodulus_kpa:g}kPa_{digest}"
 
 
+def channel_radius_from(channel_radius=None, channel_width=None) -> float:
+    """R_ch (m) from exactly one of ``channel_radius`` (the cylinder's) or ``channel_width`` (a square RT-DC
+    channel's W: R_ch = 1.094 W/2); quantities or numbers in um."""
+    if (channel_radius is None) == (channel_width is None):
+        raise ParameterError("channel_radius", "give either the channel radius or the width of a square channel "
+                             "(--channel-width), not both and not neither")
+    if channel_width is not None:
+        return SQUARE_CHANNEL_RADIUS_FACTOR * _positive(channel_width, "m", "um", "channel_width") / 2.0
+    return _positive(channel_radius, "m", "um", "channel_radius")
+
+
 def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: bool = False,
          poisson_ratio: float = 0.48, material: str = "neo-hookean", resolution: float | None = None,
-         duration: float | None = None, stationary_tolerance: float | None = None) -> tuple[list[dict], dict]:
+         duration: float | None = None, stationary_tolerance: float | None = None,
+         channel_width=None) -> tuple[list[dict], dict]:
     """Check every input and return (grid points, settings); raises ParameterError (named option) on an
-    impossible one, before anything runs. Each point holds its key and the keyword arguments of ``pipe``."""
+    impossible one, before anything runs. Each point holds its key and the keyword arguments of ``pipe``.
+    ``channel_width`` (a square channel's W) replaces ``channel_radius`` (give None for it)."""
     from pydantic import ValidationError
 
     from .pipe_flow import PipeFlowParameters
 
-    r_ch = _positive(channel_radius, "m", "um", "channel_radius")
+    r_ch = channel_radius_from(channel_radius, channel_width)
     q = _positive(flow_rate, "m^3/s", "uL/s", "flow_rate")
     eta = _positive(viscosity, "Pa*s", "mPa*s", "viscosity")
     defaults = QUICK if quick else FULL
@@ -244,7 +263,7 @@ def lut_metadata(settings: dict, identifier: str) -> dict:
     nu = settings["poisson_ratio"]
     return {
         "identifier": identifier,
-        "channel_width": 2.0 * settings["channel_radius_um"],
+        "channel_width": 2.0 * settings["channel_radius_um"] / SQUARE_CHANNEL_RADIUS_FACTOR,
         "channel_width_unit": "um",
         "flow_rate": settings["flow_rate_ul_s"],
         "flow_rate_unit": "uL/s",
@@ -258,9 +277,10 @@ def lut_metadata(settings: dict, identifier: str) -> dict:
         "authors": "elastocell",
         "summary": (
             "Stationary shape of a homogeneous cell centred in a CYLINDRICAL channel of radius R_ch = "
-            f"{settings['channel_radius_um']:g} um; channel_width = 2 R_ch is the width of the SQUARE RT-DC "
-            "channel it approximates (dclab's own LUTs are for square channels). area_um and deform are the "
-            "convex hull of the mesh nodes seen from the side (deform = 1 - circularity)."),
+            f"{settings['channel_radius_um']:g} um; channel_width = 2 R_ch/1.094 is the width of the SQUARE RT-DC "
+            "channel it stands for (the equivalent radius of Mietke et al. 2015, as in dclab's LE-2D-FEM-19). "
+            "area_um and deform are the convex hull of the mesh nodes seen from the side (deform = 1 - "
+            "circularity)."),
         "elastocell": settings,
     }
 
@@ -337,11 +357,12 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                 resolution: float | None = None, duration: float | None = None,
                 stationary_tolerance: float | None = None, identifier: str | None = None,
                 scheduler: str | None = None, workers: int | None = None, progress: bool = False,
-                client=None) -> dict:
+                client=None, channel_width=None) -> dict:
     """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``.
 
     channel_radius, flow_rate, viscosity: quantities ("10um", "0.04uL/s", "15mPa*s") or numbers in um, uL/s,
-    mPa s. radii, moduli: comma-separated lists or sequences (numbers in um and kPa); default the full grid
+    mPa s; or ``channel_radius=None`` and ``channel_width`` the width W of a square RT-DC channel (R_ch =
+    1.094 W/2). radii, moduli: comma-separated lists or sequences (numbers in um and kPa); default the full grid
     (:data:`FULL_RADII_UM` x :data:`FULL_MODULI_KPA`) or, with ``quick``, the 2 x 2 test grid. Returns a
     summary: paths, the finished records, the failed points (key and one-line error; left out of the table and
     rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion
@@ -354,7 +375,7 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     if out.exists() and out.is_dir():
         raise ParameterError("out", f"{out} is a directory; give a file name such as lut.txt")
     points, settings = plan(channel_radius, flow_rate, viscosity, radii, moduli, quick, poisson_ratio, material,
-                            resolution, duration, stationary_tolerance)
+                            resolution, duration, stationary_tolerance, channel_width=channel_width)
     lattice = check_lattice(points)
     identifier = identifier or f"elastocell-{out.stem}"
     runs = runs_directory(out)
