@@ -10,7 +10,6 @@ import pytest
 from typer.testing import CliRunner
 
 from elastocell.cli import app
-from elastocell.parameters import ParameterError
 from elastocell.lut import (
     capillary_number_wall,
     compute_lut,
@@ -23,6 +22,7 @@ from elastocell.lut import (
     write_isoelastics,
     write_lut,
 )
+from elastocell.parameters import ParameterError
 
 runner = CliRunner()
 BASE = ["lut", "--channel-radius", "10um", "--flow-rate", "0.04uL/s", "--viscosity", "15mPa*s"]
@@ -185,3 +185,22 @@ def test_quick_grid_end_to_end(tmp_path, monkeypatch):
     assert record["options"]["start_offset"] == 0.0
     again = compute_lut(out, "10um", "0.04uL/s", "15mPa*s", **kwargs)  # finished points are read back
     assert [r["wall_time_s"] for r in again["records"]] == [r["wall_time_s"] for r in result["records"]]
+
+
+def test_a_point_reads_its_shape_over_the_final_window(tmp_path):
+    # Reference: the definition (means over the last FINAL_WINDOW units of time), on a time series whose
+    # deformation still rises over the second half, where the second-half mean would read low.
+    from elastocell.lut import FINAL_WINDOW, final_shape
+
+    time = np.linspace(0.0, 6.0, 61)
+    deformation = 0.04 * (1.0 - np.exp(-time))
+    area = 3.1 + 0.01 * time
+    path = tmp_path / "timeseries.csv"
+    np.savetxt(path, np.column_stack([time, deformation, area]), delimiter=",",
+               header="time,deformation,projected_area", comments="")
+    final = final_shape(path)
+    last = time > time[-1] - FINAL_WINDOW
+    assert final["deformation"] == pytest.approx(deformation[last].mean(), rel=1e-12)
+    assert final["projected_area"] == pytest.approx(area[last].mean(), rel=1e-12)
+    assert final["deformation_std"] == pytest.approx(deformation[last].std(), rel=1e-12)
+    assert final["deformation"] > deformation[time >= 3.0].mean()

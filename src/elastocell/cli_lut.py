@@ -45,7 +45,7 @@ def lut(
     duration: float | None = typer.Option(None, "--duration",  # noqa: UP007
                                           help="Longest run per point, units of 1/gdot_w (default 20; --quick 1)."),
     stationary_tolerance: float | None = typer.Option(None, "--stationary-tolerance",  # noqa: UP007
-                                                      help="Stop a point once its axial strain is stationary "
+                                                      help="Stop a point once its deformation is stationary "
                                                            "to this fraction (default 1e-3; --quick: off)."),
     identifier: str | None = typer.Option(None, "--identifier",  # noqa: UP007
                                           help="LUT identifier for dclab (default elastocell-<stem>)."),

@@ -12,9 +12,10 @@ physical flow fixes the dimensionless driving:
     wall capillary number:      Ca_w = G R_ch / (2 mu)       (= eta gdot_w / mu, gdot_w = G R_ch / (2 eta))
     confinement:                R_ch / R
 
-and the stationary side-view contour gives the table's columns: ``area_um`` = projected_area_mean R^2 (um^2;
-the convex hull of the mesh nodes projected on the x-y plane), ``deform`` = deformation_mean
-(1 - circularity of that hull), ``emodulus`` = E (kPa).
+and the stationary side-view contour gives the table's columns: ``area_um`` = the projected area times R^2 (um^2;
+the convex hull of the mesh nodes projected on the x-y plane), ``deform`` = the deformation (1 - circularity of
+that hull), both averaged over the last unit of 1/gdot_w (:data:`FINAL_WINDOW`), ``emodulus`` = E (kPa). A run
+stops once the mean deformation over that window differs from the window before by less than the tolerance.
 
 Approximation: elastocell's channel is a cylinder of radius R_ch; RT-DC channels are square. A square channel
 of width W stands for the cylinder of radius R_ch = 1.094 W/2 (:data:`SQUARE_CHANNEL_RADIUS_FACTOR`), the
@@ -58,7 +59,7 @@ FULL_RADII_UM = (3.0, 4.0, 5.0, 6.0, 7.0, 8.0)
 FULL_MODULI_KPA = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0)
 FULL = {"resolution": 8.0, "duration": 20.0, "stationary_tolerance": 1e-3}
 """The full grid: 6 radii x 7 moduli = 42 runs at R/dx 8, at most 20 units of 1/gdot_w each (stopping earlier
-once the running mean of the axial strain is stationary to 1e-3)."""
+once the mean deformation over a unit of time is stationary to 1e-3)."""
 
 SQUARE_CHANNEL_RADIUS_FACTOR = 1.094
 """R_ch/(W/2) of the cylinder that stands for a square channel of width W (Mietke et al. 2015, supplement S3;
@@ -177,7 +178,7 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
             ca = capillary_number_wall(q, r_ch, eta, modulus, poisson_ratio)
             options = {"capillary_number_wall": ca, "channel_radius_ratio": ratio, "start_offset": 0.0,
                        "resolution": resolution, "duration": duration, "stationary_tolerance": tolerance,
-                       "nucleus": "none", "material": material, "poisson_ratio": float(poisson_ratio)}
+                       "stationary_observable": "deformation", "nucleus": "none", "material": material, "poisson_ratio": float(poisson_ratio)}
             points.append({"key": point_key(radius * 1e6, modulus * 1e-3, options), "radius_um": radius * 1e6,
                            "emodulus_kpa": modulus * 1e-3, "options": options})
     settings = {"channel_radius_um": r_ch * 1e6, "flow_rate_ul_s": q * 1e9, "viscosity_mpa_s": eta * 1e3,
@@ -223,6 +224,24 @@ def check_lattice(points: list[dict]) -> list[dict]:
 
 
 # =========================================================================== one grid point
+FINAL_WINDOW = 1.0
+"""Units of 1/gdot_w at the end of a run over which a point's area and deformation are averaged: the stop
+criterion's window (``runner.StopCriteria.stationary_window``), i.e. the stretch judged stationary. The pipe
+summary's means over the second half would mix in the approach to the steady shape (measured: R = 5 um,
+E = 2 kPa, 20 um channel, 0.04 uL/s: deformation 0.0365 over the second half against 0.039 at the end)."""
+
+
+def final_shape(timeseries: Path) -> dict:
+    """Means of ``deformation`` and ``projected_area`` (and the deformation's standard deviation) over the last
+    :data:`FINAL_WINDOW` of a pipe run's time series."""
+    import pandas as pd
+
+    table = pd.read_csv(timeseries)
+    last = table[table["time"] > table["time"].iloc[-1] - FINAL_WINDOW]
+    return {"deformation": float(last["deformation"].mean()), "deformation_std": float(last["deformation"].std(ddof=0)),
+            "projected_area": float(last["projected_area"].mean())}
+
+
 def run_point(task: tuple[dict, str]) -> dict:
     """Run one grid point in ``runs_directory/<key>`` (a Dask task); a finished point is read back."""
     point, runs_directory = task
@@ -237,10 +256,13 @@ def run_point(task: tuple[dict, str]) -> dict:
     start = time.perf_counter()
     summary = pipe(out=directory, progress=False, resume=True, vtk_interval=None, **point["options"])
     radius = point["radius_um"]
+    final = final_shape(directory / "timeseries.csv")
     record = {
         "key": point["key"], "radius_um": radius, "emodulus_kpa": point["emodulus_kpa"],
-        "area_um": summary["projected_area_mean"] * radius**2,
-        "deform": summary["deformation_mean"], "deform_std": summary.get("deformation_std"),
+        "area_um": final["projected_area"] * radius**2,
+        "deform": final["deformation"], "deform_std": final["deformation_std"],
+        "final_window": FINAL_WINDOW,
+        "deformation_mean_second_half": summary["deformation_mean"],
         "projected_area_mean": summary["projected_area_mean"],
         "projected_area_initial": summary.get("projected_area_initial"),
         "deformation_initial": summary.get("deformation_initial"),
