@@ -20,7 +20,8 @@ for _name in ("channel_radius", "channel_width", "flow_rate", "viscosity", "radi
 def lut(
     channel_radius: str | None = typer.Option(None, "--channel-radius",  # noqa: UP007
                                               help="Radius R_ch of the cylindrical channel, e.g. 10.94um (a "
-                                                   "number: um). Give this or --channel-width."),
+                                                   "number: um). Give this or --channel-width. The table is "
+                                                   "labelled for the square channel of width 2 R_ch/1.094."),
     channel_width: str | None = typer.Option(None, "--channel-width",  # noqa: UP007
                                              help="Width W of a square RT-DC channel, e.g. 20um (a number: um): "
                                                   "the cylinder R_ch = 1.094 W/2 stands for it (Mietke et al. "

@@ -5,8 +5,9 @@ at X (dx); each step (one compiled chunk runs many):
 
 1. clear the force density at the previous markers' supports, compute the elastic nodal forces
    f = -dE/dx at X (cell model in lattice units: E_lat, R_lat), spread them to the force density;
-2. interpolate the fluid velocity at X, u = (sum c f + F/2)/rho with that force (Guo half-force term);
-3. one LB step with the force density; 4. X += u dt.
+2. one LB step with the force density; it also stores the velocity its collision used,
+   u = (sum c f + F/2)/rho with that force (Guo half-force term), at the nodes of the markers' kernel supports;
+3. interpolate that u at X; 4. X += u dt.
 
 Shear flow (DESIGN.md section 1): plane Couette flow between walls at y = -1/2 and y = ny - 1/2 moving
 with -U and +U (shear_rate = 2U/ny), periodic in x and z, the cell centred in the channel. The capillary

@@ -224,9 +224,17 @@ def check_lattice(points: list[dict]) -> list[dict]:
 
 
 # =========================================================================== one grid point
-FINAL_WINDOW = 1.0
+def _stop_window() -> float:
+    from .runner import StopCriteria
+
+    return float(StopCriteria.stationary_window)
+
+
+FINAL_WINDOW = _stop_window()
 """Units of 1/gdot_w at the end of a run over which a point's area and deformation are averaged: the stop
-criterion's window (``runner.StopCriteria.stationary_window``), i.e. the stretch judged stationary. The pipe
+criterion's window (``runner.StopCriteria.stationary_window``), i.e. the stretch judged stationary when the run
+stopped on the criterion (a run that reached its duration cap, or a --quick run, has no stationary stretch: the
+window is then just its end, and the point is listed as not stationary). The pipe
 summary's means over the second half would mix in the approach to the steady shape (measured: R = 5 um,
 E = 2 kPa, 20 um channel, 0.04 uL/s: deformation 0.0365 over the second half against 0.039 at the end)."""
 
