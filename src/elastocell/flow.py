@@ -561,7 +561,47 @@ from typing import Literal  # noqa: E402
 from pydantic import BaseModel, ConfigDict, model_validator  # noqa: E402
 
 
-class ShearFlowParameters(BaseModel):
+class FlowLatticeParameters(BaseModel):
+    """Lattice and coupling settings shared by the flow scenarios (:class:`ShearFlowParameters`,
+    ``pipe_flow.PipeFlowParameters``); each scenario documents their defaults and adds its own driving.
+
+    resolution: R/dx in [2, 64]. box_length: periodic length in units of R (>= 2.5: the cell is 2R across).
+    relaxation_time: LB tau in [0.55, 5]. reynolds_number: upper limit of the particle Reynolds number, in
+    (0, 0.1] (Stokes regime). velocity_limit: upper limit of the largest fluid speed, in (0, 0.1] dx/dt.
+    kernel, dtype, backend: immersed-boundary kernel, LB storage precision, compute engine.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    resolution: float = 8.0
+    box_length: float = 8.0
+    relaxation_time: float = 1.0
+    reynolds_number: float = 0.1
+    velocity_limit: float = 0.05
+    kernel: Literal["trilinear", "peskin4"] = "trilinear"
+    dtype: Literal["float32", "float64"] = "float32"
+    backend: Literal["numba", "jax"] = "numba"
+
+    @model_validator(mode="after")
+    def _check_lattice(self) -> FlowLatticeParameters:
+        def require(ok, name, message):
+            if not ok:
+                raise ParameterError(name, message)
+
+        require(math.isfinite(self.resolution) and 2 <= self.resolution <= 64, "resolution",
+                f"R/dx must be in [2, 64], got {self.resolution}")
+        require(math.isfinite(self.box_length) and self.box_length >= 2.5, "box_length",
+                f"must be >= 2.5 (units of R; the cell is 2R across), got {self.box_length}")
+        require(math.isfinite(self.relaxation_time) and 0.55 <= self.relaxation_time <= 5, "relaxation_time",
+                f"tau must be in [0.55, 5], got {self.relaxation_time}")
+        require(math.isfinite(self.reynolds_number) and 0 < self.reynolds_number <= 0.1, "reynolds_number",
+                f"the particle Reynolds number must be in (0, 0.1] (Stokes regime), got {self.reynolds_number}")
+        require(math.isfinite(self.velocity_limit) and 0 < self.velocity_limit <= 0.1, "velocity_limit",
+                f"must be in (0, 0.1] dx/dt, got {self.velocity_limit}")
+        return self
+
+
+class ShearFlowParameters(FlowLatticeParameters):
     """Plane Couette (shear) flow of a cell; numbers are dimensionless unless stated.
 
     capillary_number: Ca = eta * shear_rate / mu_ref, mu_ref = mu_c = E_c/(2(1+nu)) (mu_eff = gamma_eff mu_c
@@ -588,20 +628,10 @@ class ShearFlowParameters(BaseModel):
         physics in JAX on its default device: a GPU when JAX has CUDA/ROCm, else the CPU).
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
-
     capillary_number: float
-    resolution: float = 8.0
     confinement: float = 0.2
-    box_length: float = 8.0
-    relaxation_time: float = 1.0
-    reynolds_number: float = 0.1
-    velocity_limit: float = 0.05
-    kernel: Literal["trilinear", "peskin4"] = "trilinear"
     lattice_shear_rate: float | None = None
     max_steps_per_strain: float = 1.0e6
-    dtype: Literal["float32", "float64"] = "float32"
-    backend: Literal["numba", "jax"] = "numba"
 
     @model_validator(mode="after")
     def _check(self) -> ShearFlowParameters:
@@ -611,18 +641,8 @@ class ShearFlowParameters(BaseModel):
 
         ca = self.capillary_number
         require(math.isfinite(ca) and ca > 0, "capillary_number", f"must be > 0, got {ca}")
-        require(math.isfinite(self.resolution) and 2 <= self.resolution <= 64, "resolution",
-                f"R/dx must be in [2, 64], got {self.resolution}")
         require(math.isfinite(self.confinement) and 0 < self.confinement < 1, "confinement",
                 f"2R/H must be in (0, 1), got {self.confinement}")
-        require(math.isfinite(self.box_length) and self.box_length >= 2.5, "box_length",
-                f"must be >= 2.5 (units of R; the cell is 2R wide), got {self.box_length}")
-        require(math.isfinite(self.relaxation_time) and 0.55 <= self.relaxation_time <= 5, "relaxation_time",
-                f"tau must be in [0.55, 5], got {self.relaxation_time}")
-        require(math.isfinite(self.reynolds_number) and 0 < self.reynolds_number <= 0.1, "reynolds_number",
-                f"the particle Reynolds number must be in (0, 0.1] (Stokes regime), got {self.reynolds_number}")
-        require(math.isfinite(self.velocity_limit) and 0 < self.velocity_limit <= 0.1, "velocity_limit",
-                f"must be in (0, 0.1] dx/dt, got {self.velocity_limit}")
         if self.lattice_shear_rate is not None:
             require(math.isfinite(self.lattice_shear_rate) and self.lattice_shear_rate > 0, "lattice_shear_rate",
                     f"must be > 0 (1/dt), got {self.lattice_shear_rate}")

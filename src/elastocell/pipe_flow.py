@@ -39,13 +39,12 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, model_validator
+from pydantic import model_validator
 
 from . import ibm
-from .flow import FlowError, ImmersedCell, immersed_cell, shear_rate_limits
+from .flow import FlowError, FlowLatticeParameters, ImmersedCell, immersed_cell, shear_rate_limits
 from .lattice import Lattice, LatticeParams
 from .observables import moments
 from .parameters import ParameterError
@@ -189,7 +188,7 @@ shape, while the gap to the wall (R = 8 dx at the default resolution) stays far 
 immersed-boundary kernel's reach, and the lattice stays small (34 x 34 nodes in the cross-section)."""
 
 
-class PipeFlowParameters(BaseModel):
+class PipeFlowParameters(FlowLatticeParameters):
     """Pressure-driven flow of a cell through a cylindrical capillary; numbers are dimensionless unless stated.
 
     capillary_number_wall: Ca_w = G R_ch / (2 mu_ref) = eta gdot_w / mu_ref, mu_ref = mu_c = E_c/(2(1+nu))
@@ -212,21 +211,11 @@ class PipeFlowParameters(BaseModel):
         physics in JAX on its default device: a GPU when JAX has CUDA/ROCm, else the CPU).
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
-
     capillary_number_wall: float
     channel_radius_ratio: float = DEFAULT_CHANNEL_RADIUS_RATIO
     start_offset: float = 0.0
-    resolution: float = 8.0
-    box_length: float = 8.0
-    relaxation_time: float = 1.0
-    reynolds_number: float = 0.1
-    velocity_limit: float = 0.05
-    kernel: Literal["trilinear", "peskin4"] = "trilinear"
     lattice_wall_shear_rate: float | None = None
     max_steps_per_time: float = 1.0e6
-    dtype: Literal["float32", "float64"] = "float32"
-    backend: Literal["numba", "jax"] = "numba"
 
     @model_validator(mode="after")
     def _check(self) -> PipeFlowParameters:
@@ -243,17 +232,7 @@ class PipeFlowParameters(BaseModel):
         require(math.isfinite(offset) and 0 <= offset < 1 - 1 / ratio, "start_offset",
                 f"r0/R_ch must be in [0, {1 - 1 / ratio:.4g}) at R_ch/R = {ratio:g} (r0 + R < R_ch: the cell "
                 f"inside the channel), got {offset}")
-        require(math.isfinite(self.resolution) and 2 <= self.resolution <= 64, "resolution",
-                f"R/dx must be in [2, 64], got {self.resolution}")
-        require(math.isfinite(self.box_length) and self.box_length >= 2.5, "box_length",
-                f"must be >= 2.5 (units of R; the cell is 2R long), got {self.box_length}")
-        require(math.isfinite(self.relaxation_time) and 0.55 <= self.relaxation_time <= 5, "relaxation_time",
-                f"tau must be in [0.55, 5], got {self.relaxation_time}")
-        require(math.isfinite(self.reynolds_number) and 0 < self.reynolds_number <= 0.1, "reynolds_number",
-                f"the particle Reynolds number must be in (0, 0.1] (Stokes regime), got {self.reynolds_number}")
         check_channel_fit(self.resolution, ratio, offset, self.kernel)
-        require(math.isfinite(self.velocity_limit) and 0 < self.velocity_limit <= 0.1, "velocity_limit",
-                f"must be in (0, 0.1] dx/dt, got {self.velocity_limit}")
         if self.lattice_wall_shear_rate is not None:
             rate = self.lattice_wall_shear_rate
             require(math.isfinite(rate) and rate > 0, "lattice_wall_shear_rate", f"must be > 0 (1/dt), got {rate}")
