@@ -2,11 +2,14 @@
 
     python benchmarks/dask_scaling.py [--workers 1 2] [--duration 3] [--resolution 4]
 
-Workload: ``elastocell lut --quick``'s 2 x 2 grid (R = 5, 6 um x E = 1, 2 kPa, R_ch = 10 um, Q = 0.04 uL/s,
-eta = 15 mPa s) run for ``--duration`` units of 1/gdot_w at ``--resolution`` R/dx, each worker count in a fresh
-directory (nothing is read back). Every worker is a single-threaded process (``elastocell.distributed``), so one
+Workload: a 2 x 2 look-up-table grid (``--radii`` 5, 6 um x ``--moduli`` 3, 5 kPa, R_ch = 10 um,
+Q = 0.04 uL/s, eta = 15 mPa s) run for ``--duration`` units of 1/gdot_w at ``--resolution`` R/dx with no
+stationarity stop, so every worker count does the same work, each in a fresh directory (nothing is read back).
+Softer cells at long durations reach the wall at R/dx 4 and fail, which would spoil the comparison. Every worker is a single-threaded process (``elastocell.distributed``), so one
 worker runs the points one after the other on one core. Printed: wall time of the whole grid (cluster start
-included), the sum of the per-point run times, speed-up against the first worker count, and parallel efficiency.
+included), the sum of the per-point run times, speed-up against the first worker count, and parallel efficiency;
+first, the same points one after the other in this process with all its Numba threads (the alternative to Dask
+on one machine).
 Run it on an otherwise idle machine: another job on the same cores makes the figures meaningless.
 """
 
@@ -18,7 +21,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from elastocell.lut import compute_lut
+import numba
+
+from elastocell.lut import compute_lut, plan, run_point
 
 
 def main(argv=None) -> None:
@@ -26,17 +31,31 @@ def main(argv=None) -> None:
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--duration", type=float, default=3.0)
     parser.add_argument("--resolution", type=float, default=4.0)
+    parser.add_argument("--radii", default="5,6", help="um, comma-separated")
+    parser.add_argument("--moduli", default="3,5", help="kPa, comma-separated")
     args = parser.parse_args(argv)
     print(f"cores available: {len(os.sched_getaffinity(0))}, load average before: {os.getloadavg()[0]:.2f}")
+    points, _ = plan("10um", "0.04uL/s", "15mPa*s", radii=args.radii, moduli=args.moduli, quick=True,
+                     duration=args.duration, resolution=args.resolution)
+    run_point((points[0], tempfile.mkdtemp()))  # compile / warm the kernels of this process
+    with tempfile.TemporaryDirectory() as folder:
+        start = time.perf_counter()
+        for point in points:
+            run_point((point, folder))
+        loop = time.perf_counter() - start
+    print(f"in this process, one point after the other, {numba.get_num_threads()} Numba threads: {loop:.1f} s")
     print("workers | points | wall_s | summed_point_s | speed-up | efficiency")
     first = None
     for workers in args.workers:
         with tempfile.TemporaryDirectory() as folder:
             start = time.perf_counter()
             result = compute_lut(Path(folder) / "lut.txt", "10um", "0.04uL/s", "15mPa*s", quick=True,
-                                 duration=args.duration, resolution=args.resolution, workers=workers)
+                                 radii=args.radii, moduli=args.moduli, duration=args.duration,
+                                 resolution=args.resolution, workers=workers)
             wall = time.perf_counter() - start
             summed = sum(record["wall_time_s"] for record in result["records"])
+        for failure in result["failures"]:
+            print(f"failed {failure['key']}: {failure['error']}")
         first = first or wall
         speedup = first / wall
         print(f"{workers} | {len(result['records'])} | {wall:.1f} | {summed:.1f} | {speedup:.2f} | "
