@@ -1,16 +1,18 @@
 """Speed-up of a sweep through Dask: the same pipe-flow look-up-table grid with 1 and with N local workers.
 
-    python benchmarks/dask_scaling.py [--workers 1 2] [--duration 3] [--resolution 4]
+    python benchmarks/dask_scaling.py [--workers 1 2] [--duration 30] [--resolution 4]
 
 Workload: a 2 x 2 look-up-table grid (``--radii`` 5, 6 um x ``--moduli`` 3, 5 kPa, R_ch = 10 um,
 Q = 0.04 uL/s, eta = 15 mPa s) run for ``--duration`` units of 1/gdot_w at ``--resolution`` R/dx with no
 stationarity stop, so every worker count does the same work, each in a fresh directory (nothing is read back).
-Softer cells at long durations reach the wall at R/dx 4 and fail, which would spoil the comparison. Every worker is a single-threaded process (``elastocell.distributed``), so one
-worker runs the points one after the other on one core. Printed: wall time of the whole grid (cluster start
-included), the sum of the per-point run times, speed-up against the first worker count, and parallel efficiency;
-first, the same points one after the other in this process with all its Numba threads (the alternative to Dask
-on one machine).
-Run it on an otherwise idle machine: another job on the same cores makes the figures meaningless.
+Softer cells at long durations reach the wall at R/dx 4 and fail, which would spoil the comparison.
+
+Every worker is a single-threaded process (``elastocell.distributed``), so one worker runs the points one after
+the other on one core. Printed: first, the same points one after the other in this process with all its Numba
+threads (the alternative to Dask on one machine); then, per worker count, the wall time of the whole grid
+(cluster start included), the sum of the per-point run times, the speed-up against the first worker count and
+the parallel efficiency. Run it on an otherwise idle machine: another job on the same cores makes the figures
+meaningless.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from elastocell.lut import compute_lut, plan, run_point
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
-    parser.add_argument("--duration", type=float, default=3.0)
+    parser.add_argument("--duration", type=float, default=30.0)
     parser.add_argument("--resolution", type=float, default=4.0)
     parser.add_argument("--radii", default="5,6", help="um, comma-separated")
     parser.add_argument("--moduli", default="3,5", help="kPa, comma-separated")
@@ -37,7 +39,8 @@ def main(argv=None) -> None:
     print(f"cores available: {len(os.sched_getaffinity(0))}, load average before: {os.getloadavg()[0]:.2f}")
     points, _ = plan("10um", "0.04uL/s", "15mPa*s", radii=args.radii, moduli=args.moduli, quick=True,
                      duration=args.duration, resolution=args.resolution)
-    run_point((points[0], tempfile.mkdtemp()))  # compile / warm the kernels of this process
+    with tempfile.TemporaryDirectory() as folder:
+        run_point((points[0], folder))  # compile / warm the kernels of this process
     with tempfile.TemporaryDirectory() as folder:
         start = time.perf_counter()
         for point in points:
@@ -56,6 +59,9 @@ def main(argv=None) -> None:
             summed = sum(record["wall_time_s"] for record in result["records"])
         for failure in result["failures"]:
             print(f"failed {failure['key']}: {failure['error']}")
+        if result["failures"]:
+            print("some points failed: the worker counts did different work; no speed-up printed")
+            return
         first = first or wall
         speedup = first / wall
         print(f"{workers} | {len(result['records'])} | {wall:.1f} | {summed:.1f} | {speedup:.2f} | "

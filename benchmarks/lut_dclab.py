@@ -25,6 +25,10 @@ import numpy as np
 from elastocell.lut import compute_lut
 
 
+def _number(value) -> float:
+    return float("nan") if value is None else float(value)
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--radii", default="5", help="cell radii (um), comma-separated")
@@ -53,8 +57,8 @@ def main(argv=None) -> None:
     print("R [um] | E [kPa] | area_um | deform | deform_std | stationary | t_end | E_dclab LE-2D-FEM-19 [kPa] | ratio")
     for record, e in zip(records, e_dclab, strict=True):
         print(f"{record['radius_um']:g} | {record['emodulus_kpa']:g} | {record['area_um']:.2f} | "
-              f"{record['deform']:.4f} | {record.get('deform_std') or float('nan'):.4f} | "
-              f"{'yes' if record.get('stationary') else 'no (cap)'} | {record.get('duration') or float('nan'):.2f} | "
+              f"{record['deform']:.4f} | {_number(record.get('deform_std')):.4f} | "
+              f"{'yes' if record.get('stationary') else 'no (cap)'} | {_number(record.get('duration')):.2f} | "
               f"{e:.3f} | {e / record['emodulus_kpa']:.3f}")
     for failure in result["failures"]:
         print(f"failed {failure['key']}: {failure['error']}")

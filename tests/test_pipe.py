@@ -214,6 +214,31 @@ def test_checkpoint_refuses_other_parameters(tmp_path, cell):
         other.load(tmp_path / "c.npz")
 
 
+def test_checkpoint_fingerprint_ignores_field_order_and_a_sweep_restarts_a_stale_checkpoint(tmp_path, cell,
+                                                                                        monkeypatch):
+    # The fingerprint is of the parameter values, not of their declaration order; a checkpoint another version
+    # wrote is refused by --resume but a sweep (resume_or_restart) starts that run afresh.
+    from elastocell.runner import resume_or_restart
+
+    params = PipeFlowParameters(capillary_number_wall=0.2, **SMALL)
+    run = PipeRun(cell, params, record_interval=0.5)
+    shuffled = PipeFlowParameters(**dict(reversed(list(params.model_dump().items()))))
+    assert PipeRun(cell, shuffled, record_interval=0.5).fingerprint() == run.fingerprint()
+    monkeypatch.setenv("ELASTOCELL_NO_VTK", "1")
+    options = dict(capillary_number_wall=0.2, nucleus="none", element="p1", mesh_size=0.6, pole_size=0.6,
+                   flow_options=SMALL, record_interval=0.5, progress=False, duration=0.5)
+    out = tmp_path / "run"
+    pipe(out, **options)
+    with np.load(out / "checkpoint.npz") as data:
+        arrays = dict(data)
+    arrays["version"] = np.array(1)
+    np.savez(out / "checkpoint.npz", **arrays)
+    with pytest.raises(ParameterError, match="resume"):
+        pipe(out, resume=True, **options)
+    summary = resume_or_restart(pipe, out, **options)
+    assert not summary["resumed"] and summary["duration"] == pytest.approx(0.5)
+
+
 @pytest.mark.parametrize(
     "arguments, option",
     [

@@ -259,10 +259,11 @@ def run_point(task: tuple[dict, str]) -> dict:
         return json.loads(marker.read_text())
     from .io import write_json
     from .pipe_flow import pipe
+    from .runner import resume_or_restart
 
     directory.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    summary = pipe(out=directory, progress=False, resume=True, vtk_interval=None, **point["options"])
+    summary = resume_or_restart(pipe, directory, progress=False, vtk_interval=None, **point["options"])
     radius = point["radius_um"]
     final = final_shape(directory / "timeseries.csv")
     record = {

@@ -62,7 +62,9 @@ SERIES_COLUMNS = (
 )  # fmt: skip
 """Columns of the shear time series (see :class:`~elastocell.flow.ShearResult`)."""
 
-CHECKPOINT_VERSION = 2
+CHECKPOINT_VERSION = 3
+"""Version of the checkpoint layout and fingerprint (3: the fingerprint hashes the flow parameters with sorted
+keys, and the coupled step reads the marker velocities from the LB sweep; 2026-12-02)."""
 
 
 @dataclass(frozen=True)
@@ -304,7 +306,7 @@ class FlowRun:
     def fingerprint(self) -> str:
         """Hash of what a checkpoint must match: flow parameters, lattice units, mesh, moduli and law."""
         digest = hashlib.sha256()
-        digest.update(self.params.model_dump_json().encode())
+        digest.update(json.dumps(self.params.model_dump(mode="json"), sort_keys=True).encode())
         digest.update(json.dumps(self.units.as_dict(), sort_keys=True, default=float).encode())
         digest.update(np.ascontiguousarray(self.cell.mesh.nodes).tobytes())
         digest.update(np.ascontiguousarray(self.cell.mesh.elements).tobytes())
@@ -564,6 +566,20 @@ def flow_cell(cell, cell_options: dict, resolution: float):
     if cell_options.get("pole_size") is None:  # uniform: no plate contacts to refine for
         cell_options["pole_size"] = cell_options["mesh_size"]
     return cell_parameters(**cell_options)
+
+
+def resume_or_restart(simulate: Callable, out: Path, **options) -> dict:
+    """``simulate(out=out, resume=True, **options)`` for a sweep's run directory (keyed by its options): continue
+    from the checkpoint if it is there and compatible, otherwise (a checkpoint an older elastocell or another
+    backend wrote) delete it and run from the start. ``--resume`` on the command line refuses such a checkpoint
+    instead, because the user asked for that run to continue."""
+    try:
+        return simulate(out=out, resume=True, **options)
+    except ParameterError as error:
+        if error.parameter != "resume":
+            raise
+    (Path(out) / "checkpoint.npz").unlink(missing_ok=True)
+    return simulate(out=out, resume=False, **options)
 
 
 def run_in_directory(run: FlowRun, out: Path, stop: StopCriteria, *, resume: bool, progress: bool,

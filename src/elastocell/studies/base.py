@@ -176,11 +176,13 @@ FLOW_SUMMARY_KEYS = {
 
 
 def _execute_flow(scenario: str, directory: Path, options: dict) -> dict:
+    from ..runner import resume_or_restart
+
     if scenario == "shear":
         from ..runner import shear as simulate
     else:
         from ..pipe_flow import pipe as simulate
-    summary = simulate(out=directory, progress=False, resume=True, **options)
+    summary = resume_or_restart(simulate, directory, progress=False, **options)
     out = {key: summary.get(key) for key in FLOW_SUMMARY_KEYS[scenario]}
     out["resolution"] = summary.get("lattice", {}).get("radius")
     out["nodes"] = summary.get("mesh", {}).get("n_nodes")
