@@ -252,3 +252,18 @@ def test_a_failed_run_leaves_the_analysis_standing(tmp_path):
     assert "gamma 5" not in claims[0].measured and "gamma 10" not in claims[0].measured
     assert plot_stiffness(frame, tmp_path, "s")[0].exists()
     assert {row["cell"] for row in compression_fits(frame)} == {"gamma 2", "gamma 20", "random"}
+
+
+def test_run_tasks_prepares_once_before_a_local_cluster_only():
+    # prepare (e.g. compiling the flow kernels once, so that the workers load them from the cache) runs in the
+    # caller before a local cluster starts, and not when the caller hands over a running client.
+    import math
+
+    from elastocell.distributed import dask_client, run_tasks
+
+    calls = []
+    results = dict(run_tasks(math.sqrt, [4.0, 9.0], workers=1, prepare=lambda: calls.append("local")))
+    assert results == {0: 2.0, 1: 3.0} and calls == ["local"]
+    with dask_client(workers=1) as client:
+        results = dict(run_tasks(math.sqrt, [16.0], client=client, prepare=lambda: calls.append("client")))
+    assert results == {0: 4.0} and calls == ["local"]

@@ -101,15 +101,20 @@ def _guarded(function: Callable, item):
 
 def run_tasks(function: Callable, items: Sequence, *, scheduler: str | None = None, workers: int | None = None,
               threads: int = 1, description: str = "running", progress: bool = False,
-              client=None) -> Iterator[tuple[int, object]]:
+              client=None, prepare: Callable[[], None] | None = None) -> Iterator[tuple[int, object]]:
     """Yield ``(index, result)`` for ``function(items[index])`` as the tasks finish, run on Dask.
 
     ``function`` must be importable by the workers (a module-level function). A raising task yields a
     :class:`TaskFailure` instead of its result. ``progress`` shows a rich progress bar (tasks done / total).
+    ``prepare`` runs in this process before a local cluster starts (not with ``scheduler`` or ``client``),
+    e.g. :func:`elastocell.flow.compile_kernels` so that the workers load compiled kernels from the cache
+    instead of compiling them all at once.
     """
     items = list(items)
     if not items:
         return
+    if client is None and scheduler is None and prepare is not None:
+        prepare()
     if client is None:
         with dask_client(scheduler, workers, threads) as own:
             yield from run_tasks(function, items, description=description, progress=progress, client=own)

@@ -313,6 +313,26 @@ def _coupled_steps(
     return parity, n_steps, j_min, np.sqrt(max_speed)
 
 
+def compile_kernels(dtypes=("float32",)) -> None:
+    """Compile (or load from Numba's on-disk cache) the coupled-step kernels in this process, one tiny Couette
+    step per storage dtype.
+
+    Call it before starting several worker processes on one machine: they then load the cached kernels
+    instead of compiling the same functions at once, which can leave Numba's cache inconsistent (a later run
+    segfaults while loading it: numba issues 4807 and 10128; seen here once after parallel first runs).
+    A few seconds when the cache is valid, about a minute per dtype otherwise."""
+    from .api import cell_parameters
+    from .cell import Cell
+
+    cell = Cell.from_parameters(cell_parameters(nucleus="none", element="p1", mesh_size=0.6, pole_size=0.6))
+    for dtype in dtypes:
+        params = ShearFlowParameters(capillary_number=0.1, resolution=3, confinement=0.3, box_length=4,
+                                     dtype=dtype)
+        system = shear_setup(cell, params)
+        system.advance(1)
+        system.lattice.step(1)
+
+
 def immersed_cell(backend: str, lattice_params: LatticeParams, velocity, cell, units, kernel: str):
     """The coupled system on a backend ("numba" or "jax"): a lattice at the equilibrium of ``velocity``
     (3, nx, ny, nz) and the cell at ``units.centre`` with radius ``units.radius`` (dx) and modulus

@@ -400,6 +400,8 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     (kept in the table, listed in the metadata under ``elastocell.not_stationary``: their shape is a transient
     mean, not a steady shape)."""
     from .distributed import TaskFailure, check_execution, run_tasks
+    from .flow import compile_kernels
+    from .pipe_flow import PipeFlowParameters
 
     check_execution(scheduler, workers)
     out = Path(out)
@@ -414,7 +416,9 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     start = time.perf_counter()
     records, failures = [], []
     tasks = [(point, str(runs)) for point in points]
+    dtype = PipeFlowParameters.model_fields["dtype"].default  # the runs' LB storage precision
     for index, outcome in run_tasks(run_point, tasks, scheduler=scheduler, workers=workers, progress=progress,
+                                    prepare=lambda: compile_kernels((dtype,)),
                                     description="LUT grid", client=client):
         if isinstance(outcome, TaskFailure):
             failures.append({"key": points[index]["key"], "error": str(outcome)})

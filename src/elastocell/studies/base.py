@@ -232,8 +232,16 @@ def run_members(members: list[Member], out: Path, scheduler: str | None = None, 
     failures = []
     if pending:
         tasks = [(run, str(runs_directory)) for run in pending]
+        flows = {run.kwargs.get("dtype", "float32") for run in pending if run.scenario in ("shear", "pipe")}
+
+        def prepare():  # compile the flow kernels once here, so that the workers only load them
+            if flows:
+                from ..flow import compile_kernels
+
+                compile_kernels(sorted(flows))
+
         for index, result in run_tasks(execute_run, tasks, scheduler=scheduler, workers=workers,
-                                       progress=progress, description=f"{len(pending)} runs"):
+                                       progress=progress, description=f"{len(pending)} runs", prepare=prepare):
             run = pending[index]
             if isinstance(result, TaskFailure):
                 failures.append((run.run_id, str(result)))
