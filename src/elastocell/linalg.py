@@ -19,6 +19,31 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+
+def _locate_mkl_runtime() -> None:
+    """pypardiso looks for MKL's runtime under ``sys.prefix``. In a virtual environment that uses the base
+    interpreter's packages (``--system-site-packages``) MKL lives under ``sys.base_prefix`` instead, pypardiso
+    fails to import, and every curve would fall back to SuperLU (measured: the README's first command ran over
+    10 minutes instead of about 1). Point pypardiso at the base installation's MKL in that case (its own
+    ``PYPARDISO_MKL_RT`` setting; a value the user set is kept)."""
+    import glob
+    import os
+    import sys
+
+    if os.environ.get("PYPARDISO_MKL_RT") or sys.base_prefix == sys.prefix:
+        return
+    patterns = ("lib/libmkl_rt.so*", "lib/libmkl_rt*.dylib", "Library/bin/mkl_rt*.dll")
+    if any(glob.glob(os.path.join(sys.prefix, pattern)) for pattern in patterns):
+        return
+    for pattern in patterns:
+        found = sorted(glob.glob(os.path.join(sys.base_prefix, pattern)))
+        if found:
+            os.environ["PYPARDISO_MKL_RT"] = found[0]
+            return
+
+
+_locate_mkl_runtime()
+
 try:  # pragma: no cover - depends on the platform
     from pypardiso.pardiso_wrapper import PyPardisoError, PyPardisoSolver
 
