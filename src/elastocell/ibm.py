@@ -108,20 +108,27 @@ def _phi_array(kernel, r):
     return out
 
 
-# --------------------------------------------------------------------------- field interpolation
+# --------------------------------------------------------------------------- kernel supports
+_MAX_NODES = _MAX_SUPPORT**3
+
+
+@njit(cache=True, error_model="numpy")
+def _support_scratch():
+    """(weights (3, _MAX_SUPPORT), node x, y, z indices and weights (_MAX_NODES each)) for :func:`_support`."""
+    return (np.empty((3, _MAX_SUPPORT)), np.empty(_MAX_NODES, dtype=np.int64), np.empty(_MAX_NODES, dtype=np.int64),
+            np.empty(_MAX_NODES, dtype=np.int64), np.empty(_MAX_NODES))
+
+
 @njit(cache=True, inline="always", error_model="numpy")
-def _interpolate_marker(field, positions, m, kernel, periodic_y, out):
-    """out[m] = sum_n field(n) delta(n - X_m)."""
-    nx, ny, nz = field.shape[1], field.shape[2], field.shape[3]
-    wx = np.empty(_MAX_SUPPORT)
-    wy = np.empty(_MAX_SUPPORT)
-    wz = np.empty(_MAX_SUPPORT)
-    bx, n = _stencil(kernel, positions[m, 0], wx)
-    by, _ = _stencil(kernel, positions[m, 1], wy)
-    bz, _ = _stencil(kernel, positions[m, 2], wz)
-    ux = 0.0
-    uy = 0.0
-    uz = 0.0
+def _support(kernel, position, nx, ny, nz, periodic_y, scratch):
+    """The lattice nodes n = (ix, iy, iz) of the kernel support of a marker at ``position`` and their weights
+    delta(n - X), written to ``scratch`` (see :func:`_support_scratch`); returns their number. Periodic in x and
+    z; in y periodic if ``periodic_y``, else the nodes beyond the walls (y < 0 or y >= ny) are left out."""
+    w, ix, iy, iz, weights = scratch
+    bx, n = _stencil(kernel, position[0], w[0])
+    by, _ = _stencil(kernel, position[1], w[1])
+    bz, _ = _stencil(kernel, position[2], w[2])
+    count = 0
     for b in range(n):
         y = by + b
         if periodic_y:
@@ -130,13 +137,30 @@ def _interpolate_marker(field, positions, m, kernel, periodic_y, out):
             continue
         for a in range(n):
             x = _wrap(bx + a, nx)
-            wxy = wx[a] * wy[b]
+            wxy = w[0, a] * w[1, b]
             for c in range(n):
-                z = _wrap(bz + c, nz)
-                w = wxy * wz[c]
-                ux += w * field[0, x, y, z]
-                uy += w * field[1, x, y, z]
-                uz += w * field[2, x, y, z]
+                ix[count] = x
+                iy[count] = y
+                iz[count] = _wrap(bz + c, nz)
+                weights[count] = wxy * w[2, c]
+                count += 1
+    return count
+
+
+# --------------------------------------------------------------------------- field interpolation
+@njit(cache=True, inline="always", error_model="numpy")
+def _interpolate_marker(field, positions, m, kernel, periodic_y, out, scratch):
+    """out[m] = sum_n field(n) delta(n - X_m)."""
+    count = _support(kernel, positions[m], field.shape[1], field.shape[2], field.shape[3], periodic_y, scratch)
+    _, ix, iy, iz, weights = scratch
+    ux = 0.0
+    uy = 0.0
+    uz = 0.0
+    for j in range(count):
+        w = weights[j]
+        ux += w * field[0, ix[j], iy[j], iz[j]]
+        uy += w * field[1, ix[j], iy[j], iz[j]]
+        uz += w * field[2, ix[j], iy[j], iz[j]]
     out[m, 0] = ux
     out[m, 1] = uy
     out[m, 2] = uz
@@ -145,70 +169,46 @@ def _interpolate_marker(field, positions, m, kernel, periodic_y, out):
 @njit(parallel=True, cache=True, error_model="numpy")
 def _interpolate_field(field, positions, kernel, periodic_y, out):
     for m in prange(positions.shape[0]):
-        _interpolate_marker(field, positions, m, kernel, periodic_y, out)
+        _interpolate_marker(field, positions, m, kernel, periodic_y, out, _support_scratch())
 
 
 @njit(cache=True, error_model="numpy")
 def _interpolate_field_serial(field, positions, kernel, periodic_y, out):
     """The same without a parallel region (a few hundred markers in the coupled loop: cheaper than waking the
     threads)."""
+    scratch = _support_scratch()
     for m in range(positions.shape[0]):
-        _interpolate_marker(field, positions, m, kernel, periodic_y, out)
+        _interpolate_marker(field, positions, m, kernel, periodic_y, out, scratch)
 
 
 @njit(cache=True, error_model="numpy")
 def _spread_field(forces, positions, kernel, periodic_y, field):
     """field[:, n] += f_m delta(n - X_m) (serial scatter-add)."""
-    nx, ny, nz = field.shape[1], field.shape[2], field.shape[3]
-    wx = np.empty(_MAX_SUPPORT)
-    wy = np.empty(_MAX_SUPPORT)
-    wz = np.empty(_MAX_SUPPORT)
+    scratch = _support_scratch()
+    _, ix, iy, iz, weights = scratch
     for m in range(positions.shape[0]):
-        bx, n = _stencil(kernel, positions[m, 0], wx)
-        by, _ = _stencil(kernel, positions[m, 1], wy)
-        bz, _ = _stencil(kernel, positions[m, 2], wz)
+        count = _support(kernel, positions[m], field.shape[1], field.shape[2], field.shape[3], periodic_y, scratch)
         fx = forces[m, 0]
         fy = forces[m, 1]
         fz = forces[m, 2]
-        for b in range(n):
-            y = by + b
-            if periodic_y:
-                y = _wrap(y, ny)
-            elif y < 0 or y >= ny:
-                continue
-            for a in range(n):
-                x = _wrap(bx + a, nx)
-                wxy = wx[a] * wy[b]
-                for c in range(n):
-                    z = _wrap(bz + c, nz)
-                    w = wxy * wz[c]
-                    field[0, x, y, z] += w * fx
-                    field[1, x, y, z] += w * fy
-                    field[2, x, y, z] += w * fz
+        for j in range(count):
+            w = weights[j]
+            field[0, ix[j], iy[j], iz[j]] += w * fx
+            field[1, ix[j], iy[j], iz[j]] += w * fy
+            field[2, ix[j], iy[j], iz[j]] += w * fz
 
 
 @njit(cache=True, error_model="numpy")
 def _clear_field(positions, kernel, periodic_y, field):
     """Set the field to zero on the kernel support of every marker (undoes a spread at these positions)."""
-    nx, ny, nz = field.shape[1], field.shape[2], field.shape[3]
-    wx = np.empty(_MAX_SUPPORT)
+    scratch = _support_scratch()
+    _, ix, iy, iz, _ = scratch
     for m in range(positions.shape[0]):
-        bx, n = _stencil(kernel, positions[m, 0], wx)
-        by, _ = _stencil(kernel, positions[m, 1], wx)
-        bz, _ = _stencil(kernel, positions[m, 2], wx)
-        for b in range(n):
-            y = by + b
-            if periodic_y:
-                y = _wrap(y, ny)
-            elif y < 0 or y >= ny:
-                continue
-            for a in range(n):
-                x = _wrap(bx + a, nx)
-                for c in range(n):
-                    z = _wrap(bz + c, nz)
-                    field[0, x, y, z] = 0.0
-                    field[1, x, y, z] = 0.0
-                    field[2, x, y, z] = 0.0
+        count = _support(kernel, positions[m], field.shape[1], field.shape[2], field.shape[3], periodic_y, scratch)
+        for j in range(count):
+            field[0, ix[j], iy[j], iz[j]] = 0.0
+            field[1, ix[j], iy[j], iz[j]] = 0.0
+            field[2, ix[j], iy[j], iz[j]] = 0.0
 
 
 # --------------------------------------------------------------------------- velocity from populations
@@ -279,32 +279,19 @@ def _interpolate_populations(A, parity, nz, force, has_field, consts, has_walls,
     nx, ny = A.shape[0], A.shape[1]
     periodic_y = not has_walls
     for m in prange(positions.shape[0]):
-        wx = np.empty(_MAX_SUPPORT)
-        wy = np.empty(_MAX_SUPPORT)
-        wz = np.empty(_MAX_SUPPORT)
-        bx, n = _stencil(kernel, positions[m, 0], wx)
-        by, _ = _stencil(kernel, positions[m, 1], wy)
-        bz, _ = _stencil(kernel, positions[m, 2], wz)
+        scratch = _support_scratch()
+        count = _support(kernel, positions[m], nx, ny, nz, periodic_y, scratch)
+        _, ix, iy, iz, weights = scratch
         ux = 0.0
         uy = 0.0
         uz = 0.0
-        for b in range(n):
-            y = by + b
-            if periodic_y:
-                y = _wrap(y, ny)
-            elif y < 0 or y >= ny:
-                continue
-            for a in range(n):
-                x = _wrap(bx + a, nx)
-                wxy = wx[a] * wy[b]
-                for c in range(n):
-                    z = _wrap(bz + c, nz)
-                    w = wxy * wz[c]
-                    vx, vy, vz = _node_velocity(A, parity, x, y, z, nz, force, has_field, consts, has_walls,
-                                                wall_corr, cint, opp, solid, has_solid)
-                    ux += w * vx
-                    uy += w * vy
-                    uz += w * vz
+        for j in range(count):
+            vx, vy, vz = _node_velocity(A, parity, ix[j], iy[j], iz[j], nz, force, has_field, consts, has_walls,
+                                        wall_corr, cint, opp, solid, has_solid)
+            w = weights[j]
+            ux += w * vx
+            uy += w * vy
+            uz += w * vz
         out[m, 0] = ux
         out[m, 1] = uy
         out[m, 2] = uz
