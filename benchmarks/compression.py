@@ -2,13 +2,14 @@
 same problem solved by FElupe (a peer FE code, if installed) in the same run.
 
     python benchmarks/compression.py [--cell homogeneous|reference] [--quick] [--no-peer]
-        [--meshes p2:0.3:0.08 ...] [--reference-forces F0.1 F0.3 F0.5 F0.7]
+        [--meshes p2:0.3:0.06:0.15 ...] [--reference-forces F0.1 F0.3 F0.5 F0.7]
 
 For each mesh: nodes, wall time of a full curve (0 -> 0.75, 40 steps; meshes and compiled code cached, i.e.
 a warm-up run first), Newton iterations, factorisations, and F at delta = 0.1, 0.3, 0.5, 0.7 with its error
 against the finest p2 mesh (the mesh-converged reference; its own error is estimated from the next-finest).
 Prints a table; timings are measurements of this machine, never asserted. ``--meshes`` runs only the given
-meshes (``element:mesh_size:pole_size``) and ``--reference-forces`` takes the converged F at the four deltas from
+meshes (``element:mesh_size:pole_size[:interface_size]``, ``-`` for no refinement; the interface size applies
+to the reference cell's nucleus surface) and ``--reference-forces`` takes the converged F at the four deltas from
 an earlier full run instead of the finest mesh of this one (then every p2 mesh also runs on the peer).
 """
 
@@ -25,20 +26,22 @@ from elastocell.compression import compress
 from elastocell.parameters import CompressionParameters
 
 DELTAS = np.array([0.1, 0.3, 0.5, 0.7])
-MESHES = [  # (element, mesh_size, pole_size)
-    ("p1", 0.2, 0.05),
-    ("p1", 0.12, 0.03),
-    ("p2", 0.5, 0.15),
-    ("p2", 0.35, 0.1),
-    ("p2", 0.3, 0.08),
-    ("p2", 0.2, 0.05),
-    ("p2", 0.15, 0.035),
+MESHES = [  # (element, mesh_size, pole_size, interface_size)
+    ("p1", 0.2, 0.05, None),
+    ("p1", 0.12, 0.04, None),
+    ("p2", 0.5, 0.15, 0.25),
+    ("p2", 0.35, 0.1, 0.2),
+    ("p2", 0.3, 0.06, 0.15),
+    ("p2", 0.225, 0.045, 0.1125),
+    ("p2", 0.15, 0.03, 0.075),
 ]
-QUICK_MESHES = [("p1", 0.3, 0.08), ("p2", 0.5, 0.15), ("p2", 0.35, 0.1), ("p2", 0.25, 0.06)]
+QUICK_MESHES = [("p1", 0.3, 0.08, None), ("p2", 0.5, 0.15, 0.25), ("p2", 0.35, 0.1, 0.2), ("p2", 0.25, 0.06, 0.125)]
 
 
-def run(element: str, mesh_size: float, pole_size: float, cell_kind: str, steps: int) -> dict:
-    options = dict(element=element, mesh_size=mesh_size, pole_size=pole_size)
+def run(element: str, mesh_size: float, pole_size: float, interface_size: float | None, cell_kind: str,
+        steps: int) -> dict:
+    options = dict(element=element, mesh_size=mesh_size, pole_size=pole_size,
+                   interface_size=mesh_size if interface_size is None else interface_size)
     if cell_kind == "homogeneous":
         options["nucleus"] = "none"
     cell = Cell.from_parameters(cell_parameters(**options))
@@ -48,10 +51,18 @@ def run(element: str, mesh_size: float, pole_size: float, cell_kind: str, steps:
     result = compress(cell, params)
     seconds = time.perf_counter() - start
     return {
-        "element": element, "mesh_size": mesh_size, "pole_size": pole_size, "nodes": cell.mesh.n_nodes,
+        "element": element, "mesh_size": mesh_size, "pole_size": pole_size,
+        "interface_size": cell.parameters.mesh.interface_size or mesh_size, "nodes": cell.mesh.n_nodes,
         "seconds": seconds, "newton": result.newton_iterations, "factorisations": result.factorisations,
         "force": np.interp(DELTAS, result.delta, result.force), "curve": (result.delta, result.force),
     }
+
+
+def _mesh_spec(text: str) -> tuple[str, float, float, float | None]:
+    """``element:h:h_pole[:h_interface]`` (``-`` or no fourth field: no interface refinement)."""
+    parts = text.split(":")
+    interface = float(parts[3]) if len(parts) > 3 and parts[3] != "-" else None
+    return parts[0], float(parts[1]), float(parts[2]), interface
 
 
 def richardson(h: list[float], forces: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -88,19 +99,20 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--no-peer", action="store_true")
     parser.add_argument("--steps", type=int, default=40)
-    parser.add_argument("--meshes", nargs="+", metavar="ELEMENT:H:H_POLE")
+    parser.add_argument("--meshes", nargs="+", metavar="ELEMENT:H:H_POLE[:H_INTERFACE]")
     parser.add_argument("--reference-forces", nargs=4, type=float, metavar="F")
     args = parser.parse_args()
     meshes = QUICK_MESHES if args.quick else MESHES
     if args.meshes:
-        meshes = [(m.split(":")[0], float(m.split(":")[1]), float(m.split(":")[2])) for m in args.meshes]
+        meshes = [_mesh_spec(m) for m in args.meshes]
     if not args.reference_forces and sum(m[0] == "p2" for m in meshes) < 2:
         parser.error("need two p2 meshes (the finest is the reference) or --reference-forces")
     rows = []
-    for element, mesh_size, pole_size in meshes:
-        row = run(element, mesh_size, pole_size, args.cell, args.steps)
+    for element, mesh_size, pole_size, interface_size in meshes:
+        row = run(element, mesh_size, pole_size, interface_size, args.cell, args.steps)
         rows.append(row)
-        print(f"  done {element} h={mesh_size} hp={pole_size}: {row['nodes']} nodes, {row['seconds']:.1f} s", flush=True)
+        print(f"  done {element} h={mesh_size} hp={pole_size} hi={row['interface_size']}: {row['nodes']} nodes, "
+              f"{row['seconds']:.1f} s", flush=True)
     quadratic = [r for r in rows if r["element"] == "p2"]
     print(f"\nCompression benchmark, {args.cell} cell, {args.steps} steps to delta 0.75")
     if args.reference_forces:
@@ -123,12 +135,12 @@ def main() -> None:
             print("errors against the extrapolated limit: "
                   + "; ".join(f"{r['element']} {r['nodes']} nodes " + " ".join(f"{e:+.2%}" for e in r["force"] / limit - 1)
                               for r in rows))
-    header = f"{'element':>7} {'h':>5} {'h_pole':>6} {'nodes':>6} {'time_s':>7} {'newton':>6} {'factor':>6} " + " ".join(
+    header = f"{'element':>7} {'h':>5} {'h_pole':>6} {'h_int':>5} {'nodes':>6} {'time_s':>7} {'newton':>6} {'factor':>6} " + " ".join(
         f"err@{d:<4g}" for d in DELTAS)
     print(header)
     for r in rows:
         errors = r["force"] / reference["force"] - 1
-        print(f"{r['element']:>7} {r['mesh_size']:>5g} {r['pole_size']:>6g} {r['nodes']:>6} {r['seconds']:>7.1f} "
+        print(f"{r['element']:>7} {r['mesh_size']:>5g} {r['pole_size']:>6g} {r['interface_size']:>5g} {r['nodes']:>6} {r['seconds']:>7.1f} "
               f"{r['newton']:>6} {r['factorisations']:>6} " + " ".join(f"{e:>+8.2%}" for e in errors))
     if args.no_peer or args.cell != "homogeneous":
         return
@@ -141,7 +153,7 @@ def main() -> None:
     print(f"{'h':>5} {'h_pole':>6} {'nodes':>6} {'time_s':>7} " + " ".join(f"err@{d:<4g}" for d in DELTAS))
     peer_rows = []
     peer_meshes = [m for m in meshes if m[0] == "p2"]
-    for _, mesh_size, pole_size in (peer_meshes if args.reference_forces else peer_meshes[:-1]):
+    for _, mesh_size, pole_size, _ in (peer_meshes if args.reference_forces else peer_meshes[:-1]):
         try:
             peer = felupe_compression_curve(mesh_size, pole_size, delta_max=0.75, n_steps=args.steps)
         except Exception as error:  # pragma: no cover

@@ -9,7 +9,7 @@ import pytest
 
 from elastocell import cell_parameters
 from elastocell.cell import Cell
-from elastocell.compression import CompressionError, compress, hertz_force
+from elastocell.compression import CompressionError, _held_direction, compress, hertz_force
 from elastocell.parameters import CompressionParameters
 
 
@@ -24,7 +24,8 @@ def homogeneous_small_delta():
 
 
 def test_stiffness_matches_finite_difference_of_forces():
-    cell = Cell.from_parameters(cell_parameters(mesh_size=0.5, pole_size=0.5, stiffness_ratio=5))
+    cell = Cell.from_parameters(cell_parameters(mesh_size=0.5, pole_size=0.5, interface_size=0.5,
+                                                stiffness_ratio=5))
     rng = np.random.default_rng(0)
     x = cell.mesh.nodes + 0.01 * rng.standard_normal(cell.mesh.nodes.shape)
     v = rng.standard_normal(x.size)
@@ -45,7 +46,8 @@ def test_upper_triangle_assembly_constraints_and_definiteness():
 
     from elastocell.linalg import HAVE_PARDISO, SparseSolver
 
-    cell = Cell.from_parameters(cell_parameters(mesh_size=0.5, pole_size=0.5, stiffness_ratio=5))
+    cell = Cell.from_parameters(cell_parameters(mesh_size=0.5, pole_size=0.5, interface_size=0.5,
+                                                stiffness_ratio=5))
     rng = np.random.default_rng(1)
     x = cell.mesh.nodes + 0.01 * rng.standard_normal(cell.mesh.nodes.shape)
     pattern = cell.stiffness_pattern
@@ -81,6 +83,17 @@ def test_upper_triangle_assembly_constraints_and_definiteness():
             assert solver.factorize(-definite) is True
         assert not solver.factorize(definite)  # and a failed factorisation leaves the solver usable
         assert np.abs(solver.solve(rhs) - reference).max() < 1e-8 * np.abs(reference).max()
+        # more dofs held through the Schur complement of this factorisation = the system with them held
+        extra = np.zeros(x.size, dtype=bool)
+        extra[rng.choice(np.flatnonzero(~constrained), 7, replace=False)] = True
+        held_system = expected.copy()
+        held_system[extra, :] = 0.0
+        held_system[:, extra] = 0.0
+        held_system[extra, extra] = 1.0
+        held_rhs = np.where(extra | constrained, 0.0, rhs)
+        held_reference = spsolve(sp.csr_matrix(held_system), held_rhs)
+        held = _held_direction(solver, solver.solve(np.where(constrained, 0.0, rhs)), extra)
+        assert np.abs(held - held_reference).max() < 1e-8 * np.abs(held_reference).max()
         solver.close()
 
 
@@ -186,3 +199,23 @@ def test_newton_stagnation_accepts_a_plateau_below_1e7_only():
     assert not stagnated([3e-8, 2e-8, 1.2e-8])  # too few iterations to judge
     assert not stagnated([1e-3, 9e-4, 9.5e-4, 9.7e-4, 9.9e-4])  # a plateau far from equilibrium
     assert not stagnated([4e-8, 2e-8, 1e-8, 0.6e-8, 0.4e-8])  # slow but still halving: 0.4e-8 < 0.5 * 2e-8
+
+
+def test_min_nodal_jacobian_is_det_of_an_affine_map_and_sees_a_fold_the_quadrature_points_miss():
+    """Reference: an affine map x = A X has det(dx/dxi)/det(dX/dxi) = det A at every point of every element
+    (round-off); an edge node moved to 0.8 of its edge makes the 1D map 3 - 4 m < 0 at the far corner (a fold)
+    while det F stays positive at the four quadrature points, so the energy is finite."""
+    from elastocell.compression import min_nodal_jacobian
+    from elastocell.mesh import TET10_EDGES
+
+    for element in ("p1", "p2"):
+        cell = Cell.from_parameters(cell_parameters(nucleus="none", element=element, mesh_size=0.5, pole_size=0.5))
+        a = np.array([[1.1, 0.2, 0.0], [0.0, 0.9, 0.1], [0.05, 0.0, 0.8]])
+        assert abs(min_nodal_jacobian(cell, cell.mesh.nodes @ a.T) - np.linalg.det(a)) < 1e-12
+    x = cell.mesh.nodes.copy()
+    interior = np.setdiff1d(np.arange(len(x)), cell.mesh.surface_nodes)
+    element = int(np.flatnonzero(np.isin(cell.mesh.elements[:, 4], interior))[0])
+    corner_a, corner_b = cell.mesh.elements[element, TET10_EDGES[0]]
+    x[cell.mesh.elements[element, 4]] = x[corner_a] + 0.8 * (x[corner_b] - x[corner_a])
+    assert min_nodal_jacobian(cell, x) < 0
+    assert np.isfinite(cell.energy(x))

@@ -26,7 +26,8 @@ def coarse_cells():
         for law in ("neo-hookean", "mooney-rivlin"):
             for nucleus in ("none", "sphere"):
                 params = elastocell.cell_parameters(nucleus=nucleus, element=element, material=law,
-                                                    mesh_size=0.5, pole_size=0.5, stiffness_ratio=3.0)
+                                                    mesh_size=0.5, pole_size=0.5, interface_size=0.5,
+                                                    stiffness_ratio=3.0)
                 cells[element, law, nucleus] = Cell.from_parameters(params)
     return cells
 

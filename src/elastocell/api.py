@@ -41,6 +41,7 @@ def cell_parameters(
     seed: int = 0,
     mesh_size: float | None = None,
     pole_size: float | None = None,
+    interface_size: float | None = None,
     element: str = "p2",
     material: str = "neo-hookean",
     poisson_ratio: float = 0.48,
@@ -60,7 +61,10 @@ def cell_parameters(
     mesh_size = defaults.mesh_size if mesh_size is None else mesh_size
     if pole_size is None:  # keep the default pole refinement unless the bulk size is already finer
         pole_size = defaults.pole_size if defaults.pole_size < mesh_size else None
-    mesh = MeshParameters(element=element, mesh_size=mesh_size, pole_size=pole_size)
+    if interface_size is None and defaults.interface_size is not None:  # in proportion to the bulk size
+        interface_size = defaults.interface_size * mesh_size / defaults.mesh_size
+    mesh = MeshParameters(element=element, mesh_size=mesh_size, pole_size=pole_size, interface_size=interface_size,
+                          pole_radius=defaults.pole_radius)
     return CellParameters(
         nucleus=NucleusParameters(
             shape=nucleus, stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, offset=offset,
@@ -248,6 +252,12 @@ def _metadata(result: CompressionResult, body: Cell, cell: CellParameters, scena
             "unstable_rows": int(result.unstable.sum()),
             "first_unstable_delta": (float(result.delta[np.argmax(result.unstable)])
                                      if result.unstable.any() else None),
+            # rows where a quadratic element has folded at a node (det dx/dxi <= 0 there while positive at its
+            # quadrature points, see compression.min_nodal_jacobian); None: none folded
+            "min_nodal_jacobian": float(result.min_nodal_jacobian.min()),
+            "folded_rows": int((result.min_nodal_jacobian <= 0).sum()),
+            "first_folded_delta": (float(result.delta[np.argmax(result.min_nodal_jacobian <= 0)])
+                                   if (result.min_nodal_jacobian <= 0).any() else None),
         },
         "wall_time_s": wall_time,
         "software": software_versions(),

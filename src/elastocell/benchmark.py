@@ -138,7 +138,8 @@ def lattice_with_cell_mlups(size: int, dtype: str = "float32", radius: float | N
 
     radius = size / 8.0 if radius is None else float(radius)
     mesh_size = min(0.5, max(2.0 / radius, 0.08))
-    cell = Cell.from_parameters(cell_parameters(element="p1", mesh_size=mesh_size, pole_size=mesh_size))
+    cell = Cell.from_parameters(cell_parameters(element="p1", mesh_size=mesh_size, pole_size=mesh_size,
+                                                    interface_size=mesh_size))
     lattice = _lattice(size, dtype, backend)
     cell_class = ImmersedCell
     if backend == "jax":

@@ -31,14 +31,16 @@ class AxisName(str, Enum):
 
 
 def _cell_options(nucleus, stiffness_ratio, size_ratio, offset, offset_axis, semi_axes, nucleus_axis, random, seed,
-                  mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius):
+                  mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius,
+                  interface_size=None):
     from .api import cell_parameters
 
     return cell_parameters(
         nucleus=nucleus.value if isinstance(nucleus, Enum) else nucleus, stiffness_ratio=stiffness_ratio,
         size_ratio=size_ratio, offset=offset, offset_axis=getattr(offset_axis, "value", offset_axis),
         semi_axes=tuple(semi_axes), nucleus_axis=getattr(nucleus_axis, "value", nucleus_axis), random=random,
-        seed=seed, mesh_size=mesh_size, pole_size=pole_size, element=element, material=material,
+        seed=seed, mesh_size=mesh_size, pole_size=pole_size, interface_size=interface_size, element=element,
+        material=material,
         poisson_ratio=poisson_ratio, youngs_modulus=youngs_modulus, radius=radius,
     )
 
@@ -55,6 +57,7 @@ RANDOM = typer.Option(False, "--random", help="Random cell: gamma_i ~ U[1, 10] p
 SEED = typer.Option(0, "--seed", help="Seed of the random cell.")
 MESH_SIZE = typer.Option(None, "--mesh-size", help="Element size far from the poles (units of R).")
 POLE_SIZE = typer.Option(None, "--pole-size", help="Element size at the plate contacts (units of R).")
+INTERFACE_SIZE = typer.Option(None, "--interface-size", help="Element size on the nucleus surface (units of R).")
 POISSON = typer.Option(0.48, "--poisson-ratio", help="nu in (-1, 0.5).")
 MODULUS = typer.Option("1", "--youngs-modulus", help="E_c, e.g. 1kPa (plain number: dimensionless).")
 RADIUS = typer.Option("1", "--radius", help="R, e.g. 8um (plain number: dimensionless).")
@@ -63,6 +66,7 @@ ELEMENT = typer.Option("p2", "--element", help="p2 (10-node, default) | p1 (4-no
 # options shared by the flow scenarios (shear, pipe)
 FLOW_MESH_SIZE = typer.Option(None, "--mesh-size", help="Element size (units of R); default: 2 dx, uniform.")
 FLOW_POLE_SIZE = typer.Option(None, "--pole-size", help="Element size at the poles; default: uniform.")
+FLOW_INTERFACE_SIZE = typer.Option(None, "--interface-size", help="Element size on the nucleus surface; default: uniform.")
 FLOW_ELEMENT = typer.Option("p1", "--element", help="p1 (4-node, the paper's; flow default) | p2 (10-node).")
 FLOW_RESOLUTION = typer.Option(8.0, "--resolution", help="R/dx, lattice nodes per cell radius.")
 WALL_CLOCK = typer.Option(None, "--wall-clock", help="Stop after this many seconds.")
@@ -88,6 +92,7 @@ def compress(
     offset: float = OFFSET, offset_axis: AxisName = OFFSET_AXIS, semi_axes: tuple[float, float, float] = SEMI_AXES,
     nucleus_axis: AxisName = NUCLEUS_AXIS, random: bool = RANDOM, seed: int = SEED,
     mesh_size: float | None = MESH_SIZE, pole_size: float | None = POLE_SIZE,  # noqa: UP007
+    interface_size: float | None = INTERFACE_SIZE,  # noqa: UP007
     poisson_ratio: float = POISSON, youngs_modulus: str = MODULUS, radius: str = RADIUS,
     material: str = MATERIAL, element: str = ELEMENT,
     delta_max: float = typer.Option(0.75, "--delta-max", help="Final deformation in (0, 1)."),
@@ -102,7 +107,8 @@ def compress(
     from .parameters import CompressionParameters
 
     cell = _cell_options(nucleus, stiffness_ratio, size_ratio, offset, offset_axis, semi_axes, nucleus_axis, random,
-                         seed, mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius)
+                         seed, mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius,
+                         interface_size)
     CompressionParameters(delta_max=delta_max, steps=steps)  # validate before meshing
     try:
         summary = run(out, cell=cell, delta_max=delta_max, steps=steps, equivalent=equivalent, compare=compare,
@@ -113,6 +119,11 @@ def compress(
     if not quiet:
         typer.echo(f"{summary['label']}: gamma_eff = {summary['effective_stiffness_ratio']:.4f}, "
                    f"{summary['mesh']['n_nodes']} nodes, curve in {summary['solver']['curve_time_s']:.1f} s -> {out}")
+        for name, solver in (("cell", summary["solver"]), ("equivalent", summary.get("equivalent_summary", {}).get("solver"))):
+            if solver and solver.get("first_folded_delta") is not None:
+                typer.echo(f"warning ({name}): quadratic elements folded at a node from delta = "
+                           f"{solver['first_folded_delta']:.3f} on (min nodal det ratio {solver['min_nodal_jacobian']:.2f}); "
+                           "the force there is an equilibrium of the discrete energy, check it on a finer mesh", err=True)
         if "equivalent_summary" in summary:
             typer.echo(f"equivalent: curve in {summary['equivalent_summary']['solver']['curve_time_s']:.1f} s; "
                        f"force ratios in {out / 'comparison.csv'}, plot {out / 'comparison.png'}")
@@ -129,6 +140,7 @@ def shear(
     nucleus_axis: AxisName = NUCLEUS_AXIS, random: bool = RANDOM, seed: int = SEED,
     mesh_size: float | None = FLOW_MESH_SIZE,  # noqa: UP007
     pole_size: float | None = FLOW_POLE_SIZE,  # noqa: UP007
+    interface_size: float | None = FLOW_INTERFACE_SIZE,  # noqa: UP007
     poisson_ratio: float = POISSON, youngs_modulus: str = MODULUS, radius: str = RADIUS,
     material: str = MATERIAL,
     element: str = FLOW_ELEMENT,
@@ -156,8 +168,10 @@ def shear(
 
     mesh_size = mesh_size if mesh_size is not None else _shear_mesh(resolution)
     pole_size = pole_size if pole_size is not None else mesh_size  # uniform: no plate contacts to refine for
+    interface_size = interface_size if interface_size is not None else mesh_size
     cell = _cell_options(nucleus, stiffness_ratio, size_ratio, offset, offset_axis, semi_axes, nucleus_axis, random,
-                         seed, mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius)
+                         seed, mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius,
+                         interface_size)
     if (viscosity is None) != (shear_rate is None):
         raise ParameterError("viscosity", "give both --viscosity and --shear-rate, or neither")
     if viscosity is not None:
@@ -202,6 +216,7 @@ def equivalent_command(
     offset: float = OFFSET, offset_axis: AxisName = OFFSET_AXIS, semi_axes: tuple[float, float, float] = SEMI_AXES,
     nucleus_axis: AxisName = NUCLEUS_AXIS, random: bool = RANDOM, seed: int = SEED,
     mesh_size: float | None = MESH_SIZE, pole_size: float | None = POLE_SIZE,  # noqa: UP007
+    interface_size: float | None = INTERFACE_SIZE,  # noqa: UP007
     poisson_ratio: float = POISSON, youngs_modulus: str = MODULUS, radius: str = RADIUS,
     material: str = MATERIAL, element: str = ELEMENT,
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
@@ -210,7 +225,8 @@ def equivalent_command(
     from .api import equivalent as run
 
     cell = _cell_options(nucleus, stiffness_ratio, size_ratio, offset, offset_axis, semi_axes, nucleus_axis, random,
-                         seed, mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius)
+                         seed, mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius,
+                         interface_size)
     summary = run(cell)
     if as_json:
         typer.echo(json.dumps(summary, indent=2))
@@ -242,6 +258,7 @@ def pipe(
     nucleus_axis: AxisName = NUCLEUS_AXIS, random: bool = RANDOM, seed: int = SEED,
     mesh_size: float | None = FLOW_MESH_SIZE,  # noqa: UP007
     pole_size: float | None = FLOW_POLE_SIZE,  # noqa: UP007
+    interface_size: float | None = FLOW_INTERFACE_SIZE,  # noqa: UP007
     poisson_ratio: float = POISSON, youngs_modulus: str = MODULUS, radius: str = RADIUS,
     material: str = MATERIAL,
     element: str = FLOW_ELEMENT,
@@ -273,8 +290,10 @@ def pipe(
 
     mesh_size = mesh_size if mesh_size is not None else _shear_mesh(resolution)
     pole_size = pole_size if pole_size is not None else mesh_size  # uniform: no plate contacts to refine for
+    interface_size = interface_size if interface_size is not None else mesh_size
     cell = _cell_options(nucleus, stiffness_ratio, size_ratio, offset, offset_axis, semi_axes, nucleus_axis, random,
-                         seed, mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius)
+                         seed, mesh_size, pole_size, element, material, poisson_ratio, youngs_modulus, radius,
+                         interface_size)
     if pressure_gradient is not None:
         if capillary_number_wall is not None:
             raise ParameterError("capillary_number_wall", "give --capillary-number-wall or --pressure-gradient, not both")

@@ -8,7 +8,8 @@ import typer
 _OPTION_NAMES = {
     "stiffness_ratio": "--stiffness-ratio", "size_ratio": "--size-ratio", "offset": "--offset",
     "semi_axes": "--semi-axes", "poisson_ratio": "--poisson-ratio", "youngs_modulus": "--youngs-modulus",
-    "radius": "--radius", "mesh_size": "--mesh-size", "pole_size": "--pole-size", "delta_max": "--delta-max",
+    "radius": "--radius", "mesh_size": "--mesh-size", "pole_size": "--pole-size", "interface_size": "--interface-size",
+    "delta_max": "--delta-max",
     "steps": "--steps", "material": "--material", "element": "--element", "random": "--random",
     "compare": "--compare",
     # shear

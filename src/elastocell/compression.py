@@ -38,6 +38,10 @@ from .parameters import CompressionParameters
 
 DEBUG = bool(os.environ.get('ELASTOCELL_DEBUG'))
 MIN_SHIFT, MAX_SHIFT = 1e-10, 1e3  # Levenberg-Marquardt diagonal shift relative to the mean diagonal
+RETRY_SHIFT = 1e-4
+"""Smallest shift tried after a failed factorisation. A shift is needed mostly at the first iteration of a load
+step, and there 1e-4 to 1 (measured on the reference cell's default curve: 19 of 20 such iterations); each rung
+of the x100 ladder below 1e-4 was a failed factorisation (72 of 383)."""
 FORCE_FLOOR = 1e-4  # smallest force scale of the convergence test (E_c R^2; Hertz's plate force near delta = 0.0015)
 MAX_NODE_STEP = 0.05  # largest nodal move of one Newton iteration (units of R)
 
@@ -66,6 +70,7 @@ class CompressionResult:
     positions: np.ndarray
     contact_nodes_upper: np.ndarray
     unstable: np.ndarray  # per row: the equilibrium is a saddle of the discrete energy (see ``is_saddle``)
+    min_nodal_jacobian: np.ndarray  # per row: see :func:`min_nodal_jacobian`; <= 0 means a folded element
     newton_iterations: int
     factorisations: int
     analyses: int
@@ -189,21 +194,53 @@ def _newton_direction(problem: _Problem, x: np.ndarray, gradient: np.ndarray, so
     problem.factorised = None
     stiffness = pattern.assemble_upper(cell.element_stiffness(x.reshape(-1, 3)))
     rhs = np.where(active, 0.0, -gradient)
+    direction, shift = _shifted_newton_direction(solver, stiffness, pattern, active, rhs, shift)
+    if direction is None:
+        return None, shift
+    problem.factorised = _Factorised(active.copy(), shift, stiffness)
+    # A node on a plate with a tensile force is free, but the coupled Newton step may still push it into the
+    # plate; the projection would then clip it at every iteration and stall the solver. Hold such nodes for
+    # this iteration: the factorisation already made gives the step with them held (Schur complement).
+    held = active
     for _ in range(4):
-        direction, shift = _shifted_newton_direction(solver, stiffness, pattern, active, rhs, shift)
-        if direction is None:
-            return None, shift
-        problem.factorised = _Factorised(active.copy(), shift, stiffness)
-        # A node on a plate with a tensile force is free, but the coupled Newton step may still push it
-        # into the plate; the projection would then clip it at every iteration and stall the solver.
-        # Hold such nodes for this iteration and solve again.
-        blocked = _into_plate(direction, at_lower, at_upper, active)
+        blocked = _into_plate(direction, at_lower, at_upper, held)
         if not blocked.any():
             break
-        active = active | blocked
-        rhs = np.where(active, 0.0, -gradient)
-        problem.factorised = None
+        held = held | blocked
+        direction = _held_direction(solver, direction, held & ~active)
+        if direction is None or not _descends(np.where(held, 0.0, -gradient), direction):
+            # fall back to factorising the system with the blocked dofs held
+            rhs = np.where(held, 0.0, -gradient)
+            direction, shift = _shifted_newton_direction(solver, stiffness, pattern, held, rhs, shift)
+            problem.factorised = None if direction is None else _Factorised(held.copy(), shift, stiffness)
+            if direction is None:
+                return None, shift
+            active = held
     return direction, shift
+
+
+MAX_SCHUR_DOFS = 64
+"""Most dofs held through the Schur complement of a factorised system before factorising a new one."""
+
+
+def _held_direction(solver: SparseSolver, direction: np.ndarray, extra: np.ndarray) -> np.ndarray | None:
+    """The Newton direction of the factorised system K d = r with the dofs ``extra`` also held (d = 0 there),
+    from the factorisation already made: d' = d + K^-1 E l with (K^-1)_BB l = -d_B, the Schur complement of
+    the held block (``|B|`` solves with one factorisation instead of a new factorisation). None when too many
+    dofs are held for that to pay."""
+    held = np.flatnonzero(extra)
+    if len(held) > MAX_SCHUR_DOFS:
+        return None
+    unit = np.zeros((direction.size, len(held)))
+    unit[held, np.arange(len(held))] = 1.0
+    columns = solver.solve(unit).reshape(direction.size, len(held))
+    try:
+        multipliers = np.linalg.solve(columns[held], -direction[held])
+    except np.linalg.LinAlgError:
+        return None
+    corrected = direction + columns @ multipliers
+    corrected[held] = 0.0
+    return corrected
 
 
 def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: CompressionParameters,
@@ -289,8 +326,9 @@ def is_saddle(problem: _Problem, x: np.ndarray, solver: SparseSolver, pattern) -
 
 def _shifted_newton_direction(solver: SparseSolver, stiffness, pattern, active: np.ndarray, rhs: np.ndarray,
                               shift: float):
-    """Newton direction with the smallest Levenberg-Marquardt shift (x100 ladder from ``shift``) for which the
-    factorised free-dof stiffness has no negative eigenvalue and the direction descends."""
+    """Newton direction with the smallest Levenberg-Marquardt shift (``shift``, then :data:`RETRY_SHIFT` or x100
+    whichever is larger) for which the factorised free-dof stiffness has no negative eigenvalue and the direction
+    descends."""
     while shift <= MAX_SHIFT:
         system = pattern.constrained_upper(stiffness, active, shift)
         try:
@@ -301,7 +339,7 @@ def _shifted_newton_direction(solver: SparseSolver, stiffness, pattern, active: 
             direction = solver.solve(rhs)
             if _descends(rhs, direction):
                 return direction, shift
-        shift *= 100
+        shift = max(shift * 100, RETRY_SHIFT)
     return None, shift
 
 
@@ -335,6 +373,25 @@ def _tangent_predictor(problem: _Problem, x: np.ndarray, increment: float, solve
     return x + solver.solve(rhs) + prescribed
 
 
+NODE_POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, 0, 0], [0.5, 0.5, 0], [0, 0.5, 0],
+                        [0, 0, 0.5], [0.5, 0, 0.5], [0, 0.5, 0.5]], dtype=float)  # VTK TET10 nodes, reference tet
+
+
+def min_nodal_jacobian(cell: Cell, x: np.ndarray) -> float:
+    """Smallest det(dx/dxi)/det(dX/dxi) over every element's nodes: the local volume ratio where the element map
+    is evaluated at its nodes rather than its quadrature points. A linear element has one value (its J); a
+    quadratic one can fold (a negative value at a node) while J stays positive at its four quadrature points, so
+    that the energy, which sees only those, is finite: such a row is an equilibrium of the discrete energy whose
+    map is not one-to-one near that node."""
+    from .elements import _local_gradients
+
+    elements = cell.mesh.elements
+    gradients = _local_gradients(cell.mesh.order, NODE_POINTS[: elements.shape[1]])
+    current = np.linalg.det(np.einsum("eki,qkj->eqij", x.reshape(-1, 3)[elements], gradients))
+    reference = np.linalg.det(np.einsum("eki,qkj->eqij", cell.mesh.nodes[elements], gradients))
+    return float((current / reference).min())
+
+
 def plate_forces(problem: _Problem, x: np.ndarray) -> tuple[float, float, int, float]:
     """(F_upper, F_lower, n_upper_contacts, max rigid-pin reaction) from the converged multipliers."""
     gradient = problem.cell.internal_forces(x.reshape(-1, 3)).ravel()
@@ -357,7 +414,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
     x = cell.mesh.nodes.ravel().copy()
     targets = np.linspace(0.0, parameters.delta_max, parameters.steps + 1)
     rows_delta, rows_force, rows_lower, rows_positions, rows_contacts = [0.0], [0.0], [0.0], [x.copy()], [0]
-    rows_unstable, row_shift = [False], None
+    rows_unstable, row_shift, rows_jacobian = [False], None, [1.0]
     iterations_total, substeps, max_reaction = 0, 0, 0.0
     history: list = []
     delta, failure = 0.0, None
@@ -399,6 +456,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
             rows_contacts.append(contacts)
             # the last factorisation answers for free when it needed no shift; otherwise check
             rows_unstable.append(row_shift != MIN_SHIFT and is_saddle(problem, x, linear_solver, pattern))
+            rows_jacobian.append(min_nodal_jacobian(cell, x))
             if progress is not None:
                 progress(delta)
     finally:
@@ -410,6 +468,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
         positions=np.array(rows_positions).reshape(len(rows_delta), -1, 3),
         contact_nodes_upper=np.array(rows_contacts),
         unstable=np.array(rows_unstable),
+        min_nodal_jacobian=np.array(rows_jacobian),
         newton_iterations=iterations_total,
         factorisations=linear_solver.factorisations,
         analyses=linear_solver.analyses,

@@ -112,6 +112,7 @@ class SparseSolver:
         return False
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """K^-1 rhs with the last factorisation; ``rhs`` is a vector or an (n, m) block of m right-hand sides."""
         if self.backend == "superlu":
             if self._lu is None:
                 raise RuntimeError("solve: the last factorisation failed")
@@ -119,7 +120,9 @@ class SparseSolver:
         if self._matrix is None:
             raise RuntimeError("solve: the last factorisation failed (matrix not positive definite)")
         self._pardiso.set_phase(33)
-        return self._pardiso._call_pardiso(self._matrix, np.asfortranarray(rhs.reshape(-1, 1))).ravel()
+        block = np.asfortranarray(rhs.reshape(rhs.shape[0], -1))
+        solution = self._pardiso._call_pardiso(self._matrix, block)
+        return solution.ravel() if rhs.ndim == 1 else solution.reshape(rhs.shape)
 
     def close(self) -> None:
         if self._pardiso is not None:

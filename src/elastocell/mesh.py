@@ -172,7 +172,9 @@ def _generate(nucleus: NucleusParameters, parameters: MeshParameters) -> CellMes
                 masses = {tag: occ.getMass(3, tag) for tag in volumes}
                 nucleus_tags = {min(masses, key=lambda t: abs(masses[t] - nucleus_volume_expected))}
 
-            _set_size_field(parameters)
+            interface = [] if not nucleus_tags else [
+                tag for _, tag in gmsh.model.getBoundary([(3, t) for t in nucleus_tags], oriented=False)]
+            _set_size_field(parameters, interface)
             gmsh.model.mesh.generate(3)
             if parameters.element == "p2":
                 # curved boundary and interface; untangle curved elements that would be invalid
@@ -223,7 +225,7 @@ def _check_valid(mesh: CellMesh, parameters: MeshParameters) -> None:
         ) from None
 
 
-def _set_size_field(parameters: MeshParameters) -> None:
+def _set_size_field(parameters: MeshParameters, interface: list[int] = ()) -> None:
     import gmsh
 
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
@@ -239,6 +241,20 @@ def _set_size_field(parameters: MeshParameters) -> None:
         expression = f"{hp} + ({h}-{hp})*Min(1, {distance}/{r})"
     tag = field.add("MathEval")
     field.setString(tag, "F", expression)
+    hi = parameters.interface_size
+    if interface and hi is not None and hi < h:
+        distance = field.add("Distance")
+        field.setNumbers(distance, "SurfacesList", list(interface))
+        field.setNumber(distance, "Sampling", 200)
+        threshold = field.add("Threshold")
+        field.setNumber(threshold, "InField", distance)
+        field.setNumber(threshold, "SizeMin", hi)
+        field.setNumber(threshold, "SizeMax", h)
+        field.setNumber(threshold, "DistMin", 0.0)
+        field.setNumber(threshold, "DistMax", parameters.interface_width)
+        smallest = field.add("Min")
+        field.setNumbers(smallest, "FieldsList", [tag, threshold])
+        tag = smallest
     field.setAsBackgroundMesh(tag)
 
 

@@ -219,20 +219,29 @@ class MeshParameters(_Model):
     mesh_size: characteristic element edge length far from the poles (units of R).
     pole_size: edge length at the two poles z = +-R where the plates touch (units of R); ``None`` = uniform.
     pole_radius: distance from a pole over which the size grows from ``pole_size`` to ``mesh_size``.
+    interface_size: edge length on the nucleus surface (units of R); ``None`` (or >= ``mesh_size``) = no interface
+    refinement.
+    interface_width: distance from the nucleus surface over which the size grows from ``interface_size`` to
+    ``mesh_size``.
     """
 
     element: Literal["p1", "p2"] = "p2"
-    mesh_size: float = 0.3
+    mesh_size: float = 0.35
     pole_size: float | None = 0.08
-    pole_radius: float = 0.9
+    pole_radius: float = 1.4
+    interface_size: float | None = 0.15
+    interface_width: float = 0.25
 
     @classmethod
     def default_for(cls, element: str) -> MeshParameters:
-        """Default sizes per element order: p2 (2,753 nodes for the reference cell, 2,717 without nucleus; F
-        within 0.91/0.29/0.07/0.02 % of a 17,614-node mesh's curve at delta = 0.1/0.3/0.5/0.7 for the
-        homogeneous cell and 1.20/0.71/0.63/0.67 % of an 18,167-node mesh's for the reference cell, measured
-        by ``benchmarks/compression.py``) and p1 (3,861 nodes; linear tetrahedra need a finer mesh and still
-        lock, see the benchmarks)."""
+        """Default sizes per element order, chosen by ``benchmarks/compression.py`` (errors against a 24,389-node p2
+        mesh of the reference cell, README):
+
+        - p2: bulk 0.35, poles 0.08 graded over 1.4 R, nucleus surface 0.15 (4,656 nodes for the reference
+          cell): F within 0.81/0.41/0.31/0.24 % at delta = 0.1/0.3/0.5/0.7. The refined nucleus surface is what
+          lets a stiffness-ratio-10 nucleus reach delta = 0.75 (the soft layer between nucleus and plate).
+        - p1: 3,861 nodes; linear tetrahedra need a finer mesh and still lock (see the benchmarks).
+        """
         return cls(**DEFAULT_MESH_SIZES.get(element, {}), element=element)
 
     @field_validator("element", mode="before")
@@ -252,10 +261,16 @@ class MeshParameters(_Model):
                 f"must be in [0.005, mesh_size={self.mesh_size}], got {self.pole_size}",
             )
         _require(0 < self.pole_radius <= 2, "pole_radius", f"must be in (0, 2], got {self.pole_radius}")
+        if self.interface_size is not None:  # at or above mesh_size: no refinement
+            _require(0.005 <= self.interface_size, "interface_size", f"must be >= 0.005 (units of R), got {self.interface_size}")
+        _require(0 < self.interface_width <= 2, "interface_width", f"must be in (0, 2], got {self.interface_width}")
         return self
 
 
-DEFAULT_MESH_SIZES = {"p2": {"mesh_size": 0.3, "pole_size": 0.08}, "p1": {"mesh_size": 0.12, "pole_size": 0.04}}
+DEFAULT_MESH_SIZES = {
+    "p2": {"mesh_size": 0.35, "pole_size": 0.08, "pole_radius": 1.4, "interface_size": 0.15},
+    "p1": {"mesh_size": 0.12, "pole_size": 0.04, "pole_radius": 0.9, "interface_size": None},
+}
 
 
 class CellParameters(_Model):

@@ -565,6 +565,8 @@ def flow_cell(cell, cell_options: dict, resolution: float):
         cell_options["mesh_size"] = shear_mesh_size(resolution)
     if cell_options.get("pole_size") is None:  # uniform: no plate contacts to refine for
         cell_options["pole_size"] = cell_options["mesh_size"]
+    if cell_options.get("interface_size") is None:
+        cell_options["interface_size"] = cell_options["mesh_size"]
     return cell_parameters(**cell_options)
 
 
