@@ -8,8 +8,8 @@ For each mesh: nodes, wall time of a full curve (0 -> 0.75, 40 steps; meshes and
 a warm-up run first), Newton iterations, factorisations, and F at delta = 0.1, 0.3, 0.5, 0.7 with its error
 against the finest p2 mesh (the mesh-converged reference; its own error is estimated from the next-finest).
 Prints a table; timings are measurements of this machine, never asserted. ``--meshes`` runs only the given
-meshes (``element:mesh_size:pole_size[:interface_size]``, ``-`` for no refinement; the interface size applies
-to the reference cell's nucleus surface) and ``--reference-forces`` takes the converged F at the four deltas from
+meshes (``element:mesh_size:pole_size[:interface_size[:pole_radius]]``, ``-`` for no interface refinement and
+for the default pole grading; the interface size applies to the reference cell's nucleus surface) and ``--reference-forces`` takes the converged F at the four deltas from
 an earlier full run instead of the finest mesh of this one (then every p2 mesh also runs on the peer).
 """
 
@@ -26,21 +26,21 @@ from elastocell.compression import compress
 from elastocell.parameters import CompressionParameters
 
 DELTAS = np.array([0.1, 0.3, 0.5, 0.7])
-MESHES = [  # (element, mesh_size, pole_size, interface_size)
-    ("p1", 0.2, 0.05, None),
-    ("p1", 0.12, 0.04, None),
-    ("p2", 0.5, 0.15, 0.25),
-    ("p2", 0.35, 0.1, 0.2),
-    ("p2", 0.3, 0.06, 0.15),
-    ("p2", 0.225, 0.045, 0.1125),
-    ("p2", 0.15, 0.03, 0.075),
+MESHES = [  # (element, mesh_size, pole_size, interface_size, pole_radius; None: default grading)
+    ("p1", 0.2, 0.05, None, None),
+    ("p1", 0.12, 0.04, None, None),
+    ("p2", 0.5, 0.12, 0.21, None),
+    ("p2", 0.35, 0.08, 0.15, None),
+    ("p2", 0.25, 0.06, 0.11, None),
+    ("p2", 0.15, 0.04, 0.075, 0.9),
 ]
-QUICK_MESHES = [("p1", 0.3, 0.08, None), ("p2", 0.5, 0.15, 0.25), ("p2", 0.35, 0.1, 0.2), ("p2", 0.25, 0.06, 0.125)]
+QUICK_MESHES = [("p1", 0.3, 0.08, None, None), ("p2", 0.5, 0.15, 0.25, None), ("p2", 0.35, 0.1, 0.2, None),
+                ("p2", 0.25, 0.06, 0.125, None)]
 
 
-def run(element: str, mesh_size: float, pole_size: float, interface_size: float | None, cell_kind: str,
-        steps: int) -> dict:
-    options = dict(element=element, mesh_size=mesh_size, pole_size=pole_size,
+def run(element: str, mesh_size: float, pole_size: float, interface_size: float | None, pole_radius: float | None,
+        cell_kind: str, steps: int) -> dict:
+    options = dict(element=element, mesh_size=mesh_size, pole_size=pole_size, pole_radius=pole_radius,
                    interface_size=mesh_size if interface_size is None else interface_size)
     if cell_kind == "homogeneous":
         options["nucleus"] = "none"
@@ -58,11 +58,13 @@ def run(element: str, mesh_size: float, pole_size: float, interface_size: float 
     }
 
 
-def _mesh_spec(text: str) -> tuple[str, float, float, float | None]:
-    """``element:h:h_pole[:h_interface]`` (``-`` or no fourth field: no interface refinement)."""
-    parts = text.split(":")
-    interface = float(parts[3]) if len(parts) > 3 and parts[3] != "-" else None
-    return parts[0], float(parts[1]), float(parts[2]), interface
+def _mesh_spec(text: str) -> tuple[str, float, float, float | None, float | None]:
+    """``element:h:h_pole[:h_interface[:pole_radius]]`` (``-`` or absent: no interface refinement, default
+    grading)."""
+    parts = text.split(":") + ["-", "-"]
+    interface = float(parts[3]) if parts[3] != "-" else None
+    radius = float(parts[4]) if parts[4] != "-" else None
+    return parts[0], float(parts[1]), float(parts[2]), interface, radius
 
 
 def richardson(h: list[float], forces: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -108,8 +110,8 @@ def main() -> None:
     if not args.reference_forces and sum(m[0] == "p2" for m in meshes) < 2:
         parser.error("need two p2 meshes (the finest is the reference) or --reference-forces")
     rows = []
-    for element, mesh_size, pole_size, interface_size in meshes:
-        row = run(element, mesh_size, pole_size, interface_size, args.cell, args.steps)
+    for element, mesh_size, pole_size, interface_size, pole_radius in meshes:
+        row = run(element, mesh_size, pole_size, interface_size, pole_radius, args.cell, args.steps)
         rows.append(row)
         print(f"  done {element} h={mesh_size} hp={pole_size} hi={row['interface_size']}: {row['nodes']} nodes, "
               f"{row['seconds']:.1f} s", flush=True)
@@ -153,7 +155,7 @@ def main() -> None:
     print(f"{'h':>5} {'h_pole':>6} {'nodes':>6} {'time_s':>7} " + " ".join(f"err@{d:<4g}" for d in DELTAS))
     peer_rows = []
     peer_meshes = [m for m in meshes if m[0] == "p2"]
-    for _, mesh_size, pole_size, _ in (peer_meshes if args.reference_forces else peer_meshes[:-1]):
+    for _, mesh_size, pole_size, _, _ in (peer_meshes if args.reference_forces else peer_meshes[:-1]):
         try:
             peer = felupe_compression_curve(mesh_size, pole_size, delta_max=0.75, n_steps=args.steps)
         except Exception as error:  # pragma: no cover
