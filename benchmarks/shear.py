@@ -45,7 +45,7 @@ from elastocell.cell import Cell
 def make_cell(resolution: float, nucleus: str = "none", element: str = "p1") -> Cell:
     size = flow.shear_mesh_size(resolution)
     return Cell.from_parameters(elastocell.cell_parameters(nucleus=nucleus, element=element, mesh_size=size,
-                                                           pole_size=size))
+                                                           pole_size=size, interface_size=size))
 
 
 def run(cell: Cell, ca: float, resolution: float, duration: float, **overrides) -> dict:

@@ -160,7 +160,8 @@ def test_refinement_changes_force_little_at_moderate_deformation():
 
 
 def test_stiffer_nucleus_needs_more_force_and_equivalent_is_homogeneous():
-    cell = Cell.from_parameters(cell_parameters(stiffness_ratio=10, mesh_size=0.4, pole_size=0.1))
+    cell = Cell.from_parameters(cell_parameters(stiffness_ratio=10, mesh_size=0.4, pole_size=0.1,
+                                                interface_size=0.4))
     params = CompressionParameters(delta_max=0.2, steps=4)
     nucleus = compress(cell, params)
     equivalent = compress(cell.equivalent(), params)
@@ -175,7 +176,7 @@ def test_stiffer_nucleus_needs_more_force_and_equivalent_is_homogeneous():
 def test_offset_random_and_mooney_rivlin_cells_compress():
     for options in (dict(offset=0.45, offset_axis="x"), dict(random=True, seed=1),
                     dict(material="mooney-rivlin"), dict(nucleus="ellipsoid", nucleus_axis="z")):
-        _, result = curve(0.15, 3, mesh_size=0.4, pole_size=0.12, **options)
+        _, result = curve(0.15, 3, mesh_size=0.4, pole_size=0.12, interface_size=0.4, **options)
         assert np.all(np.diff(result.force) > 0), options
         np.testing.assert_allclose(result.force_lower, result.force, rtol=1e-5, atol=1e-8)
 

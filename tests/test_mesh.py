@@ -151,3 +151,14 @@ def test_interface_refinement_sets_the_element_size_on_the_nucleus_surface():
         corners = mesh.nodes[mesh.elements[outer]]
         outer_edges = np.linalg.norm(corners[:, [1, 2, 3, 2, 3, 3]] - corners[:, [0, 0, 0, 1, 1, 2]], axis=2)
         assert outer_edges.mean() > 1.5 * interface_size
+
+
+def test_default_interface_refinement_is_for_p2_compression_and_scales_with_the_bulk_size():
+    from elastocell.runner import flow_cell
+
+    default = cell_parameters().mesh
+    assert (default.mesh_size, default.pole_size, default.pole_radius, default.interface_size) == (0.35, 0.08, 1.4, 0.15)
+    assert cell_parameters(mesh_size=0.5).mesh.interface_size == pytest.approx(0.15 * 0.5 / 0.35)
+    assert cell_parameters(element="p1").mesh.interface_size is None
+    flow = flow_cell(None, {"element": "p2"}, 8.0).mesh  # flows: uniform mesh of the lattice's size
+    assert flow.interface_size == flow.pole_size == flow.mesh_size

@@ -27,7 +27,7 @@ def coarse_cell():
 @pytest.fixture(scope="module")
 def coarse_p2_cell():
     return Cell.from_parameters(elastocell.cell_parameters(nucleus="sphere", element="p2", mesh_size=0.5,
-                                                           pole_size=0.5))
+                                                           pole_size=0.5, interface_size=0.5))
 
 
 # --------------------------------------------------------------------------- observables

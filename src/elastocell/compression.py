@@ -219,8 +219,10 @@ def _newton_direction(problem: _Problem, x: np.ndarray, gradient: np.ndarray, so
     return direction, shift
 
 
-MAX_SCHUR_DOFS = 64
-"""Most dofs held through the Schur complement of a factorised system before factorising a new one."""
+MAX_SCHUR_DOFS = 16
+"""Most dofs held through the Schur complement of a factorised system before factorising a new one: one solve
+costs 12-15 ms against 70-77 ms for a factorisation (12,918 dofs), and a block of right-hand sides costs less
+per column than single solves (the block of 16 and the distribution of held-set sizes were not timed)."""
 
 
 def _held_direction(solver: SparseSolver, direction: np.ndarray, extra: np.ndarray) -> np.ndarray | None:
@@ -250,8 +252,9 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
     Returns (x, iterations, converged, reason, last_shift): ``last_shift`` is the Levenberg-Marquardt shift of
     the last factorisation (None if none was needed); MIN_SHIFT means PARDISO's Cholesky factorisation of the
     free-dof stiffness at the last factorised iterate succeeded (no negative eigenvalue), i.e. (to within
-    that step) the equilibrium is a minimum. Where that iteration also held nodes pushed into a plate, the
-    factorisation covers fewer free dofs than the equilibrium has, and the answer is for that subset."""
+    that step) the equilibrium is a minimum. Where that iteration held nodes pushed into a plate through the Schur
+    complement, the factorisation covers the free dofs before that hold (the minimum test is for them); after a
+    fallback factorisation it covers fewer free dofs than the equilibrium has, and the answer is for that subset."""
     cell = problem.cell
     pinned = np.zeros(x.size, dtype=bool)
     pinned[problem.pinned] = True
@@ -441,7 +444,8 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
                     problem.factorised = None  # the failed trial's stiffness is no tangent of the converged x
                     if increment < 1e-6:
                         failure = (f"compression stopped at delta={delta:.4f} (target {trial_delta:.4f}): {reason}; "
-                                   f"try a finer mesh (mesh_size/pole_size), more steps, or linear elements (element p1)")
+                                   "try a finer mesh (mesh_size/pole_size, interface_size for a stiff nucleus), "
+                                   "more steps, or linear elements (element p1)")
                         break
                     continue
                 x, delta, row_shift = solution, trial_delta, last_shift

@@ -117,8 +117,12 @@ def _mesh_key(nucleus: NucleusParameters, mesh: MeshParameters) -> str:
         geometry = {"shape": "none"}
     else:
         geometry.pop("stiffness_ratio")  # does not change the mesh
+    settings = mesh.model_dump(mode="json")
+    if nucleus.shape == "none" or mesh.interface_size is None or mesh.interface_size >= mesh.mesh_size:
+        settings["interface_size"] = None  # no refinement: the same mesh
+        settings.pop("interface_width")
     payload = json.dumps(
-        {"nucleus": geometry, "mesh": mesh.model_dump(mode="json"), "gmsh": gmsh.__version__,
+        {"nucleus": geometry, "mesh": settings, "gmsh": gmsh.__version__,
          "format": MESH_FORMAT_VERSION},
         sort_keys=True,
     )

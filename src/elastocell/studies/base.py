@@ -48,7 +48,12 @@ class Run:
         """Readable and unique: scenario, the leading options, and a hash of all of them and the code version."""
         from .. import __version__
 
-        text = json.dumps([self.scenario, [list(p) for p in self.options], __version__], sort_keys=True, default=str)
+        identity = [self.scenario, [list(p) for p in self.options], __version__]
+        if self.scenario == "compression":  # the default mesh changed (session 14): not the same run any more
+            from ..parameters import DEFAULT_MESH_SIZES
+
+            identity.append(DEFAULT_MESH_SIZES)
+        text = json.dumps(identity, sort_keys=True, default=str)
         digest = hashlib.sha1(text.encode()).hexdigest()[:10]
         options = self.kwargs
         parts = [self.scenario]
