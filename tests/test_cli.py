@@ -110,3 +110,14 @@ def test_bench_lattice_json_contract():
     assert payload["markers"] > 0
     refused = runner.invoke(app, ["bench", "lattice", "--size", "4"])
     assert refused.exit_code == 2 and "--size" in refused.output
+
+
+def test_folded_elements_are_warned_in_one_line_per_curve(capsys):
+    from elastocell.cli import _warn_folded
+
+    folded = {"first_folded_delta": 0.68, "min_nodal_jacobian": -0.36}
+    _warn_folded({"solver": folded, "equivalent_summary": {"solver": {"first_folded_delta": None}}})
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "warning (cell)" in lines[0] and "0.680" in lines[0] and "-0.36" in lines[0]
+    _warn_folded({"solver": {"first_folded_delta": None}})
+    assert capsys.readouterr().err == ""

@@ -84,6 +84,19 @@ BACKEND = typer.Option(Backend.numba, "--backend", help="Compute engine: numba (
                        "CPU) or jax (the same physics on JAX's default device: a GPU when JAX has CUDA).")
 
 
+def _warn_folded(summary: dict, name: str = "cell") -> None:
+    """One warning line per curve whose rows contain quadratic elements folded at a node (metadata
+    ``solver.first_folded_delta``, see ``compression.min_nodal_jacobian``)."""
+    curves = [(name, summary.get("solver", {}))]
+    if "equivalent_summary" in summary:
+        curves.append(("equivalent", summary["equivalent_summary"].get("solver", {})))
+    for label, solver in curves:
+        if solver.get("first_folded_delta") is not None:
+            typer.echo(f"warning ({label}): quadratic elements folded at a node from delta = "
+                       f"{solver['first_folded_delta']:.3f} on (min nodal det ratio {solver['min_nodal_jacobian']:.2f}); "
+                       "the force there is an equilibrium of the discrete energy, check it on a finer mesh", err=True)
+
+
 @app.command()
 @_user_errors
 def compress(
@@ -115,15 +128,14 @@ def compress(
                       progress=not quiet and sys.stderr.isatty())
     except CompressionError as error:
         typer.echo(f"elastocell: compression failed: {error}", err=True)
+        for name, path in (("cell", out / "metadata.json"), ("equivalent", out / "equivalent" / "metadata.json")):
+            if path.exists():  # the rows that were written
+                _warn_folded(json.loads(path.read_text()), name)
         raise typer.Exit(code=1) from None
     if not quiet:
         typer.echo(f"{summary['label']}: gamma_eff = {summary['effective_stiffness_ratio']:.4f}, "
                    f"{summary['mesh']['n_nodes']} nodes, curve in {summary['solver']['curve_time_s']:.1f} s -> {out}")
-        for name, solver in (("cell", summary["solver"]), ("equivalent", summary.get("equivalent_summary", {}).get("solver"))):
-            if solver and solver.get("first_folded_delta") is not None:
-                typer.echo(f"warning ({name}): quadratic elements folded at a node from delta = "
-                           f"{solver['first_folded_delta']:.3f} on (min nodal det ratio {solver['min_nodal_jacobian']:.2f}); "
-                           "the force there is an equilibrium of the discrete energy, check it on a finer mesh", err=True)
+        _warn_folded(summary)
         if "equivalent_summary" in summary:
             typer.echo(f"equivalent: curve in {summary['equivalent_summary']['solver']['curve_time_s']:.1f} s; "
                        f"force ratios in {out / 'comparison.csv'}, plot {out / 'comparison.png'}")
