@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .cell import Cell
+from .elements import nodal_jacobians
 from .linalg import SparseSolver
 from .parameters import CompressionParameters
 
@@ -376,23 +377,15 @@ def _tangent_predictor(problem: _Problem, x: np.ndarray, increment: float, solve
     return x + solver.solve(rhs) + prescribed
 
 
-NODE_POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, 0, 0], [0.5, 0.5, 0], [0, 0.5, 0],
-                        [0, 0, 0.5], [0.5, 0, 0.5], [0, 0.5, 0.5]], dtype=float)  # VTK TET10 nodes, reference tet
-
-
-def min_nodal_jacobian(cell: Cell, x: np.ndarray) -> float:
+def min_nodal_jacobian(cell: Cell, x: np.ndarray, reference: np.ndarray | None = None) -> float:
     """Smallest det(dx/dxi)/det(dX/dxi) over every element's nodes: the local volume ratio where the element map
     is evaluated at its nodes rather than its quadrature points. A linear element has one value (its J); a
     quadratic one can fold (a negative value at a node) while J stays positive at its four quadrature points, so
     that the energy, which sees only those, is finite: such a row is an equilibrium of the discrete energy whose
-    map is not one-to-one near that node."""
-    from .elements import _local_gradients
-
-    elements = cell.mesh.elements
-    gradients = _local_gradients(cell.mesh.order, NODE_POINTS[: elements.shape[1]])
-    current = np.linalg.det(np.einsum("eki,qkj->eqij", x.reshape(-1, 3)[elements], gradients))
-    reference = np.linalg.det(np.einsum("eki,qkj->eqij", cell.mesh.nodes[elements], gradients))
-    return float((current / reference).min())
+    map is not one-to-one near that node. ``reference``: det(dX/dxi) at the nodes, if already computed."""
+    if reference is None:
+        reference = nodal_jacobians(cell.mesh.nodes, cell.mesh.elements)
+    return float((nodal_jacobians(x.reshape(-1, 3), cell.mesh.elements) / reference).min())
 
 
 def plate_forces(problem: _Problem, x: np.ndarray) -> tuple[float, float, int, float]:
@@ -418,6 +411,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
     targets = np.linspace(0.0, parameters.delta_max, parameters.steps + 1)
     rows_delta, rows_force, rows_lower, rows_positions, rows_contacts = [0.0], [0.0], [0.0], [x.copy()], [0]
     rows_unstable, row_shift, rows_jacobian = [False], None, [1.0]
+    reference_jacobians = nodal_jacobians(cell.mesh.nodes, cell.mesh.elements)
     iterations_total, substeps, max_reaction = 0, 0, 0.0
     history: list = []
     delta, failure = 0.0, None
@@ -460,7 +454,7 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
             rows_contacts.append(contacts)
             # the last factorisation answers for free when it needed no shift; otherwise check
             rows_unstable.append(row_shift != MIN_SHIFT and is_saddle(problem, x, linear_solver, pattern))
-            rows_jacobian.append(min_nodal_jacobian(cell, x))
+            rows_jacobian.append(min_nodal_jacobian(cell, x, reference_jacobians))
             if progress is not None:
                 progress(delta)
     finally:

@@ -47,6 +47,18 @@ class ReferenceElement:
         return ElementGeometry(shape_gradients=gradients, weights=determinant * self.point_weights)
 
 
+NODE_POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, 0, 0], [0.5, 0.5, 0], [0, 0.5, 0],
+                        [0, 0, 0.5], [0.5, 0, 0.5], [0, 0.5, 0.5]], dtype=float)
+"""The nodes of the reference tetrahedron in VTK order (corners, then edge midpoints); the first 4 for order 1."""
+
+
+def nodal_jacobians(nodes: np.ndarray, elements: np.ndarray) -> np.ndarray:
+    """det(dx/dxi) of every element's map at its own nodes, (n_elements, n_element_nodes)."""
+    order = 1 if elements.shape[1] == 4 else 2
+    gradients = _local_gradients(order, NODE_POINTS[: elements.shape[1]])
+    return np.linalg.det(np.einsum("eki,qkj->eqij", nodes[elements], gradients))
+
+
 def _barycentric_gradients() -> np.ndarray:
     return np.array([[-1.0, -1.0, -1.0], [1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]])
 

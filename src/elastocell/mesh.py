@@ -118,7 +118,7 @@ def _mesh_key(nucleus: NucleusParameters, mesh: MeshParameters) -> str:
     else:
         geometry.pop("stiffness_ratio")  # does not change the mesh
     settings = mesh.model_dump(mode="json")
-    if nucleus.shape == "none" or mesh.interface_size is None or mesh.interface_size >= mesh.mesh_size:
+    if nucleus.shape == "none" or not mesh.refines_interface:
         settings["interface_size"] = None  # no refinement: the same mesh
         settings.pop("interface_width")
     payload = json.dumps(
@@ -245,14 +245,13 @@ def _set_size_field(parameters: MeshParameters, interface: list[int] = ()) -> No
         expression = f"{hp} + ({h}-{hp})*Min(1, {distance}/{r})"
     tag = field.add("MathEval")
     field.setString(tag, "F", expression)
-    hi = parameters.interface_size
-    if interface and hi is not None and hi < h:
+    if interface and parameters.refines_interface:
         distance = field.add("Distance")
         field.setNumbers(distance, "SurfacesList", list(interface))
         field.setNumber(distance, "Sampling", 200)
         threshold = field.add("Threshold")
         field.setNumber(threshold, "InField", distance)
-        field.setNumber(threshold, "SizeMin", hi)
+        field.setNumber(threshold, "SizeMin", parameters.interface_size)
         field.setNumber(threshold, "SizeMax", h)
         field.setNumber(threshold, "DistMin", 0.0)
         field.setNumber(threshold, "DistMax", parameters.interface_width)
@@ -266,13 +265,9 @@ def _straighten_invalid(nodes: np.ndarray, elements: np.ndarray, sweeps: int = 5
     """Move the edge nodes of curved 10-node elements whose Jacobian is not positive everywhere back to the
     straight midpoints (a coarse element with two faces on a curved surface can fold when curved). The
     boundary is then locally straight there; every other element keeps its exact curved geometry."""
-    from .elements import _local_gradients, reference_element
+    from .elements import NODE_POINTS, _local_gradients, reference_element
 
-    check_points = np.vstack([
-        np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, 0, 0], [0.5, 0.5, 0], [0, 0.5, 0],
-                  [0, 0, 0.5], [0.5, 0, 0.5], [0, 0.5, 0.5]], dtype=float),
-        reference_element(2).points,
-    ])
+    check_points = np.vstack([NODE_POINTS, reference_element(2).points])
     gradients = _local_gradients(2, check_points)
     nodes = nodes.copy()
     for _ in range(sweeps):

@@ -232,6 +232,11 @@ class MeshParameters(_Model):
     interface_size: float | None = 0.15
     interface_width: float = 0.25
 
+    @property
+    def refines_interface(self) -> bool:
+        """True when ``interface_size`` is finer than the bulk, i.e. changes a mesh that has a nucleus."""
+        return self.interface_size is not None and self.interface_size < self.mesh_size
+
     @classmethod
     def default_for(cls, element: str) -> MeshParameters:
         """Default sizes per element order, chosen by ``benchmarks/compression.py`` (errors against a 24,389-node p2
