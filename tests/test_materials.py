@@ -6,7 +6,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from elastocell.materials import bulk_modulus, first_piola_stress, law, shear_modulus
+from elastocell.elements import element_stiffness_matrices
+from elastocell.materials import bulk_modulus, first_piola_stress, law, material_tangent, shear_modulus
 
 NU = 0.48
 E = 1.0
@@ -41,6 +42,32 @@ def test_stress_matches_finite_difference(name, params):
             dm[i, j] -= h
             fd[i, j] = (float(material(jnp.asarray(dp), params)) - float(material(jnp.asarray(dm), params))) / (2 * h)
     np.testing.assert_allclose(p, fd, rtol=1e-6, atol=1e-8)
+
+
+@pytest.mark.parametrize("name,params", [("neo-hookean", [MU, KAPPA]), ("mooney-rivlin", [0.25 * MU, 0.75 * MU, KAPPA])])
+def test_batched_tangent_equals_pointwise_hessian(name, params):
+    """material_tangent over a batch (points last, per-point parameters) = jax.hessian of W at each point, to
+    round-off (1e-12 relative)."""
+    material = law(name)
+    rng = np.random.default_rng(7)
+    f = np.eye(3)[:, :, None, None] + 0.2 * rng.standard_normal((3, 3, 5, 4))
+    scale = rng.uniform(1, 10, 5)  # a different modulus per element, broadcast over its 4 points
+    batch_params = np.array(params)[:, None, None] * scale[None, :, None]
+    tangent = np.asarray(material_tangent(material, jnp.asarray(f), jnp.asarray(batch_params)))
+    hessian = jax.hessian(lambda ff, p: material(ff, p))
+    for e in range(5):
+        for q in range(4):
+            point = np.asarray(hessian(jnp.asarray(f[:, :, e, q]), jnp.asarray(batch_params[:, e, 0])))
+            np.testing.assert_allclose(tangent[..., e, q], point, rtol=1e-12, atol=1e-12 * np.abs(point).max())
+
+
+def test_element_stiffness_kernel_equals_einsum():
+    """The compiled contraction K_e[3a+i, 3b+k] = sum_q G_aj C_ijkl G_bl equals numpy's einsum, to round-off."""
+    rng = np.random.default_rng(8)
+    tangents = rng.standard_normal((3, 3, 3, 3, 6, 4))
+    gradients = rng.standard_normal((10, 3, 6, 4))
+    expected = np.einsum("ajeq,ijkleq,bleq->eaibk", gradients, tangents, gradients).reshape(6, 30, 30)
+    np.testing.assert_allclose(element_stiffness_matrices(tangents, gradients), expected, rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("name,params", [("neo-hookean", [MU, KAPPA]), ("mooney-rivlin", [0.25 * MU, 0.75 * MU, KAPPA])])

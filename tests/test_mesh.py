@@ -64,7 +64,7 @@ def test_patch_test_affine_deformation_is_exact(element):
     # energy density is uniform per material: compare with W(A) on each region
     import jax.numpy as jnp
 
-    w = np.asarray(cell.law(jnp.asarray(a)[None], jnp.asarray(cell.material_parameters)))
+    w = np.asarray(cell.law(jnp.asarray(a)[:, :, None], jnp.asarray(cell.material_parameters.T)))
     assert cell.energy(x) == pytest.approx(float(np.sum(w * cell.element_volumes)), rel=1e-12)
 
 

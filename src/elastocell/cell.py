@@ -19,8 +19,8 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np
 
 from . import materials  # noqa: F401  (enables float64 in JAX before any array is made)
-from .elements import ElementGeometry, reference_element
-from .materials import Law, determinant, law
+from .elements import ElementGeometry, element_stiffness_matrices, reference_element
+from .materials import Law, determinant, law, material_tangent
 from .mesh import NUCLEUS, CellMesh, build_mesh
 from .parameters import CellParameters
 
@@ -105,39 +105,40 @@ class Cell:
         elements = jnp.asarray(self.mesh.elements)
         gradients = jnp.asarray(self.geometry.shape_gradients)
         weights = jnp.asarray(self.geometry.weights)
-        params = jnp.asarray(self.material_parameters)
+        params = jnp.asarray(self.material_parameters.T[:, :, None])  # [k, e, 1]: broadcast over the points
         energy_law = self.law
 
         def deformation_gradients(x):
-            return jnp.einsum("eki,eqkj->eqij", x[elements], gradients)
+            """F[i, j, e, q] = sum_k x_(e_k) i dN_k/dX_j (the materials' layout: the points last)."""
+            return jnp.einsum("eki,eqkj->ijeq", x[elements], gradients)
 
         def energy(x):
-            return jnp.sum(weights * energy_law(deformation_gradients(x), params[:, None, :]))
+            return jnp.sum(weights * energy_law(deformation_gradients(x), params))
 
-        def element_hessians(x):
-            # material tangent d2W/dF2 per quadrature point by autodiff, contracted with dN/dX:
-            # K_e[a i, b k] = sum_q w_q G_qaj C_qijkl G_qbl
-            f = deformation_gradients(x)
-            tangent = jax.vmap(jax.vmap(jax.hessian(lambda ff, p: energy_law(ff, p)), in_axes=(0, None)))(f, params)
-            half = jnp.einsum("eqijkl,eqbl->eqijkb", tangent * weights[:, :, None, None, None, None], gradients)
-            k = elements.shape[1]
-            return jnp.einsum("eqaj,eqijkb->eaibk", gradients, half).reshape(-1, 3 * k, 3 * k)
+        def tangents(x):
+            # w_q d2W/dF2 per quadrature point by autodiff, [i, j, k, l, e, q]; contracted with dN/dX into the
+            # element matrices by elements.element_stiffness_matrices
+            return material_tangent(energy_law, deformation_gradients(x), params) * weights
 
         def stresses(x):
             f = deformation_gradients(x)
-            piola = jax.vmap(jax.vmap(jax.grad(lambda ff, p: energy_law(ff, p)), in_axes=(0, None)))(f, params)
-            j = determinant(f)
-            sigma = piola @ jnp.swapaxes(f, -1, -2) / j[..., None, None]
-            return jnp.einsum("eq,eqij->eij", weights, sigma) / jnp.sum(weights, axis=1)[:, None, None]
+            piola = jax.grad(lambda ff: jnp.sum(energy_law(ff, params)))(f)
+            sigma = jnp.einsum("ik...,jk...->ij...", piola, f) / determinant(f)
+            return jnp.einsum("eq,ijeq->eij", weights, sigma) / jnp.sum(weights, axis=1)[:, None, None]
 
         self._kernels.update(
             energy=jax.jit(energy),
             gradient=jax.jit(jax.grad(energy)),
             min_jacobian=jax.jit(lambda x: jnp.min(determinant(deformation_gradients(x)))),
-            hessians=jax.jit(element_hessians),
+            tangents=jax.jit(tangents),
             stresses=jax.jit(stresses),
         )
         return self._kernels
+
+    @cached_property
+    def _shape_gradients_points_last(self) -> np.ndarray:
+        """dN_a/dX_j as [a, j, e, q], the layout of the stiffness kernel."""
+        return np.ascontiguousarray(np.moveaxis(self.geometry.shape_gradients, (2, 3), (0, 1)))
 
     def energy(self, x: np.ndarray) -> float:
         """Total elastic energy E(x) (units of E_c R^3); NaN if an element is inverted."""
@@ -148,8 +149,11 @@ class Cell:
         return np.asarray(self._compiled()["gradient"](jnp.asarray(x)))
 
     def element_stiffness(self, x: np.ndarray) -> np.ndarray:
-        """Element Hessians d^2 E_e / dx_e^2, (n_elements, 3k, 3k), dof order (node, component)."""
-        return np.asarray(self._compiled()["hessians"](jnp.asarray(x)))
+        """Element Hessians d^2 E_e / dx_e^2, (n_elements, 3k, 3k), dof order (node, component): the material
+        tangent at each quadrature point by JAX, contracted with the shape-function gradients by a compiled
+        kernel (:func:`elements.element_stiffness_matrices`)."""
+        tangents = np.asarray(self._compiled()["tangents"](jnp.asarray(x)))
+        return element_stiffness_matrices(tangents, self._shape_gradients_points_last)
 
     def element_cauchy_stress(self, x: np.ndarray) -> np.ndarray:
         """Volume-averaged Cauchy stress per element, (n_elements, 3, 3), units of E_c."""

