@@ -6,8 +6,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from elastocell.elements import element_stiffness_matrices
 from elastocell.materials import bulk_modulus, first_piola_stress, law, material_tangent, shear_modulus
+from elastocell.stiffness_kernel import element_stiffness_matrices
 
 NU = 0.48
 E = 1.0
@@ -62,12 +62,16 @@ def test_batched_tangent_equals_pointwise_hessian(name, params):
 
 
 def test_element_stiffness_kernel_equals_einsum():
-    """The compiled contraction K_e[3a+i, 3b+k] = sum_q G_aj C_ijkl G_bl equals numpy's einsum, to round-off."""
+    """The compiled contraction K_e[3a+i, 3b+k] = sum_q G_aj C_ijkl G_bl equals numpy's einsum, to round-off, for
+    both element orders (10 nodes and 4 points, 4 nodes and 1 point). The tangent is read-only, as a cell passes
+    it (one compiled signature)."""
     rng = np.random.default_rng(8)
-    tangents = rng.standard_normal((3, 3, 3, 3, 6, 4))
-    gradients = rng.standard_normal((10, 3, 6, 4))
-    expected = np.einsum("ajeq,ijkleq,bleq->eaibk", gradients, tangents, gradients).reshape(6, 30, 30)
-    np.testing.assert_allclose(element_stiffness_matrices(tangents, gradients), expected, rtol=1e-12, atol=1e-12)
+    for nodes, points in ((10, 4), (4, 1)):
+        tangents = rng.standard_normal((3, 3, 3, 3, 6, points))
+        tangents.setflags(write=False)
+        gradients = rng.standard_normal((nodes, 3, 6, points))
+        expected = np.einsum("ajeq,ijkleq,bleq->eaibk", gradients, tangents, gradients).reshape(6, 3 * nodes, 3 * nodes)
+        np.testing.assert_allclose(element_stiffness_matrices(tangents, gradients), expected, rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("name,params", [("neo-hookean", [MU, KAPPA]), ("mooney-rivlin", [0.25 * MU, 0.75 * MU, KAPPA])])

@@ -46,6 +46,18 @@ def test_shared_runs_have_one_identity():
     assert len({r.run_id for r in everything}) == len(set(everything))  # one id per distinct run
 
 
+def test_compression_run_id_follows_the_default_mesh(monkeypatch):
+    """A compression run made on another default mesh is another run (not reused); a flow run keeps its id."""
+    import elastocell.parameters as parameters
+
+    compress, shear = Run.of("compress", stiffness_ratio=2), Run.of("shear", capillary_number=0.1)
+    before = compress.run_id, shear.run_id
+    changed = {**parameters.DEFAULT_MESH_SIZES, "p2": {**parameters.DEFAULT_MESH_SIZES["p2"], "mesh_size": 0.3}}
+    monkeypatch.setattr(parameters, "DEFAULT_MESH_SIZES", changed)
+    assert compress.run_id != before[0]
+    assert shear.run_id == before[1]
+
+
 def _curve_rows(pair, equivalent, delta, force, series="stiffness", gamma=2.0, size=0.5, reached=None):
     return [{"series": series, "cell": pair, "pair": pair, "equivalent": equivalent, "stiffness_ratio": gamma,
              "size_ratio": size, "delta": d, "force_per_Ec_R2": f, "force_per_Eeff_R2": f / (1 + (gamma - 1) / 8),

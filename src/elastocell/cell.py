@@ -19,7 +19,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np
 
 from . import materials  # noqa: F401  (enables float64 in JAX before any array is made)
-from .elements import ElementGeometry, element_stiffness_matrices, reference_element
+from .elements import ElementGeometry, reference_element
 from .materials import Law, determinant, law, material_tangent
 from .mesh import NUCLEUS, CellMesh, build_mesh
 from .parameters import CellParameters
@@ -117,7 +117,7 @@ class Cell:
 
         def tangents(x):
             # w_q d2W/dF2 per quadrature point by autodiff, [i, j, k, l, e, q]; contracted with dN/dX into the
-            # element matrices by elements.element_stiffness_matrices
+            # element matrices by stiffness_kernel.element_stiffness_matrices
             return material_tangent(energy_law, deformation_gradients(x), params) * weights
 
         def stresses(x):
@@ -151,7 +151,9 @@ class Cell:
     def element_stiffness(self, x: np.ndarray) -> np.ndarray:
         """Element Hessians d^2 E_e / dx_e^2, (n_elements, 3k, 3k), dof order (node, component): the material
         tangent at each quadrature point by JAX, contracted with the shape-function gradients by a compiled
-        kernel (:func:`elements.element_stiffness_matrices`)."""
+        kernel (:func:`stiffness_kernel.element_stiffness_matrices`)."""
+        from .stiffness_kernel import element_stiffness_matrices
+
         tangents = np.asarray(self._compiled()["tangents"](jnp.asarray(x)))
         return element_stiffness_matrices(tangents, self._shape_gradients_points_last)
 

@@ -54,10 +54,10 @@ except Exception:  # pragma: no cover
 SYMMETRIC_POSITIVE_DEFINITE = 2
 NOT_POSITIVE_DEFINITE = -4  # PARDISO's error code for a zero or negative pivot
 ITERATIVE_REFINEMENT_STEPS = 0
-"""PARDISO's iparm(8), the most iterative-refinement steps per solve (pypardiso sets 2). A Cholesky factorisation
-has no perturbed pivots to refine, and each step costs a matrix product and a solve: measured on the reference
-cell's default mesh (13,968 dofs), one solve took 4.6 ms without refinement against 17.3 ms with two steps, with
-the same relative residual (9.3e-12 and 9.3e-12)."""
+"""PARDISO's iparm(8), the most iterative-refinement steps per solve (MKL's default, filled in at the symbolic
+analysis, is 2). A Cholesky factorisation has no perturbed pivots to refine, and each step costs a matrix product
+and a solve: measured on the reference cell's default mesh (13,968 dofs), one solve took 4.6 ms without
+refinement against 17.3 ms with two steps, with the same relative residual (9.3e-12)."""
 _MKL_RT: str | None = None  # the MKL runtime pypardiso found first: later solvers skip its file search
 
 

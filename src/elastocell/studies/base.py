@@ -49,7 +49,7 @@ class Run:
         from .. import __version__
 
         identity = [self.scenario, [list(p) for p in self.options], __version__]
-        if self.scenario == "compression":  # the default mesh changed (session 14): not the same run any more
+        if self.scenario == "compress":  # the default mesh changed (session 14): not the same run any more
             from ..parameters import DEFAULT_MESH_SIZES
 
             identity.append(DEFAULT_MESH_SIZES)
@@ -238,12 +238,17 @@ def run_members(members: list[Member], out: Path, scheduler: str | None = None, 
     if pending:
         tasks = [(run, str(runs_directory)) for run in pending]
         flows = {run.kwargs.get("dtype", "float32") for run in pending if run.scenario in ("shear", "pipe")}
+        compressions = any(run.scenario == "compress" for run in pending)
 
-        def prepare():  # compile the flow kernels once here, so that the workers only load them
+        def prepare():  # compile the Numba kernels once here, so that the workers only load them
             if flows:
                 from ..flow import compile_kernels
 
                 compile_kernels(sorted(flows))
+            if compressions:
+                from ..stiffness_kernel import compile_kernel
+
+                compile_kernel()
 
         for index, result in run_tasks(execute_run, tasks, scheduler=scheduler, workers=workers,
                                        progress=progress, description=f"{len(pending)} runs", prepare=prepare):
