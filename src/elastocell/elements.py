@@ -86,4 +86,3 @@ def reference_element(order: int) -> ReferenceElement:
     else:
         raise ValueError(f"element order must be 1 or 2, got {order}")
     return ReferenceElement(order, points, weights, _local_gradients(order, points))
-

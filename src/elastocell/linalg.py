@@ -66,7 +66,7 @@ class SparseSolver:
     triangles are passed: the symmetric storage PARDISO reads).
 
     backend: ``"pardiso"``, ``"superlu"`` or ``"auto"`` (PARDISO if available).
-    ``factorisations`` counts numerical factorisations, ``analyses`` symbolic ones, ``solves`` right-hand sides.
+    ``factorisations`` counts numerical factorisations, ``analyses`` symbolic ones.
     """
 
     def __init__(self, backend: str = "auto"):
@@ -78,7 +78,6 @@ class SparseSolver:
             raise ValueError(f"solver: must be auto, pardiso or superlu, got {backend!r}")
         self.backend = backend
         self.factorisations = 0
-        self.solves = 0
         self.analyses = 0
         self._pattern_key = None
         self._pardiso = None
@@ -120,9 +119,7 @@ class SparseSolver:
         return False
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
-        """K^-1 rhs with the last factorisation; ``rhs`` is a vector or an (n, m) block of m right-hand sides
-        (``solves`` counts right-hand sides)."""
-        self.solves += 1 if rhs.ndim == 1 else rhs.shape[1]
+        """K^-1 rhs with the last factorisation; ``rhs`` is a vector or an (n, m) block of m right-hand sides."""
         if self.backend == "superlu":
             if self._lu is None:
                 raise RuntimeError("solve: the last factorisation failed")
