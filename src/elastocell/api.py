@@ -241,6 +241,8 @@ def _metadata(result: CompressionResult, body: Cell, cell: CellParameters, scena
         "mesh": {**body.mesh.counts(), **body.mesh.quality(), "volume": body.volume},
         "solver": {
             "linear_solver": result.solver,
+            "factorisation_precision": result.precision,
+            "refinement_steps": result.refinements,
             "newton_iterations": result.newton_iterations,
             "factorisations": result.factorisations,
             "symbolic_analyses": result.analyses,

@@ -249,7 +249,9 @@ class StiffnessPattern:
 
     def symmetric_product(self, upper, vector: np.ndarray) -> np.ndarray:
         """K v for the symmetric K whose upper triangle is ``upper``."""
-        return upper @ vector + upper.T @ vector - upper.data[self.upper_diagonal] * vector
+        from .linalg import symmetric_product
+
+        return symmetric_product(upper, vector, upper.data[self.upper_diagonal])
 
 
 def _csr(data: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int]):
