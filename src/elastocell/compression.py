@@ -328,7 +328,7 @@ def is_saddle(problem: _Problem, x: np.ndarray, solver: SparseSolver, pattern) -
     system = pattern.constrained_upper(stiffness, active, MIN_SHIFT)
     problem.factorised = None
     try:
-        not_definite = solver.factorize(system)
+        not_definite = solver.factorize(system, precision="double")
     except Exception:
         return False
     if not_definite is False:
@@ -415,13 +415,14 @@ def plate_forces(problem: _Problem, x: np.ndarray) -> tuple[float, float, int, f
 
 
 def compress(cell: Cell, parameters: CompressionParameters | None = None, solver: str = "auto",
-             progress: Callable[[float], None] | None = None) -> CompressionResult:
-    """Force-deformation curve of ``cell`` from delta = 0 to ``parameters.delta_max``."""
+             progress: Callable[[float], None] | None = None, precision: str = "mixed") -> CompressionResult:
+    """Force-deformation curve of ``cell`` from delta = 0 to ``parameters.delta_max``. ``solver`` and
+    ``precision``: the sparse solver (see :class:`elastocell.linalg.SparseSolver`)."""
     parameters = parameters or CompressionParameters()
     start = time.perf_counter()
     problem = _setup(cell)
     pattern = cell.stiffness_pattern
-    linear_solver = SparseSolver(solver)
+    linear_solver = SparseSolver(solver, precision)
     x = cell.mesh.nodes.ravel().copy()
     targets = np.linspace(0.0, parameters.delta_max, parameters.steps + 1)
     rows_delta, rows_force, rows_lower, rows_positions, rows_contacts = [0.0], [0.0], [0.0], [x.copy()], [0]
@@ -467,7 +468,8 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
             rows_lower.append(force_lower)
             rows_positions.append(x.copy())
             rows_contacts.append(contacts)
-            # the last factorisation answers for free when it needed no shift; otherwise check
+            # the last factorisation answers for free when it needed no shift (in mixed precision: for K rounded
+            # to single precision, blind to eigenvalues within ~1e-7 of the largest); otherwise check in double
             rows_unstable.append(row_shift != MIN_SHIFT and is_saddle(problem, x, linear_solver, pattern))
             rows_jacobian.append(min_nodal_jacobian(cell, x, reference_jacobians))
             if progress is not None:

@@ -19,10 +19,12 @@ refinement: r = b - K x, x += K32^-1 r) until the relative residual is below :da
 on the reference cell's default mesh (13,968 dofs, 4.3 GFLOP per factorisation): 47 against 86-90 ms per
 factorisation; on Newton systems taken from a curve the single-precision solve leaves a relative residual of 3-4e-4
 and each refinement step divides it by about 2,000, so two steps reach 1e-10. Where refinement stalls (a matrix too
-ill-conditioned for single precision) the same matrix is factorised in double precision and solved again, so a
-solve never returns less than the requested accuracy. The positive-definiteness answer is that of the
-single-precision factorisation, i.e. of K rounded to single precision: eigenvalues within about 1e-7 of the largest
-one can be misjudged (a direction that then fails to descend is rejected by the caller).
+ill-conditioned for single precision) the same matrix is factorised in double precision and solved again (as
+accurate as the double-precision solver; if that factorisation finds the matrix indefinite, ``solve`` raises
+:class:`NotPositiveDefinite`). The positive-definiteness answer of a mixed factorisation is that of K rounded to
+single precision: eigenvalues within about 1e-7 of the largest one can be misjudged, and a shift below that (the
+Newton solver's smallest, 1e-10 of the mean diagonal) is lost. Where that matters (the saddle test of an
+equilibrium) ``factorize(..., precision="double")`` answers in double precision.
 """
 
 from __future__ import annotations
@@ -109,11 +111,13 @@ class SparseSolver:
         self._factorised_in_double = False
         self._lu = None
 
-    def factorize(self, upper: sp.csr_matrix) -> bool | None:
+    def factorize(self, upper: sp.csr_matrix, precision: str | None = None) -> bool | None:
         """Factorise the symmetric matrix whose upper triangle (CSR, sorted indices) is ``upper``.
 
         Returns True when the matrix is not positive definite (the factorisation then cannot be used), False
-        when it is, and None when the backend cannot tell (SuperLU)."""
+        when it is, and None when the backend cannot tell (SuperLU). ``precision="double"`` factorises in double
+        precision whatever the solver's precision (a definiteness answer that must not depend on rounding K to
+        single precision)."""
         self.factorisations += 1
         if self.backend == "superlu":
             from scipy.sparse.linalg import splu
@@ -128,7 +132,7 @@ class SparseSolver:
             rows = np.repeat(np.arange(upper.shape[0]), np.diff(upper.indptr))
             self._diagonal = np.flatnonzero(rows == upper.indices)  # positions of the diagonal in ``data``
         self._matrix = None
-        if self.precision == "mixed":
+        if self.precision == "mixed" and precision != "double":
             if self._single is None:
                 self._single = _SinglePrecisionCholesky(upper)
                 self.analyses += 1
@@ -194,12 +198,12 @@ class SparseSolver:
         norms[norms == 0.0] = 1.0
         solution = self._single.solve(block)
         previous = np.inf
-        for _ in range(MAX_REFINEMENT_STEPS):
+        for step in range(MAX_REFINEMENT_STEPS + 1):
             residual = block - symmetric_product(self._matrix, solution, self._matrix.data[self._diagonal])
             relative = float((np.linalg.norm(residual, axis=0) / norms).max())
             if relative <= REFINEMENT_TOLERANCE:
                 return solution
-            if not relative < 0.5 * previous:
+            if not relative < 0.5 * previous or step == MAX_REFINEMENT_STEPS:
                 return None
             previous = relative
             solution += self._single.solve(residual)
@@ -207,13 +211,18 @@ class SparseSolver:
         return None
 
     def close(self) -> None:
-        if self._pardiso is not None:
-            self._pardiso.free_memory(everything=True)
+        """Release PARDISO's memory (both precisions); the solver stays usable (a new analysis on next use)."""
+        try:
+            if self._pardiso is not None:
+                self._pardiso.free_memory(everything=True)
+        finally:
             self._pardiso = None
-        if self._single is not None:
-            self._single.close()
-            self._single = None
-        self._matrix = None
+            try:
+                if self._single is not None:
+                    self._single.close()
+            finally:
+                self._single = None
+                self._matrix = None
 
 
 
@@ -270,7 +279,7 @@ class _SinglePrecisionCholesky:
                       self._indices.ctypes.data, None, ctypes.byref(ctypes.c_int32(rhs.shape[1])),
                       self._iparm.ctypes.data, ctypes.byref(ctypes.c_int32(0)), rhs.ctypes.data,
                       solution.ctypes.data, ctypes.byref(error))
-        if error.value not in (0, NOT_POSITIVE_DEFINITE):
+        if error.value != 0 and not (phase == 22 and error.value == NOT_POSITIVE_DEFINITE):
             raise RuntimeError(f"PARDISO (single precision) failed in phase {phase} with error {error.value}")
         return error.value, solution
 
