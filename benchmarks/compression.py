@@ -2,7 +2,7 @@
 same problem solved by FElupe (a peer FE code, if installed) in the same run.
 
     python benchmarks/compression.py [--cell homogeneous|reference] [--quick] [--no-peer]
-        [--meshes p2:0.3:0.06:0.15 ...] [--reference-forces F0.1 F0.3 F0.5 F0.7]
+        [--meshes p2:0.3:0.06:0.15 ...] [--reference-forces F0.1 F0.3 F0.5 F0.7] [--peer-one-blas-thread]
 
 For each mesh: nodes, wall time of a full curve (0 -> 0.75, 40 steps; meshes and compiled code cached, i.e.
 a warm-up run first), Newton iterations, factorisations, and F at delta = 0.1, 0.3, 0.5, 0.7 with its error
@@ -16,9 +16,11 @@ an earlier full run instead of the finest mesh of this one (then every p2 mesh a
 from __future__ import annotations
 
 import argparse
+import contextlib
 import time
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from elastocell import cell_parameters
 from elastocell.cell import Cell
@@ -103,6 +105,8 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=40)
     parser.add_argument("--meshes", nargs="+", metavar="ELEMENT:H:H_POLE[:H_INTERFACE]")
     parser.add_argument("--reference-forces", nargs=4, type=float, metavar="F")
+    parser.add_argument("--peer-one-blas-thread", action="store_true",
+                        help="run FElupe with OpenBLAS on one thread, as elastocell's compress runs")
     args = parser.parse_args()
     meshes = QUICK_MESHES if args.quick else MESHES
     if args.meshes:
@@ -151,13 +155,16 @@ def main() -> None:
     except Exception as error:  # pragma: no cover - optional peer
         print(f"FElupe peer skipped: {error}")
         return
-    print("\nFElupe (same problem: full ball, quadratic tets, rigid-plate contact, PARDISO)")
+    print("\nFElupe (same problem: full ball, quadratic tets, rigid-plate contact, PARDISO"
+          + ("; OpenBLAS on one thread)" if args.peer_one_blas_thread else ")"))
     print(f"{'h':>5} {'h_pole':>6} {'nodes':>6} {'time_s':>7} " + " ".join(f"err@{d:<4g}" for d in DELTAS))
     peer_rows = []
     peer_meshes = [m for m in meshes if m[0] == "p2"]
     for _, mesh_size, pole_size, _, _ in (peer_meshes if args.reference_forces else peer_meshes[:-1]):
         try:
-            peer = felupe_compression_curve(mesh_size, pole_size, delta_max=0.75, n_steps=args.steps)
+            with (ThreadpoolController().select(internal_api="openblas").limit(limits=1)
+                  if args.peer_one_blas_thread else contextlib.nullcontext()):
+                peer = felupe_compression_curve(mesh_size, pole_size, delta_max=0.75, n_steps=args.steps)
         except Exception as error:  # pragma: no cover
             print(f"{mesh_size:>5g} {pole_size:>6g} failed: {error}")
             continue
