@@ -225,7 +225,6 @@ class SparseSolver:
                 self._matrix = None
 
 
-
 class NotPositiveDefinite(RuntimeError):
     """A factorisation that looked positive definite in single precision is not in double precision."""
 
