@@ -289,7 +289,6 @@ def test_mixed_and_double_precision_factorisations_give_the_same_curve():
     mixed-precision and the double-precision solver agree within the Newton tolerance (1e-7 of the plate force;
     bound 1e-6 of the largest force; measured here 1e-13, and equal to 9 digits on the reference cell's default
     curve with the same Newton iteration count)."""
-
     cell = Cell.from_parameters(cell_parameters(mesh_size=0.5, pole_size=0.2, interface_size=0.3))
     parameters = CompressionParameters(delta_max=0.3, steps=6)
     mixed = compress(cell, parameters)
