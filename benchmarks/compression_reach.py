@@ -1,6 +1,7 @@
 """Does a full compression curve reach delta_max = 0.75 for every cell the compression issue names?
 
-    python benchmarks/compression_reach.py [--element p2] [--only NAME ...] [--out results/reach.csv]
+    python benchmarks/compression_reach.py [--element p2] [--quadrature-degree 2] [--only NAME ...]
+        [--out results/reach.csv]
 
 One row per cell: the delta reached, F/(E_c R^2) there, the rows whose equilibrium is a saddle of the discrete
 energy (the symmetric branch lost stability), Newton iterations, substeps and wall time. A curve that stops
@@ -33,6 +34,7 @@ CELLS = {
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--element", default="p2", choices=["p1", "p2"])
+    parser.add_argument("--quadrature-degree", type=int, default=None, help="p2 only (default 2)")
     parser.add_argument("--only", nargs="+", default=None)
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
@@ -41,7 +43,8 @@ def main() -> None:
     print(f"{'cell':>18} {'nodes':>6} {'delta':>7} {'F/EcR2':>8} {'saddles':>7} {'first':>6} {'newton':>6} "
           f"{'subst':>5} {'s':>6}  note")
     for name in names:
-        cell = Cell.from_parameters(cell_parameters(element=args.element, **CELLS[name]))
+        cell = Cell.from_parameters(cell_parameters(element=args.element, quadrature_degree=args.quadrature_degree,
+                                                    **CELLS[name]))
         start = time.perf_counter()
         note = ""
         try:
@@ -51,7 +54,7 @@ def main() -> None:
         seconds = time.perf_counter() - start
         saddles = int(result.unstable.sum())
         first = float(result.delta[np.argmax(result.unstable)]) if saddles else float("nan")
-        row = dict(cell=name, element=args.element, nodes=cell.mesh.n_nodes, delta_reached=float(result.delta[-1]),
+        row = dict(cell=name, element=args.element, quadrature_degree=args.quadrature_degree, nodes=cell.mesh.n_nodes, delta_reached=float(result.delta[-1]),
                    force_per_Ec_R2=float(result.force[-1]), saddle_rows=saddles, first_saddle_delta=first,
                    newton_iterations=result.newton_iterations, substeps=result.substeps, seconds=seconds, note=note)
         rows.append(row)

@@ -23,6 +23,8 @@ runner = CliRunner()
     (["--delta-max", "1.0"], "--delta-max"),
     (["--material", "rubber"], "--material"),
     (["--element", "p3"], "--element"),
+    (["--quadrature-degree", "10"], "--quadrature-degree"),
+    (["--element", "p1", "--quadrature-degree", "5"], "--quadrature-degree"),
     (["--radius", "8 parsecs/s"], "--radius"),
 ])
 def test_impossible_input_is_one_line_exit_2(tmp_path, arguments, parameter):

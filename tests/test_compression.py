@@ -267,6 +267,32 @@ def test_min_nodal_jacobian_is_det_of_an_affine_map_and_sees_a_fold_the_quadratu
     assert np.isfinite(cell.energy(x))
 
 
+def test_a_quadrature_of_higher_degree_sees_a_fold_the_four_point_rule_misses():
+    """Reference: with one edge node of a straight 10-node element moved to m of its edge (a to b), the volume
+    ratio det(dx/dxi)/det(dX/dxi) = 1 + (4m - 2)(lambda_a - lambda_b) in barycentric coordinates. For m = 0.95 it
+    is negative where lambda_b - lambda_a > 0.556: beyond every point of the 4-point rule (at most 0.447 there,
+    ratio >= 0.195) but not beyond the 14-point rule's (0.629, ratio -0.13): the energy with degree 2 is finite,
+    with degree 5 not (an inverted element)."""
+    from elastocell.mesh import TET10_EDGES
+
+    cells = {degree: Cell.from_parameters(cell_parameters(nucleus="none", mesh_size=0.5, pole_size=0.5,
+                                                          quadrature_degree=degree)) for degree in (2, 5)}
+    mesh = cells[2].mesh
+    corners = mesh.nodes[mesh.elements[:, :4]]
+    midpoints = 0.5 * (corners[:, TET10_EDGES[:, 0]] + corners[:, TET10_EDGES[:, 1]])
+    straight = np.linalg.norm(mesh.nodes[mesh.elements[:, 4:]] - midpoints, axis=-1).max(axis=1) < 1e-12
+    # an edge node that only straight elements share, so that the analysis above holds in each of them
+    owners = np.zeros(mesh.n_nodes, dtype=bool)
+    owners[mesh.elements[~straight].ravel()] = True
+    element = int(np.flatnonzero(straight & ~owners[mesh.elements[:, 4]])[0])
+    corner_a, corner_b = mesh.elements[element, TET10_EDGES[0]]
+    x = mesh.nodes.copy()
+    x[mesh.elements[element, 4]] = x[corner_a] + 0.95 * (x[corner_b] - x[corner_a])
+    assert np.isfinite(cells[2].energy(x))
+    assert not np.isfinite(cells[5].energy(x))
+    assert np.isfinite(cells[5].energy(mesh.nodes))
+
+
 def test_holding_blocked_nodes_by_schur_complement_or_new_factorisation_gives_the_same_curve(monkeypatch):
     """Nodes that a Newton step pushes into a plate are held through the Schur complement of the factorisation
     already made; with that path switched off (MAX_SCHUR_DOFS = 0) every hold falls back to a new factorisation.

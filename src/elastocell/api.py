@@ -44,6 +44,7 @@ def cell_parameters(
     interface_size: float | None = None,
     pole_radius: float | None = None,
     element: str = "p2",
+    quadrature_degree: int | None = None,
     material: str = "neo-hookean",
     poisson_ratio: float = 0.48,
     youngs_modulus: float | str = 1.0,
@@ -65,7 +66,8 @@ def cell_parameters(
     if interface_size is None and defaults.interface_size is not None:  # in proportion to the bulk size
         interface_size = defaults.interface_size * mesh_size / defaults.mesh_size
     mesh = MeshParameters(element=element, mesh_size=mesh_size, pole_size=pole_size, interface_size=interface_size,
-                          pole_radius=defaults.pole_radius if pole_radius is None else pole_radius)
+                          pole_radius=defaults.pole_radius if pole_radius is None else pole_radius,
+                          quadrature_degree=quadrature_degree)
     return CellParameters(
         nucleus=NucleusParameters(
             shape=nucleus, stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, offset=offset,

@@ -66,7 +66,7 @@ class Cell:
     # ---- geometry and moduli ------------------------------------------------------------------------
     @cached_property
     def geometry(self) -> ElementGeometry:
-        return reference_element(self.mesh.order).geometry(self.mesh.nodes, self.mesh.elements)
+        return reference_element(self.mesh.order, self.parameters.mesh.quadrature_degree).geometry(self.mesh.nodes, self.mesh.elements)
 
     @cached_property
     def element_volumes(self) -> np.ndarray:

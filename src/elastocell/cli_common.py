@@ -9,6 +9,7 @@ _OPTION_NAMES = {
     "stiffness_ratio": "--stiffness-ratio", "size_ratio": "--size-ratio", "offset": "--offset",
     "semi_axes": "--semi-axes", "poisson_ratio": "--poisson-ratio", "youngs_modulus": "--youngs-modulus",
     "radius": "--radius", "mesh_size": "--mesh-size", "pole_size": "--pole-size", "interface_size": "--interface-size",
+    "quadrature_degree": "--quadrature-degree",
     "delta_max": "--delta-max",
     "steps": "--steps", "material": "--material", "element": "--element", "random": "--random",
     "compare": "--compare",

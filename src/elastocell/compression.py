@@ -468,7 +468,8 @@ def _compress(cell: Cell, parameters: CompressionParameters | None, solver: str,
                     if increment < 1e-6:
                         failure = (f"compression stopped at delta={delta:.4f} (target {trial_delta:.4f}): {reason}; "
                                    "try a finer mesh (mesh_size/pole_size, interface_size for a stiff nucleus), "
-                                   "more steps, or linear elements (element p1)")
+                                   "a quadrature of higher degree (quadrature_degree 5 or 7 with p2), more "
+                                   "steps, or linear elements (element p1)")
                         break
                     continue
                 x, delta, row_shift = solution, trial_delta, last_shift

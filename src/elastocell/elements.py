@@ -1,12 +1,16 @@
 """Tetrahedral finite elements: shape-function gradients and quadrature.
 
 Order 1: 4-node tetrahedron, one quadrature point (F constant per element: the paper's model).
-Order 2: 10-node tetrahedron (VTK node order), the 4-point rule of degree 2 (exact for the mass matrix of
-linear fields and for the volume of curved elements with affine-per-point Jacobians to the order needed).
+Order 2: 10-node tetrahedron (VTK node order). By default the 4-point rule of degree 2: it integrates the
+small-strain stiffness exactly (the product of two linear gradients). At large strain the integrand is no
+polynomial, and four points leave the element free to fold near a node without the energy seeing it: in a soft
+layer crushed between a stiff nucleus and a plate, the discrete energy then descends into folded states. A rule
+of higher degree (``quadrature_degree``) samples more of each element: 5 (14 points) and 7 (64 points).
 """
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -74,15 +78,71 @@ def _local_gradients(order: int, points: np.ndarray) -> np.ndarray:
     return np.concatenate([corners, edges], axis=1)
 
 
-@lru_cache(maxsize=2)
-def reference_element(order: int) -> ReferenceElement:
+DEFAULT_QUADRATURE_DEGREE = {1: 1, 2: 2}
+MAX_QUADRATURE_DEGREE = 9
+
+
+@lru_cache(maxsize=8)
+def reference_element(order: int, degree: int | None = None) -> ReferenceElement:
+    """Shape-function gradients at the points of a quadrature rule exact to polynomial ``degree`` on the
+    reference tetrahedron (None: :data:`DEFAULT_QUADRATURE_DEGREE`). Order 1 always uses its single centroid
+    point: F is constant in a straight-sided linear element, so that rule is exact for any law."""
     if order == 1:
         points = np.array([[0.25, 0.25, 0.25]])
         weights = np.array([1 / 6])
     elif order == 2:
-        a, b = 0.5854101966249685, 0.1381966011250105
-        points = np.array([[b, b, b], [a, b, b], [b, a, b], [b, b, a]])
-        weights = np.full(4, 1 / 24)
+        points, weights = quadrature_rule(DEFAULT_QUADRATURE_DEGREE[2] if degree is None else degree)
     else:
         raise ValueError(f"element order must be 1 or 2, got {order}")
     return ReferenceElement(order, points, weights, _local_gradients(order, points))
+
+
+def quadrature_rule(degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """(points, weights) on the unit tetrahedron {x, y, z >= 0, x + y + z <= 1}, weights summing to 1/6 and
+    all positive, exact for polynomials up to ``degree`` (1 to :data:`MAX_QUADRATURE_DEGREE`):
+
+    - degree 1: the centroid; degree 2: 4 points (Hammer, Marlowe and Stroud 1956);
+    - degree 4-5: 14 points (Walkington 2000, "Quadrature on simplices of arbitrary dimension");
+    - otherwise the conical (collapsed Gauss-Jacobi) product rule of Stroud (1971) with n = ceil((degree+1)/2)
+      points per direction, n^3 points, exact to degree 2n - 1 (8 points for degree 3, 64 for 6-7)."""
+    if not 1 <= degree <= MAX_QUADRATURE_DEGREE:
+        raise ValueError(f"quadrature degree must be in [1, {MAX_QUADRATURE_DEGREE}], got {degree}")
+    if degree == 1:
+        return np.array([[0.25, 0.25, 0.25]]), np.array([1 / 6])
+    if degree == 2:
+        a, b = 0.5854101966249685, 0.1381966011250105
+        return np.array([[b, b, b], [a, b, b], [b, a, b], [b, b, a]]), np.full(4, 1 / 24)
+    if degree in (4, 5):
+        return _walkington_14()
+    return _conical_product((degree + 2) // 2)
+
+
+def _walkington_14() -> tuple[np.ndarray, np.ndarray]:
+    barycentric, weights = [], []
+    for a, weight in ((0.0927352503108912, 0.01224884051939366), (0.3108859192633006, 0.01878132095300264)):
+        for k in range(4):  # (a, a, a, 1 - 3a) and its permutations
+            point = np.full(4, a)
+            point[k] = 1 - 3 * a
+            barycentric.append(point)
+            weights.append(weight)
+    b = 0.4544962958743504
+    for i, j in itertools.combinations(range(4), 2):  # (b, b, 1/2 - b, 1/2 - b) and its permutations
+        point = np.full(4, 0.5 - b)
+        point[[i, j]] = b
+        barycentric.append(point)
+        weights.append(0.007091003462846911)
+    return np.array(barycentric)[:, 1:], np.array(weights)
+
+
+def _conical_product(n: int) -> tuple[np.ndarray, np.ndarray]:
+    from scipy.special import roots_jacobi
+
+    def gauss_jacobi(alpha: int):  # on [0, 1] with weight (1 - t)^alpha
+        t, w = roots_jacobi(n, alpha, 0)
+        return (t + 1) / 2, w / 2 ** (alpha + 1)
+
+    (x, wx), (s, ws), (t, wt) = gauss_jacobi(2), gauss_jacobi(1), gauss_jacobi(0)
+    x, s, t = np.meshgrid(x, s, t, indexing="ij")
+    points = np.stack([x, s * (1 - x), t * (1 - x) * (1 - s)], axis=-1).reshape(-1, 3)
+    weights = (wx[:, None, None] * ws[None, :, None] * wt[None, None, :]).ravel()
+    return points, weights

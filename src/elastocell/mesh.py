@@ -118,6 +118,7 @@ def _mesh_key(nucleus: NucleusParameters, mesh: MeshParameters) -> str:
     else:
         geometry.pop("stiffness_ratio")  # does not change the mesh
     settings = mesh.model_dump(mode="json")
+    settings.pop("quadrature_degree")  # not a property of the mesh
     if nucleus.shape == "none" or not mesh.refines_interface:
         settings["interface_size"] = None  # no refinement: the same mesh
         settings.pop("interface_width")
