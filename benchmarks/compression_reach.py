@@ -54,7 +54,8 @@ def main() -> None:
         seconds = time.perf_counter() - start
         saddles = int(result.unstable.sum())
         first = float(result.delta[np.argmax(result.unstable)]) if saddles else float("nan")
-        row = dict(cell=name, element=args.element, quadrature_degree=args.quadrature_degree, nodes=cell.mesh.n_nodes, delta_reached=float(result.delta[-1]),
+        row = dict(cell=name, element=args.element, quadrature_degree=args.quadrature_degree,
+                   nodes=cell.mesh.n_nodes, delta_reached=float(result.delta[-1]),
                    force_per_Ec_R2=float(result.force[-1]), saddle_rows=saddles, first_saddle_delta=first,
                    newton_iterations=result.newton_iterations, substeps=result.substeps, seconds=seconds, note=note)
         rows.append(row)

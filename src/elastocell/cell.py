@@ -22,7 +22,7 @@ from . import materials  # noqa: F401  (enables float64 in JAX before any array 
 from .elements import ElementGeometry, reference_element
 from .materials import Law, determinant, law, material_tangent
 from .mesh import NUCLEUS, CellMesh, build_mesh
-from .parameters import CellParameters
+from .parameters import CellParameters, ParameterError
 
 
 def _enable_compilation_cache() -> None:
@@ -66,7 +66,14 @@ class Cell:
     # ---- geometry and moduli ------------------------------------------------------------------------
     @cached_property
     def geometry(self) -> ElementGeometry:
-        return reference_element(self.mesh.order, self.parameters.mesh.quadrature_degree).geometry(self.mesh.nodes, self.mesh.elements)
+        degree = self.parameters.mesh.quadrature_degree
+        try:
+            return reference_element(self.mesh.order, degree).geometry(self.mesh.nodes, self.mesh.elements)
+        except ValueError as error:  # the mesh is checked at the nodes and the default rule's points only
+            if degree is None:
+                raise
+            raise ParameterError("quadrature_degree", f"{error} at the points of the degree-{degree} rule; use "
+                                 "the default degree 2 or a finer mesh") from None
 
     @cached_property
     def element_volumes(self) -> np.ndarray:

@@ -467,9 +467,7 @@ def _compress(cell: Cell, parameters: CompressionParameters | None, solver: str,
                     problem.factorised = None  # the failed trial's stiffness is no tangent of the converged x
                     if increment < 1e-6:
                         failure = (f"compression stopped at delta={delta:.4f} (target {trial_delta:.4f}): {reason}; "
-                                   "try a finer mesh (mesh_size/pole_size, interface_size for a stiff nucleus), "
-                                   "a quadrature of higher degree (quadrature_degree 5 or 7 with p2), more "
-                                   "steps, or linear elements (element p1)")
+                                   f"try {_remedies(cell)}")
                         break
                     continue
                 x, delta, row_shift = solution, trial_delta, last_shift
@@ -512,6 +510,18 @@ def _compress(cell: Cell, parameters: CompressionParameters | None, solver: str,
     if failure:
         raise CompressionError(failure, result)
     return result
+
+
+def _remedies(cell: Cell) -> str:
+    """What the user can change when the load stepping stops."""
+    remedies = ["a finer mesh (mesh_size/pole_size, interface_size for a stiff nucleus)"]
+    degree = cell.parameters.mesh.quadrature_degree or 2
+    if cell.mesh.order == 2 and degree < 7:
+        remedies.append(f"a quadrature of higher degree (quadrature_degree {5 if degree < 5 else 7})")
+    remedies.append("more steps")
+    if cell.mesh.order == 2:
+        remedies.append("linear elements (element p1)")
+    return ", ".join(remedies[:-1]) + f" or {remedies[-1]}"
 
 
 def hertz_force(delta, poisson_ratio: float = 0.48):

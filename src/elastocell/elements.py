@@ -114,7 +114,7 @@ def quadrature_rule(degree: int) -> tuple[np.ndarray, np.ndarray]:
         return np.array([[b, b, b], [a, b, b], [b, a, b], [b, b, a]]), np.full(4, 1 / 24)
     if degree in (4, 5):
         return _walkington_14()
-    return _conical_product((degree + 2) // 2)
+    return conical_product_rule((degree + 2) // 2)
 
 
 def _walkington_14() -> tuple[np.ndarray, np.ndarray]:
@@ -134,7 +134,10 @@ def _walkington_14() -> tuple[np.ndarray, np.ndarray]:
     return np.array(barycentric)[:, 1:], np.array(weights)
 
 
-def _conical_product(n: int) -> tuple[np.ndarray, np.ndarray]:
+@lru_cache(maxsize=4)
+def conical_product_rule(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Stroud's conical (collapsed Gauss-Jacobi) product rule on the unit tetrahedron: (points (n^3, 3),
+    weights (n^3,), positive, summing to 1/6), exact to degree 2n - 1."""
     from scipy.special import roots_jacobi
 
     def gauss_jacobi(alpha: int):  # on [0, 1] with weight (1 - t)^alpha

@@ -21,6 +21,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .elements import _local_gradients, conical_product_rule
 from .mesh import TET10_EDGES
 
 FOUR_PI_OVER_15 = 4.0 * np.pi / 15.0
@@ -28,37 +29,13 @@ FOUR_PI_OVER_15 = 4.0 * np.pi / 15.0
 
 # --------------------------------------------------------------------------- quadrature (order 2)
 @lru_cache(maxsize=4)
-def tetrahedron_rule(points_per_direction: int = 4) -> tuple[np.ndarray, np.ndarray]:
-    """Collapsed (Stroud conical product) Gauss-Jacobi rule on the reference tetrahedron
-    {xi >= 0, sum xi <= 1}: (points (n^3, 3), weights (n^3,), summing to 1/6); exact to degree 2n - 1."""
-    from scipy.special import roots_jacobi
-
-    n = int(points_per_direction)
-    t1, w1 = roots_jacobi(n, 2.0, 0.0)  # weight (1 - t)^2 on [-1, 1]
-    t2, w2 = roots_jacobi(n, 1.0, 0.0)  # weight (1 - t)
-    t3, w3 = roots_jacobi(n, 0.0, 0.0)  # Gauss-Legendre
-    u, v, w = (t1 + 1) / 2, (t2 + 1) / 2, (t3 + 1) / 2
-    wu, wv, ww = w1 / 8, w2 / 4, w3 / 2  # (1-u)^2 du, (1-v) dv, dw on [0, 1]
-    U, V, W = np.meshgrid(u, v, w, indexing="ij")
-    weights = np.einsum("i,j,k->ijk", wu, wv, ww).ravel()
-    xi1 = U
-    xi2 = V * (1 - U)
-    xi3 = W * (1 - U) * (1 - V)
-    points = np.column_stack([xi1.ravel(), xi2.ravel(), xi3.ravel()])
-    return points, weights
-
-
-@lru_cache(maxsize=4)
 def _tet10_tables(points_per_direction: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(shape functions N (q, 10), local gradients dN/dxi (q, 10, 3), weights (q,)) for TET10, VTK order."""
-    points, weights = tetrahedron_rule(points_per_direction)
+    points, weights = conical_product_rule(points_per_direction)
     lam = np.column_stack([1 - points.sum(axis=1), points])  # barycentric (q, 4)
-    grad_l = np.array([[-1.0, -1.0, -1.0], [1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]])
     a, b = TET10_EDGES[:, 0], TET10_EDGES[:, 1]
     shape = np.concatenate([lam * (2 * lam - 1), 4 * lam[:, a] * lam[:, b]], axis=1)
-    corners = (4 * lam[:, :, None] - 1) * grad_l[None]
-    edges = 4 * (lam[:, b, None] * grad_l[a][None] + lam[:, a, None] * grad_l[b][None])
-    return shape, np.concatenate([corners, edges], axis=1), weights
+    return shape, _local_gradients(2, points), weights
 
 
 # --------------------------------------------------------------------------- moments

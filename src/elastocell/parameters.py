@@ -225,7 +225,7 @@ class MeshParameters(_Model):
     ``mesh_size``.
     quadrature_degree: polynomial degree the p2 elements' quadrature rule integrates exactly, 2 to 9 (None: 2, the
     4-point rule, exact for the small-strain stiffness). Higher degrees cost more per assembly (14 points for 5,
-    64 for 7) and keep quadratic elements from folding unseen at large strain (``elements.quadrature_rule``).
+    64 for 7) and see more of a quadratic element folding at large strain (``elements.quadrature_rule``).
     Linear elements always use their exact one-point rule, so the option does not apply to them. Does not
     change the mesh.
     """

@@ -313,7 +313,7 @@ class FlowRun:
         digest.update(np.ascontiguousarray(self.cell.youngs_moduli, dtype=np.float64).tobytes())
         digest.update(self.cell.law.name.encode())
         digest.update(np.ascontiguousarray(self.cell.material_parameters, dtype=np.float64).tobytes())
-        if self.cell.parameters.mesh.quadrature_degree is not None:  # (the default keeps older fingerprints)
+        if self.cell.parameters.mesh.quadrature_degree not in (None, 2):  # the default keeps older fingerprints
             digest.update(f"quadrature {self.cell.parameters.mesh.quadrature_degree}".encode())
         digest.update(str(self.steps_per_record).encode())
         return digest.hexdigest()
