@@ -232,6 +232,17 @@ def test_unreachable_deformation_is_reported():
         compress(cell, CompressionParameters(delta_max=0.95, steps=2, max_newton_iterations=3))
     partial = caught.value.partial  # the converged rows are kept
     assert partial is not None and partial.delta[0] == 0 and len(partial.delta) == len(partial.force)
+    # the remedies offered are those that apply: no quadrature or element change for p1
+    assert "more steps" in str(caught.value) and "quadrature" not in str(caught.value)
+
+
+def test_remedies_offer_a_higher_quadrature_degree_until_7():
+    from elastocell.compression import _remedies
+
+    offered = {degree: _remedies(Cell.from_parameters(cell_parameters(
+        nucleus="none", mesh_size=0.6, pole_size=0.6, quadrature_degree=degree))) for degree in (None, 5, 7)}
+    assert "quadrature_degree 5" in offered[None] and "quadrature_degree 7" in offered[5]
+    assert "quadrature" not in offered[7] and all("element p1" in text for text in offered.values())
 
 
 def test_newton_stagnation_accepts_a_plateau_below_1e7_only():
