@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .cell import Cell
-from .elements import nodal_jacobians
+from .elements import DEFAULT_QUADRATURE_DEGREE, nodal_jacobians
 from .linalg import NotPositiveDefinite, SparseSolver
 from .parameters import CompressionParameters
 
@@ -515,7 +515,7 @@ def _compress(cell: Cell, parameters: CompressionParameters | None, solver: str,
 def _remedies(cell: Cell) -> str:
     """What the user can change when the load stepping stops."""
     remedies = ["a finer mesh (mesh_size/pole_size, interface_size for a stiff nucleus)"]
-    degree = cell.parameters.mesh.quadrature_degree or 2
+    degree = cell.parameters.mesh.quadrature_degree or DEFAULT_QUADRATURE_DEGREE
     if cell.mesh.order == 2 and degree < 7:
         remedies.append(f"a quadrature of higher degree (quadrature_degree {5 if degree < 5 else 7})")
     remedies.append("more steps")

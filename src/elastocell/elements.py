@@ -78,7 +78,8 @@ def _local_gradients(order: int, points: np.ndarray) -> np.ndarray:
     return np.concatenate([corners, edges], axis=1)
 
 
-DEFAULT_QUADRATURE_DEGREE = {1: 1, 2: 2}
+DEFAULT_QUADRATURE_DEGREE = 2
+"""Of 10-node elements: the 4-point rule."""
 MAX_QUADRATURE_DEGREE = 9
 
 
@@ -87,13 +88,9 @@ def reference_element(order: int, degree: int | None = None) -> ReferenceElement
     """Shape-function gradients at the points of a quadrature rule exact to polynomial ``degree`` on the
     reference tetrahedron (None: :data:`DEFAULT_QUADRATURE_DEGREE`). Order 1 always uses its single centroid
     point: F is constant in a straight-sided linear element, so that rule is exact for any law."""
-    if order == 1:
-        points = np.array([[0.25, 0.25, 0.25]])
-        weights = np.array([1 / 6])
-    elif order == 2:
-        points, weights = quadrature_rule(DEFAULT_QUADRATURE_DEGREE[2] if degree is None else degree)
-    else:
+    if order not in (1, 2):
         raise ValueError(f"element order must be 1 or 2, got {order}")
+    points, weights = quadrature_rule(1 if order == 1 else degree or DEFAULT_QUADRATURE_DEGREE)
     return ReferenceElement(order, points, weights, _local_gradients(order, points))
 
 
