@@ -41,7 +41,7 @@ def main() -> None:
     names = args.only or list(CELLS)
     rows = []
     print(f"{'cell':>18} {'nodes':>6} {'delta':>7} {'F/EcR2':>8} {'saddles':>7} {'first':>6} {'newton':>6} "
-          f"{'subst':>5} {'s':>6}  note")
+          f"{'subst':>5} {'s':>6} {'min J':>6}  note")
     for name in names:
         cell = Cell.from_parameters(cell_parameters(element=args.element, quadrature_degree=args.quadrature_degree,
                                                     **CELLS[name]))
@@ -57,10 +57,12 @@ def main() -> None:
         row = dict(cell=name, element=args.element, quadrature_degree=args.quadrature_degree,
                    nodes=cell.mesh.n_nodes, delta_reached=float(result.delta[-1]),
                    force_per_Ec_R2=float(result.force[-1]), saddle_rows=saddles, first_saddle_delta=first,
-                   newton_iterations=result.newton_iterations, substeps=result.substeps, seconds=seconds, note=note)
+                   newton_iterations=result.newton_iterations, substeps=result.substeps, seconds=seconds,
+                   min_volume_ratio=float(result.min_volume_ratio.min()), note=note)
         rows.append(row)
         print(f"{name:>18} {row['nodes']:>6} {row['delta_reached']:>7.4f} {row['force_per_Ec_R2']:>8.4f} {saddles:>7} "
-              f"{first:>6.3f} {row['newton_iterations']:>6} {row['substeps']:>5} {seconds:>6.1f}  {note}", flush=True)
+              f"{first:>6.3f} {row['newton_iterations']:>6} {row['substeps']:>5} {seconds:>6.1f} "
+              f"{row['min_volume_ratio']:>6.3f}  {note}", flush=True)
     if args.out:
         import pandas as pd
 

@@ -114,12 +114,16 @@ def test_bench_lattice_json_contract():
     assert refused.exit_code == 2 and "--size" in refused.output
 
 
-def test_folded_elements_are_warned_in_one_line_per_curve(capsys):
-    from elastocell.cli import _warn_folded
+def test_folded_elements_and_collapsed_volume_are_warned_in_one_line_each(capsys):
+    from elastocell.cli import _warn_curves
 
     folded = {"first_folded_delta": 0.68, "min_nodal_jacobian": -0.36}
-    _warn_folded({"solver": folded, "equivalent_summary": {"solver": {"first_folded_delta": None}}})
+    _warn_curves({"solver": folded, "equivalent_summary": {"solver": {"first_folded_delta": None}}})
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "warning (cell)" in lines[0] and "0.680" in lines[0] and "-0.36" in lines[0]
-    _warn_folded({"solver": {"first_folded_delta": None}})
+    collapsed = {"first_half_volume_delta": 0.525, "min_volume_ratio": 0.09}
+    _warn_curves({"solver": {}, "equivalent_summary": {"solver": collapsed}})
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "warning (equivalent)" in lines[0] and "0.525" in lines[0] and "0.09" in lines[0]
+    _warn_curves({"solver": {"first_folded_delta": None, "first_half_volume_delta": None}})
     assert capsys.readouterr().err == ""

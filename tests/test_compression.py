@@ -278,6 +278,21 @@ def test_min_nodal_jacobian_is_det_of_an_affine_map_and_sees_a_fold_the_quadratu
     assert np.isfinite(cell.energy(x))
 
 
+def test_min_volume_ratio_is_det_of_an_affine_map_and_finds_the_most_compressed_point():
+    """Reference: x = A X has J = det A at every quadrature point (round-off 1e-12); for x = X + (0, 0, -c z^2),
+    J = 1 - 2 c z is smallest at the point of largest z. Every p2 point lies inside its curved element, so
+    that minimum is 1 - 2 c z_max with z_max at most R = 1 and, on this mesh (edge 0.5), within 0.2 of it."""
+    from elastocell.compression import min_volume_ratio
+
+    for element in ("p1", "p2"):
+        cell = Cell.from_parameters(cell_parameters(nucleus="none", element=element, mesh_size=0.5, pole_size=0.5))
+        a = np.array([[1.1, 0.2, 0.0], [0.0, 0.9, 0.1], [0.05, 0.0, 0.8]])
+        assert abs(min_volume_ratio(cell, cell.mesh.nodes @ a.T) - np.linalg.det(a)) < 1e-12
+    c, x = 0.3, cell.mesh.nodes.copy()
+    x[:, 2] -= c * x[:, 2] ** 2  # a quadratic field: exact on the p2 mesh
+    assert 1 - 2 * c <= min_volume_ratio(cell, x) <= 1 - 2 * c * 0.8
+
+
 def test_a_quadrature_of_higher_degree_sees_a_fold_the_four_point_rule_misses():
     """Reference: with one edge node of a straight 10-node element moved to m of its edge (a to b), the volume
     ratio det(dx/dxi)/det(dX/dxi) = 1 + (4m - 2)(lambda_a - lambda_b) in barycentric coordinates. For m = 0.95 it

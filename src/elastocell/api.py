@@ -263,6 +263,11 @@ def _metadata(result: CompressionResult, body: Cell, cell: CellParameters, scena
             "folded_rows": int((result.min_nodal_jacobian <= 0).sum()),
             "first_folded_delta": (float(result.delta[np.argmax(result.min_nodal_jacobian <= 0)])
                                    if (result.min_nodal_jacobian <= 0).any() else None),
+            # smallest volume ratio J = det F at a quadrature point, and the first delta where half the volume
+            # is lost somewhere (see compression.min_volume_ratio); None: never
+            "min_volume_ratio": float(result.min_volume_ratio.min()),
+            "first_half_volume_delta": (float(result.delta[np.argmax(result.min_volume_ratio < 0.5)])
+                                        if (result.min_volume_ratio < 0.5).any() else None),
         },
         "wall_time_s": wall_time,
         "software": software_versions(),

@@ -87,9 +87,10 @@ BACKEND = typer.Option(Backend.numba, "--backend", help="Compute engine: numba (
                        "CPU) or jax (the same physics on JAX's default device: a GPU when JAX has CUDA).")
 
 
-def _warn_folded(summary: dict, name: str = "cell") -> None:
-    """One warning line per curve whose rows contain quadratic elements folded at a node (metadata
-    ``solver.first_folded_delta``, see ``compression.min_nodal_jacobian``)."""
+def _warn_curves(summary: dict, name: str = "cell") -> None:
+    """One warning line per curve and per problem found in its metadata: quadratic elements folded at a node
+    (``solver.first_folded_delta``, see ``compression.min_nodal_jacobian``), and material that has lost half its
+    volume somewhere (``solver.first_half_volume_delta``, see ``compression.min_volume_ratio``)."""
     curves = [(name, summary.get("solver", {}))]
     if "equivalent_summary" in summary:
         curves.append(("equivalent", summary["equivalent_summary"].get("solver", {})))
@@ -98,6 +99,11 @@ def _warn_folded(summary: dict, name: str = "cell") -> None:
             typer.echo(f"warning ({label}): quadratic elements folded at a node from delta = "
                        f"{solver['first_folded_delta']:.3f} on (min nodal det ratio {solver['min_nodal_jacobian']:.2f}); "
                        "the force there is an equilibrium of the discrete energy, check it on a finer mesh", err=True)
+        if solver.get("first_half_volume_delta") is not None:
+            typer.echo(f"warning ({label}): the material has lost half its volume somewhere from delta = "
+                       f"{solver['first_half_volume_delta']:.3f} on (smallest J = det F {solver['min_volume_ratio']:.2f}): "
+                       "the law's pressure cannot exceed its bulk modulus E/(3(1-2nu)), so a layer pressed harder "
+                       "collapses in volume, which a water-filled cytoplasm would not", err=True)
 
 
 @app.command()
@@ -134,12 +140,12 @@ def compress(
         typer.echo(f"elastocell: compression failed: {error}", err=True)
         for name, path in (("cell", out / "metadata.json"), ("equivalent", out / "equivalent" / "metadata.json")):
             if path.exists():  # the rows that were written
-                _warn_folded(json.loads(path.read_text()), name)
+                _warn_curves(json.loads(path.read_text()), name)
         raise typer.Exit(code=1) from None
     if not quiet:
         typer.echo(f"{summary['label']}: gamma_eff = {summary['effective_stiffness_ratio']:.4f}, "
                    f"{summary['mesh']['n_nodes']} nodes, curve in {summary['solver']['curve_time_s']:.1f} s -> {out}")
-        _warn_folded(summary)
+        _warn_curves(summary)
         if "equivalent_summary" in summary:
             typer.echo(f"equivalent: curve in {summary['equivalent_summary']['solver']['curve_time_s']:.1f} s; "
                        f"force ratios in {out / 'comparison.csv'}, plot {out / 'comparison.png'}")

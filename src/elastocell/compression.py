@@ -75,6 +75,7 @@ class CompressionResult:
     contact_nodes_upper: np.ndarray
     unstable: np.ndarray  # per row: the equilibrium is a saddle of the discrete energy (see ``is_saddle``)
     min_nodal_jacobian: np.ndarray  # per row: see :func:`min_nodal_jacobian`; <= 0 means a folded element
+    min_volume_ratio: np.ndarray  # per row: smallest J = det F at a quadrature point, see :func:`min_volume_ratio`
     newton_iterations: int
     factorisations: int
     analyses: int
@@ -403,6 +404,18 @@ def min_nodal_jacobian(cell: Cell, x: np.ndarray, reference: np.ndarray | None =
     return float((nodal_jacobians(x.reshape(-1, 3), cell.mesh.elements) / reference).min())
 
 
+def min_volume_ratio(cell: Cell, x: np.ndarray) -> float:
+    """Smallest volume ratio J = det F over every quadrature point of the cell at positions ``x``: how far the
+    material is compressed in volume somewhere. In the compressible laws of DESIGN.md section 1 the mean Cauchy
+    stress is kappa (J - 1) (the isochoric term adds a traceless part), so its magnitude never exceeds
+    kappa = E / (3 (1 - 2 nu)) (8.3 E at nu = 0.48): a thin soft layer pressed by a stiff nucleus carries the load
+    by collapsing to a small J, its deviatoric stress growing like J^(-5/3). A physical cytoplasm (mostly water)
+    would not."""
+    gradients = cell.geometry.shape_gradients  # dN/dX (e, q, k, 3)
+    deformation = np.einsum("eki,eqkj->eqij", x.reshape(-1, 3)[cell.mesh.elements], gradients)
+    return float(np.linalg.det(deformation).min())
+
+
 def plate_forces(problem: _Problem, x: np.ndarray) -> tuple[float, float, int, float]:
     """(F_upper, F_lower, n_upper_contacts, max rigid-pin reaction) from the converged multipliers."""
     gradient = problem.cell.internal_forces(x.reshape(-1, 3)).ravel()
@@ -439,7 +452,7 @@ def _compress(cell: Cell, parameters: CompressionParameters | None, solver: str,
     x = cell.mesh.nodes.ravel().copy()
     targets = np.linspace(0.0, parameters.delta_max, parameters.steps + 1)
     rows_delta, rows_force, rows_lower, rows_positions, rows_contacts = [0.0], [0.0], [0.0], [x.copy()], [0]
-    rows_unstable, row_shift, rows_jacobian = [False], None, [1.0]
+    rows_unstable, row_shift, rows_jacobian, rows_volume_ratio = [False], None, [1.0], [1.0]
     reference_jacobians = nodal_jacobians(cell.mesh.nodes, cell.mesh.elements)
     iterations_total, substeps, max_reaction = 0, 0, 0.0
     history: list = []
@@ -484,6 +497,7 @@ def _compress(cell: Cell, parameters: CompressionParameters | None, solver: str,
             # to single precision, blind to eigenvalues within ~1e-7 of the largest); otherwise check in double
             rows_unstable.append(row_shift != MIN_SHIFT and is_saddle(problem, x, linear_solver, pattern))
             rows_jacobian.append(min_nodal_jacobian(cell, x, reference_jacobians))
+            rows_volume_ratio.append(min_volume_ratio(cell, x))
             if progress is not None:
                 progress(delta)
     finally:
@@ -496,6 +510,7 @@ def _compress(cell: Cell, parameters: CompressionParameters | None, solver: str,
         contact_nodes_upper=np.array(rows_contacts),
         unstable=np.array(rows_unstable),
         min_nodal_jacobian=np.array(rows_jacobian),
+        min_volume_ratio=np.array(rows_volume_ratio),
         newton_iterations=iterations_total,
         factorisations=linear_solver.factorisations,
         analyses=linear_solver.analyses,
