@@ -236,13 +236,26 @@ def test_unreachable_deformation_is_reported():
     assert "more steps" in str(caught.value) and "quadrature" not in str(caught.value)
 
 
-def test_remedies_offer_a_higher_quadrature_degree_until_7():
+def test_remedies_offer_the_nodal_quadrature_to_p2_only_where_it_is_not_used():
     from elastocell.compression import _remedies
 
     offered = {degree: _remedies(Cell.from_parameters(cell_parameters(
         nucleus="none", mesh_size=0.6, pole_size=0.6, quadrature_degree=degree))) for degree in (None, 5, 7)}
-    assert "quadrature_degree 5" in offered[None] and "quadrature_degree 7" in offered[5]
-    assert "quadrature" not in offered[7] and all("element p1" in text for text in offered.values())
+    assert "quadrature_degree 5" in offered[None] and "quadrature_degree 5" in offered[7]
+    assert "quadrature" not in offered[5] and all("element p1" in text for text in offered.values())
+
+
+def test_compression_uses_the_nodal_rule_for_a_stiff_neo_hookean_nucleus_unless_a_degree_is_given():
+    from elastocell.compression import compression_parameters_for
+
+    def degree(**options):
+        return compression_parameters_for(cell_parameters(**options)).mesh.quadrature_degree
+
+    assert degree(stiffness_ratio=10) == 5 and degree(stiffness_ratio=20, nucleus="ellipsoid") == 5
+    assert degree(stiffness_ratio=9.9) is None and degree() is None  # the reference cell keeps the default
+    assert degree(stiffness_ratio=20, quadrature_degree=2) == 2  # a given degree is kept
+    assert degree(stiffness_ratio=20, material="mooney-rivlin") is None
+    assert degree(stiffness_ratio=20, element="p1") is None and degree(random=True) is None
 
 
 def test_newton_stagnation_accepts_a_plateau_below_1e7_only():
@@ -297,8 +310,8 @@ def test_a_quadrature_of_higher_degree_sees_a_fold_the_four_point_rule_misses():
     """Reference: with one edge node of a straight 10-node element moved to m of its edge (a to b), the volume
     ratio det(dx/dxi)/det(dX/dxi) = 1 + (4m - 2)(lambda_a - lambda_b) in barycentric coordinates. For m = 0.95 it
     is negative where lambda_b - lambda_a > 0.556: beyond every point of the 4-point rule (at most 0.447 there,
-    ratio >= 0.195) but not beyond the 14-point rule's (0.629, ratio -0.13): the energy with degree 2 is finite,
-    with degree 5 not (an inverted element)."""
+    ratio >= 0.195) but not beyond the corner b of the 25-point rule (ratio 1 - (4m - 2) = -0.8): the energy with
+    degree 2 is finite, with degree 5 not (an inverted element)."""
     from elastocell.mesh import TET10_EDGES
 
     cells = {degree: Cell.from_parameters(cell_parameters(nucleus="none", mesh_size=0.5, pole_size=0.5,

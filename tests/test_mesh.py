@@ -95,14 +95,17 @@ def test_rigid_motion_gives_no_force(coarse_p2):
 @pytest.mark.parametrize("degree", range(1, 10))
 def test_quadrature_rules_integrate_monomials_up_to_their_degree(degree):
     """Reference: the integral of x^a y^b z^c over the unit tetrahedron is a! b! c! / (a + b + c + 3)!. Each
-    rule is exact (round-off, 1e-13) to its degree, has positive weights and points inside the element, and the
-    4- and 14-point rules are not exact one degree higher (their degrees are not understated)."""
+    rule is exact (round-off, 1e-13) to its degree, has positive weights and points in the closed element, and the
+    4- and 25-point rules are not exact one degree higher (their degrees are not understated). The 25-point rule
+    of degrees 4-5 has the ten nodes among its points."""
     from math import factorial
 
-    from elastocell.elements import quadrature_rule
+    from elastocell.elements import NODE_POINTS, quadrature_rule
 
     points, weights = quadrature_rule(degree)
-    assert (weights > 0).all() and (points > 0).all() and (points.sum(axis=1) < 1).all()
+    assert (weights > 0).all() and (points >= 0).all() and (points.sum(axis=1) <= 1 + 1e-15).all()
+    has_nodes = all(np.abs(points - node).sum(axis=1).min() < 1e-15 for node in NODE_POINTS)
+    assert has_nodes == (degree in (4, 5))
 
     def worst_error(total):
         errors = []

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .cell import Cell
-from .compression import CompressionError, CompressionResult
+from .compression import CompressionError, CompressionResult, compression_parameters_for
 from .compression import compress as compress_cell
 from .io import Stopwatch, software_versions, write_json, write_table, write_vtk_series
 from .parameters import (
@@ -120,7 +120,7 @@ def compress(
         raise ParameterError("cell", f"give either cell= or cell options, not both ({', '.join(cell_options)})")
     if compare and equivalent:
         raise ParameterError("compare", "--compare already runs the equivalent; do not combine it with --equivalent")
-    cell = cell or cell_parameters(**cell_options)
+    cell = compression_parameters_for(cell or cell_parameters(**cell_options))
     scenario = CompressionParameters(delta_max=delta_max, steps=steps)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -224,8 +224,10 @@ class MeshParameters(_Model):
     interface_width: distance from the nucleus surface over which the size grows from ``interface_size`` to
     ``mesh_size``.
     quadrature_degree: polynomial degree the p2 elements' quadrature rule integrates exactly, 2 to 9 (None: 2, the
-    4-point rule, exact for the small-strain stiffness). Higher degrees cost more per assembly (14 points for 5,
-    64 for 7) and see more of a quadratic element folding at large strain (``elements.quadrature_rule``).
+    4-point rule, exact for the small-strain stiffness). Higher degrees cost more per assembly (25 points for 4-5,
+    64 for 6-7) and see more of a quadratic element folding at large strain. The rule of degree 4-5 contains the
+    ten nodes, so that no element can fold at a node (``elements.nodal_rule_25``): the choice for a stiff nucleus
+    at large delta.
     Linear elements always use their exact one-point rule, so the option does not apply to them. Does not
     change the mesh.
     """
