@@ -17,7 +17,7 @@ import numpy as np
 
 from elastocell import cell_parameters
 from elastocell.cell import Cell
-from elastocell.compression import CompressionError, compress
+from elastocell.compression import CompressionError, compress, compression_parameters_for
 from elastocell.parameters import CompressionParameters
 
 CELLS = {
@@ -34,7 +34,8 @@ CELLS = {
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--element", default="p2", choices=["p1", "p2"])
-    parser.add_argument("--quadrature-degree", type=int, default=None, help="p2 only (default 2)")
+    parser.add_argument("--quadrature-degree", type=int, default=None,
+                        help="p2 only (default: that of elastocell compress)")
     parser.add_argument("--only", nargs="+", default=None)
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
@@ -43,8 +44,9 @@ def main() -> None:
     print(f"{'cell':>18} {'nodes':>6} {'delta':>7} {'F/EcR2':>8} {'saddles':>7} {'first':>6} {'newton':>6} "
           f"{'subst':>5} {'s':>6} {'min J':>6}  note")
     for name in names:
-        cell = Cell.from_parameters(cell_parameters(element=args.element, quadrature_degree=args.quadrature_degree,
-                                                    **CELLS[name]))
+        # without --quadrature-degree: the degree `elastocell compress` uses for this cell
+        cell = Cell.from_parameters(compression_parameters_for(cell_parameters(
+            element=args.element, quadrature_degree=args.quadrature_degree, **CELLS[name])))
         start = time.perf_counter()
         note = ""
         try:
@@ -54,7 +56,7 @@ def main() -> None:
         seconds = time.perf_counter() - start
         saddles = int(result.unstable.sum())
         first = float(result.delta[np.argmax(result.unstable)]) if saddles else float("nan")
-        row = dict(cell=name, element=args.element, quadrature_degree=args.quadrature_degree,
+        row = dict(cell=name, element=args.element, quadrature_degree=cell.parameters.mesh.quadrature_degree,
                    nodes=cell.mesh.n_nodes, delta_reached=float(result.delta[-1]),
                    force_per_Ec_R2=float(result.force[-1]), saddle_rows=saddles, first_saddle_delta=first,
                    newton_iterations=result.newton_iterations, substeps=result.substeps, seconds=seconds,

@@ -16,7 +16,7 @@ import numpy as np
 
 from elastocell import cell_parameters
 from elastocell.cell import Cell
-from elastocell.compression import CompressionError, compress
+from elastocell.compression import CompressionError, compress, compression_parameters_for
 from elastocell.parameters import CompressionParameters
 
 DELTAS = (0.1, 0.3, 0.5, 0.7)
@@ -39,7 +39,8 @@ def main() -> None:
     parser.add_argument("--delta-max", type=float, default=0.75)
     parser.add_argument("--mesh-size", type=float, default=None)
     parser.add_argument("--pole-size", type=float, default=None)
-    parser.add_argument("--quadrature-degree", type=int, default=None, help="p2 only (default 2)")
+    parser.add_argument("--quadrature-degree", type=int, default=None,
+                        help="p2 only (default: that of elastocell compress)")
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
     rows = []
@@ -47,9 +48,10 @@ def main() -> None:
     for element in args.element:
         for gamma in args.stiffness_ratio:
             start = time.perf_counter()
-            cell = Cell.from_parameters(cell_parameters(stiffness_ratio=gamma, element=element,
-                                                        mesh_size=args.mesh_size, pole_size=args.pole_size,
-                                                        quadrature_degree=args.quadrature_degree))
+            # without --quadrature-degree: the degree `elastocell compress` uses for this cell
+            cell = Cell.from_parameters(compression_parameters_for(cell_parameters(
+                stiffness_ratio=gamma, element=element, mesh_size=args.mesh_size, pole_size=args.pole_size,
+                quadrature_degree=args.quadrature_degree)))
             params = CompressionParameters(delta_max=args.delta_max, steps=args.steps)
             notes: list[str] = []
             nucleus, equivalent = _curve(cell, params, notes), _curve(cell.equivalent(), params, notes)
