@@ -58,6 +58,19 @@ def test_compression_run_id_follows_the_default_mesh(monkeypatch):
     assert shear.run_id == before[1]
 
 
+def test_compression_run_id_follows_the_quadrature_rule_of_a_stiff_nucleus(monkeypatch):
+    """A run with a stiff neo-Hookean nucleus uses the 25-point rule since session 18 (its cached curves from the
+    4-point rule are not reused); the reference cell and Mooney-Rivlin keep the default rule and their ids."""
+    import elastocell.compression as compression
+
+    runs = [Run.of("compress", stiffness_ratio=20), Run.of("compress", stiffness_ratio=2),
+            Run.of("compress", stiffness_ratio=20, material="mooney-rivlin")]
+    now = [run.run_id for run in runs]
+    monkeypatch.setattr(compression, "compression_parameters_for", lambda cell: cell)  # as before session 18
+    before = [run.run_id for run in runs]
+    assert now[0] != before[0] and now[1:] == before[1:]
+
+
 def _curve_rows(pair, equivalent, delta, force, series="stiffness", gamma=2.0, size=0.5, reached=None):
     return [{"series": series, "cell": pair, "pair": pair, "equivalent": equivalent, "stiffness_ratio": gamma,
              "size_ratio": size, "delta": d, "force_per_Ec_R2": f, "force_per_Eeff_R2": f / (1 + (gamma - 1) / 8),

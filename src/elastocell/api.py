@@ -112,6 +112,10 @@ def compress(
     """Compress a cell between two plates and write ``out/compression.csv``, ``metadata.json``,
     ``compression.png`` and VTK files (``out/vtk/compression.pvd``).
 
+    Unless the cell sets ``quadrature_degree``, a p2 neo-Hookean cell whose nucleus is at least 10 times stiffer
+    than the cytoplasm uses the rule with the nodes (degree 5, see ``compression.compression_parameters_for``),
+    and so does its equivalent; ``metadata.json`` records the degree.
+
     equivalent: simulate the homogeneous equivalent of the described cell instead.
     compare: also simulate the equivalent (written to ``out/equivalent/``) and draw both in
     ``out/comparison.png`` with their force ratio in ``out/comparison.csv``.

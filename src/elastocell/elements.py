@@ -6,8 +6,9 @@ small-strain stiffness exactly (the product of two linear gradients). At large s
 polynomial, and four points leave the element free to fold near a node without the energy seeing it: in a soft
 layer crushed between a stiff nucleus and a plate, the discrete energy then descends into folded states. A rule
 of higher degree (``quadrature_degree``) samples more of each element. The rule of degree 5 (25 points) contains
-the element's ten nodes: a map folded at a node (J <= 0 there) has no finite energy, so an element cannot fold at
-a node at all (:func:`nodal_rule_25`).
+the element's ten nodes: a map folded at a node (J <= 0 there) has no finite energy, so no element folds at a
+node (:func:`nodal_rule_25`). J can still turn negative between points, which the compression's check of nodes
+beyond the plates catches when it matters there.
 """
 
 from __future__ import annotations

@@ -226,8 +226,9 @@ class MeshParameters(_Model):
     quadrature_degree: polynomial degree the p2 elements' quadrature rule integrates exactly, 2 to 9 (None: 2, the
     4-point rule, exact for the small-strain stiffness). Higher degrees cost more per assembly (25 points for 4-5,
     64 for 6-7) and see more of a quadratic element folding at large strain. The rule of degree 4-5 contains the
-    ten nodes, so that no element can fold at a node (``elements.nodal_rule_25``): the choice for a stiff nucleus
-    at large delta.
+    ten nodes, so that no element folds at a node (``elements.nodal_rule_25``): the choice for a stiff nucleus at
+    large delta, and the one ``elastocell.compress`` takes when None is given for such a cell
+    (``compression.compression_parameters_for``).
     Linear elements always use their exact one-point rule, so the option does not apply to them. Does not
     change the mesh.
     """

@@ -313,8 +313,10 @@ class FlowRun:
         digest.update(np.ascontiguousarray(self.cell.youngs_moduli, dtype=np.float64).tobytes())
         digest.update(self.cell.law.name.encode())
         digest.update(np.ascontiguousarray(self.cell.material_parameters, dtype=np.float64).tobytes())
-        if self.cell.parameters.mesh.quadrature_degree not in (None, 2):  # the default keeps older fingerprints
-            digest.update(f"quadrature {self.cell.parameters.mesh.quadrature_degree}".encode())
+        degree = self.cell.parameters.mesh.quadrature_degree
+        if degree not in (None, 2):  # the default keeps older fingerprints
+            # degrees 4-5 changed rule in session 18 (14 points -> 25 with the nodes): not the same run
+            digest.update(f"quadrature {degree}{' nodal 25' if degree in (4, 5) else ''}".encode())
         digest.update(str(self.steps_per_record).encode())
         return digest.hexdigest()
 

@@ -27,6 +27,21 @@ from ..parameters import ParameterError
 RUN_FILE = "run.json"
 
 
+def _compression_quadrature_degree(options: dict) -> int | None:
+    """The quadrature degree ``elastocell.compress`` uses for a run with these options (None: the default)."""
+    import inspect
+
+    from ..api import cell_parameters
+    from ..compression import compression_parameters_for
+
+    names = inspect.signature(cell_parameters).parameters
+    try:
+        cell = cell_parameters(**{k: v for k, v in options.items() if k in names})
+    except (ValueError, TypeError):  # an invalid run fails later, with its own message
+        return None
+    return compression_parameters_for(cell).mesh.quadrature_degree
+
+
 @dataclass(frozen=True)
 class Run:
     """One simulation: ``scenario`` ("compress", "shear" or "pipe") and the API keyword arguments."""
@@ -53,6 +68,8 @@ class Run:
             from ..parameters import DEFAULT_MESH_SIZES
 
             identity.append(DEFAULT_MESH_SIZES)
+            if _compression_quadrature_degree(self.kwargs) in (4, 5):  # that rule changed in session 18
+                identity.append("quadrature 25 points with the nodes")
         text = json.dumps(identity, sort_keys=True, default=str)
         digest = hashlib.sha1(text.encode()).hexdigest()[:10]
         options = self.kwargs
