@@ -65,6 +65,21 @@ def test_compress_writes_the_contract_files(tmp_path):
     assert np.all(np.isfinite(ratio[1:]))
 
 
+def test_compress_records_the_rule_with_the_nodes_for_a_stiff_nucleus_and_the_smallest_volume_ratio(tmp_path):
+    """`elastocell compress --stiffness-ratio 10` takes degree 5 (compression.compression_parameters_for) for the
+    cell and its equivalent, and the metadata records it with the smallest J; `--quadrature-degree 2` is kept."""
+    for extra, degree in (([], 5), (["--quadrature-degree", "2"], 2)):
+        out = tmp_path / f"run{degree}"
+        result = runner.invoke(app, ["compress", "--out", str(out), "--delta-max", "0.1", "--steps", "2",
+                                     "--stiffness-ratio", "10", "--mesh-size", "0.6", "--pole-size", "0.3",
+                                     "--compare", "--quiet", *extra])
+        assert result.exit_code == 0, result.output
+        for path in (out / "metadata.json", out / "equivalent" / "metadata.json"):
+            metadata = json.loads(path.read_text())
+            assert metadata["cell"]["mesh"]["quadrature_degree"] == degree
+            assert 0.5 < metadata["solver"]["min_volume_ratio"] < 1 and metadata["solver"]["first_half_volume_delta"] is None
+
+
 def test_module_entry_point_help():
     completed = subprocess.run([sys.executable, "-m", "elastocell", "--help"], capture_output=True, text=True)
     assert completed.returncode == 0 and "compress" in completed.stdout

@@ -155,7 +155,13 @@ def nodal_rule_25() -> tuple[np.ndarray, np.ndarray]:
     barycentric = np.array([point for orbit in orbits for point in orbit])
     weights = np.concatenate([np.full(len(orbit), w / (6 * len(orbit))) for orbit, w in zip(orbits, orbit_weights,
                                                                                              strict=True)])
-    return barycentric[:, 1:], weights
+    return _read_only(barycentric[:, 1:]), _read_only(weights)
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """A cached rule is shared by every caller: make it immutable."""
+    array.flags.writeable = False
+    return array
 
 
 @lru_cache(maxsize=4)
@@ -172,4 +178,4 @@ def conical_product_rule(n: int) -> tuple[np.ndarray, np.ndarray]:
     x, s, t = np.meshgrid(x, s, t, indexing="ij")
     points = np.stack([x, s * (1 - x), t * (1 - x) * (1 - s)], axis=-1).reshape(-1, 3)
     weights = (wx[:, None, None] * ws[None, :, None] * wt[None, None, :]).ravel()
-    return points, weights
+    return _read_only(points), _read_only(weights)
