@@ -66,7 +66,7 @@ ELEMENT = typer.Option("p2", "--element", help="p2 (10-node, default) | p1 (4-no
 QUADRATURE = typer.Option(None, "--quadrature-degree", help="p2 only: degree of the quadrature rule, 2 (4 points) "
                           "to 9. 5: 25 points that include the nodes, so that no element folds at a node in a crushed "
                           "soft layer, at about twice the time of a degree-2 curve. Default: 5 for a neo-Hookean cell "
-                          "whose nucleus is at least 10 times stiffer than the cytoplasm, else 2.")
+                          "whose nucleus is at least 7 times stiffer than the cytoplasm, else 2.")
 # options shared by the flow scenarios (shear, pipe)
 FLOW_MESH_SIZE = typer.Option(None, "--mesh-size", help="Element size (units of R); default: 2 dx, uniform.")
 FLOW_POLE_SIZE = typer.Option(None, "--pole-size", help="Element size at the poles; default: uniform.")
