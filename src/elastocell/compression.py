@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .cell import Cell
-from .elements import DEFAULT_QUADRATURE_DEGREE, _local_gradients, nodal_jacobians, quadrature_rule
+from .elements import DEFAULT_QUADRATURE_DEGREE, jacobian_determinants, nodal_jacobians, quadrature_rule
 from .linalg import NotPositiveDefinite, SparseSolver
 from .parameters import CellParameters, CompressionParameters
 
@@ -413,13 +413,10 @@ def min_volume_ratio(cell: Cell, x: np.ndarray) -> float:
     kappa = E / (3 (1 - 2 nu)) (8.3 E at nu = 0.48): a thin soft layer pressed by a stiff nucleus carries the load
     by collapsing to a small J, its deviatoric stress growing like J^(-5/3). A physical cytoplasm (mostly water)
     would not."""
-    order = cell.mesh.order
-    points = quadrature_rule(1 if order == 1 else DEFAULT_QUADRATURE_DEGREE)[0]
-    gradients = _local_gradients(order, points)  # dN/dxi (q, k, 3)
+    points = quadrature_rule(1 if cell.mesh.order == 1 else DEFAULT_QUADRATURE_DEGREE)[0]
     elements = cell.mesh.elements
-    deformed = np.linalg.det(np.einsum("eki,qkj->eqij", x.reshape(-1, 3)[elements], gradients))
-    reference = np.linalg.det(np.einsum("eki,qkj->eqij", cell.mesh.nodes[elements], gradients))
-    return float((deformed / reference).min())
+    deformed = jacobian_determinants(x.reshape(-1, 3), elements, points)
+    return float((deformed / jacobian_determinants(cell.mesh.nodes, elements, points)).min())
 
 
 def plate_forces(problem: _Problem, x: np.ndarray) -> tuple[float, float, int, float]:

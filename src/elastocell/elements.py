@@ -61,9 +61,13 @@ NODE_POINTS = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, 0, 0],
 
 def nodal_jacobians(nodes: np.ndarray, elements: np.ndarray) -> np.ndarray:
     """det(dx/dxi) of every element's map at its own nodes, (n_elements, n_element_nodes)."""
+    return jacobian_determinants(nodes, elements, NODE_POINTS[: elements.shape[1]])
+
+
+def jacobian_determinants(nodes: np.ndarray, elements: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """det(dx/dxi) of every element's map at ``points`` of the reference tetrahedron, (n_elements, n_points)."""
     order = 1 if elements.shape[1] == 4 else 2
-    gradients = _local_gradients(order, NODE_POINTS[: elements.shape[1]])
-    return np.linalg.det(np.einsum("eki,qkj->eqij", nodes[elements], gradients))
+    return np.linalg.det(np.einsum("eki,qkj->eqij", nodes[elements], _local_gradients(order, points)))
 
 
 def _barycentric_gradients() -> np.ndarray:

@@ -266,14 +266,12 @@ def _straighten_invalid(nodes: np.ndarray, elements: np.ndarray, sweeps: int = 5
     """Move the edge nodes of curved 10-node elements whose Jacobian is not positive everywhere back to the
     straight midpoints (a coarse element with two faces on a curved surface can fold when curved). The
     boundary is then locally straight there; every other element keeps its exact curved geometry."""
-    from .elements import NODE_POINTS, _local_gradients, reference_element
+    from .elements import NODE_POINTS, jacobian_determinants, reference_element
 
     check_points = np.vstack([NODE_POINTS, reference_element(2).points])
-    gradients = _local_gradients(2, check_points)
     nodes = nodes.copy()
     for _ in range(sweeps):
-        jacobian = np.einsum("eki,qkj->eqij", nodes[elements], gradients)
-        invalid = (np.linalg.det(jacobian) <= 0).any(axis=1)
+        invalid = (jacobian_determinants(nodes, elements, check_points) <= 0).any(axis=1)
         if not invalid.any():
             break
         bad = elements[invalid]
