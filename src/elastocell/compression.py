@@ -540,7 +540,7 @@ with the 4-point rule. Stiffness ratio 5: smallest nodal det ratio 0.205; 6: 0.0
 def compression_parameters_for(cell: CellParameters) -> CellParameters:
     """``cell`` with the quadrature a compression of it uses: the degree given, else, for p2 elements, a
     neo-Hookean cell and a nucleus at least :data:`NODAL_RULE_FROM_STIFFNESS_RATIO` times stiffer than the
-    cytoplasm, degree 5 (its points include the nodes, so the soft layer the nucleus crushes cannot fold). The
+    cytoplasm, degree 5 (its points include the nodes, so no element of the crushed soft layer folds at a node). The
     Mooney-Rivlin law keeps degree 2: its reference cell stops at delta = 0.619 with degree 5 (README)."""
     mesh, nucleus = cell.mesh, cell.nucleus
     if (mesh.element == "p2" and mesh.quadrature_degree is None and cell.random is None and nucleus.shape != "none"
