@@ -22,10 +22,9 @@ import time
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from elastocell import cell_parameters
-from elastocell.cell import Cell
-from elastocell.compression import compress
-from elastocell.parameters import CompressionParameters
+from elastocell.body.cell import Cell
+from elastocell.parameters.cell import cell_parameters
+from elastocell.scenarios.compression import CompressionParameters, compress
 
 DELTAS = np.array([0.1, 0.3, 0.5, 0.7])
 MESHES = [  # (element, mesh_size, pole_size, interface_size, pole_radius; None: default grading)

@@ -18,10 +18,14 @@ import time
 
 import numpy as np
 
-from elastocell import cell_parameters
-from elastocell.cell import Cell
-from elastocell.compression import CompressionError, compress, compression_parameters_for
-from elastocell.parameters import CompressionParameters
+from elastocell.body.cell import Cell
+from elastocell.parameters.cell import cell_parameters
+from elastocell.scenarios.compression import (
+    CompressionError,
+    CompressionParameters,
+    compress,
+    compression_parameters_for,
+)
 
 CELLS = {
     "homogeneous": dict(nucleus="none"),

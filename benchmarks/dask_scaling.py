@@ -7,7 +7,7 @@ Q = 0.04 uL/s, eta = 15 mPa s) run for ``--duration`` units of 1/gdot_w at ``--r
 stationarity stop, so every worker count does the same work, each in a fresh directory (nothing is read back).
 Softer cells at long durations reach the wall at R/dx 4 and fail, which would spoil the comparison.
 
-Every worker is a single-threaded process (``elastocell.distributed``), so one worker runs the points one after
+Every worker is a single-threaded process (``elastocell.simulation.distributed``), so one worker runs the points one after
 the other on one core. Printed: first, the same points one after the other in this process with all its Numba
 threads (the alternative to Dask on one machine); then, per worker count, the wall time of the whole grid
 (cluster start included), the sum of the per-point run times, the speed-up against the first worker count and
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numba
 
-from elastocell.lut import compute_lut, plan, run_point
+from elastocell.inverse.lut import compute_lut, plan, run_point
 
 
 def main(argv=None) -> None:

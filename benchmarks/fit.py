@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from elastocell.fit import FitSettings, fit_curve, fit_files
-from elastocell.mastercurve import load_master_curve
+from elastocell.inverse.fit import FitSettings, fit_curve, fit_files
+from elastocell.inverse.mastercurve import load_master_curve
 
 E, R, CONTACT = 1000.0, 8e-6, 5e-6
 

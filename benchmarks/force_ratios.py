@@ -17,10 +17,14 @@ import time
 
 import numpy as np
 
-from elastocell import cell_parameters
-from elastocell.cell import Cell
-from elastocell.compression import CompressionError, compress, compression_parameters_for
-from elastocell.parameters import CompressionParameters
+from elastocell.body.cell import Cell
+from elastocell.parameters.cell import cell_parameters
+from elastocell.scenarios.compression import (
+    CompressionError,
+    CompressionParameters,
+    compress,
+    compression_parameters_for,
+)
 
 DELTAS = (0.1, 0.3, 0.5, 0.7)
 

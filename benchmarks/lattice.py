@@ -20,7 +20,7 @@ Everything is measured in the same run:
   layout) at 128^3 in float32, timed alone (no ghost-layer exchange), if lbmpy
   imports; otherwise a note is printed.
 
-The measurements live in :mod:`elastocell.benchmark` (also behind ``elastocell bench lattice``); this
+The measurements live in :mod:`elastocell.simulation.throughput` (also behind ``elastocell bench lattice``); this
 script adds the table over sizes and precisions and the peer (lbmpy) in the same run.
 """
 
@@ -39,7 +39,12 @@ try:
 except ImportError:  # running from a source checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
-from elastocell.benchmark import TRIAD_ELEMENTS, run_benchmark, set_threads, stream_triad_bandwidth
+from elastocell.simulation.throughput import (
+    TRIAD_ELEMENTS,
+    run_benchmark,
+    set_threads,
+    stream_triad_bandwidth,
+)
 
 THREADS = 2
 THREADS_SETTING = {"threads": THREADS}  # changed by --threads

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from elastocell.lut import compute_lut
+from elastocell.inverse.lut import compute_lut
 
 
 def _number(value) -> float:

@@ -21,7 +21,7 @@ DATA = Path(__file__).resolve().parents[1] / "src" / "elastocell" / "data"
 
 
 def compression(values):
-    from elastocell.mastercurve import SHIPPED_POISSON_RATIOS, compute_master_curve, shipped_name
+    from elastocell.inverse.mastercurve import SHIPPED_POISSON_RATIOS, compute_master_curve, shipped_name
 
     for nu in values or SHIPPED_POISSON_RATIOS:
         start = time.perf_counter()
@@ -35,7 +35,11 @@ def compression(values):
 
 
 def shear(values):
-    from elastocell.mastercurve_shear import SHIPPED_POISSON_RATIOS, compute_shear_master_curve, shipped_name
+    from elastocell.inverse.mastercurve_shear import (
+        SHIPPED_POISSON_RATIOS,
+        compute_shear_master_curve,
+        shipped_name,
+    )
 
     for nu in values or SHIPPED_POISSON_RATIOS:
         start = time.perf_counter()

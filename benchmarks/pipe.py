@@ -36,13 +36,13 @@ except ImportError:  # a source checkout without installing
 
 import numba
 
-from elastocell import flow
-from elastocell import pipe_flow as pipe
-from elastocell.cell import Cell
+from elastocell.body.cell import Cell
+from elastocell.parameters.flow import shear_mesh_size
+from elastocell.scenarios import pipe
 
 
 def make_cell(resolution: float, nucleus: str = "sphere") -> Cell:
-    size = flow.shear_mesh_size(resolution)
+    size = shear_mesh_size(resolution)
     return Cell.from_parameters(elastocell.cell_parameters(nucleus=nucleus, stiffness_ratio=2.0, size_ratio=0.5,
                                                            element="p1", mesh_size=size, pole_size=size))
 

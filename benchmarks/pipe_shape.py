@@ -23,10 +23,10 @@ def one_run(ratio: float, cell_capillary: float, resolution: float, duration: fl
     import numba
 
     numba.set_num_threads(1)
-    from elastocell import cell_parameters
-    from elastocell.cell import Cell
-    from elastocell.flow import shear_mesh_size
-    from elastocell.pipe_flow import PipeFlowParameters, run_pipe
+    from elastocell.body.cell import Cell
+    from elastocell.parameters.cell import cell_parameters
+    from elastocell.parameters.flow import shear_mesh_size
+    from elastocell.scenarios.pipe import PipeFlowParameters, run_pipe
 
     mesh = shear_mesh_size(resolution)
     cell = Cell.from_parameters(cell_parameters(nucleus="none", element="p1", mesh_size=mesh, pole_size=mesh))

@@ -11,7 +11,7 @@ Run::
 
 Every run uses the shear defaults (``ShearFlowParameters()``: R/dx = 8, confinement 2R/H = 0.2, box 8R,
 tau = 1, particle Reynolds number 0.1, trilinear kernel) and a uniform p1 mesh with edges of 2 dx
-(``flow.shear_mesh_size``). Stationary values are means over strain >= duration/2; the tank-treading
+(``shear_mesh_size``). Stationary values are means over strain >= duration/2; the tank-treading
 frequency is the r^2-weighted mean angular velocity of the surface nodes about the cell centre over the
 same window, in units of the shear rate. Reference (DESIGN.md): D -> (5/4) Ca, 45 deg and 1/2 as Ca -> 0.
 
@@ -38,12 +38,14 @@ except ImportError:  # a source checkout without installing
 
 import numba
 
-from elastocell import flow, ibm
-from elastocell.cell import Cell
+from elastocell.body.cell import Cell
+from elastocell.coupling import ibm
+from elastocell.parameters.flow import shear_mesh_size
+from elastocell.scenarios import shear as flow
 
 
 def make_cell(resolution: float, nucleus: str = "none", element: str = "p1") -> Cell:
-    size = flow.shear_mesh_size(resolution)
+    size = shear_mesh_size(resolution)
     return Cell.from_parameters(elastocell.cell_parameters(nucleus=nucleus, element=element, mesh_size=size,
                                                            pole_size=size, interface_size=size))
 

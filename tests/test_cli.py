@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from elastocell.cli import app
+from elastocell.cli.app import app
 
 runner = CliRunner()
 
@@ -92,7 +92,7 @@ def test_module_entry_point_help():
     (["compress"], "--out"),                                    # missing option
 ])
 def test_usage_errors_are_one_line_naming_the_option_with_exit_code_2(tmp_path, arguments, named):
-    # The console command (elastocell.cli:main, also behind python -m elastocell) reports click's usage errors
+    # The console command (elastocell.cli.app:main, also behind python -m elastocell) reports click's usage errors
     # as one line, like every other user error, instead of a framed box.
     out = [] if arguments == ["compress"] else ["--out", str(tmp_path / "x")]
     completed = subprocess.run([sys.executable, "-m", "elastocell", *arguments, *out], capture_output=True, text=True)
@@ -130,7 +130,7 @@ def test_bench_lattice_json_contract():
 
 
 def test_folded_elements_and_collapsed_volume_are_warned_in_one_line_each(capsys):
-    from elastocell.cli import _warn_curves
+    from elastocell.cli.app import _warn_curves
 
     folded = {"first_folded_delta": 0.68, "min_nodal_jacobian": -0.36}
     _warn_curves({"solver": folded, "equivalent_summary": {"solver": {"first_folded_delta": None}}})

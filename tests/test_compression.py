@@ -7,10 +7,15 @@ on these coarse test meshes (see the comments), not the accuracy of the default 
 import numpy as np
 import pytest
 
-from elastocell import cell_parameters
-from elastocell.cell import Cell
-from elastocell.compression import CompressionError, _held_direction, compress, hertz_force
-from elastocell.parameters import CompressionParameters
+from elastocell.body.cell import Cell
+from elastocell.parameters.cell import cell_parameters
+from elastocell.scenarios.compression import (
+    CompressionError,
+    CompressionParameters,
+    _held_direction,
+    compress,
+    hertz_force,
+)
 
 
 def curve(delta_max, steps, **options):
@@ -44,7 +49,7 @@ def test_upper_triangle_assembly_constraints_and_definiteness():
     import scipy.sparse as sp
     from scipy.sparse.linalg import spsolve
 
-    from elastocell.linalg import HAVE_PARDISO, SparseSolver
+    from elastocell.solvers.sparse import HAVE_PARDISO, SparseSolver
 
     cell = Cell.from_parameters(cell_parameters(mesh_size=0.5, pole_size=0.5, interface_size=0.5,
                                                 stiffness_ratio=5))
@@ -98,14 +103,14 @@ def test_upper_triangle_assembly_constraints_and_definiteness():
         solver.close()
 
 
-@pytest.mark.skipif(not __import__("elastocell.linalg").linalg.HAVE_PARDISO, reason="needs PARDISO")
+@pytest.mark.skipif(not __import__("elastocell.solvers.sparse").solvers.sparse.HAVE_PARDISO, reason="needs PARDISO")
 def test_mixed_precision_solve_refines_to_tolerance_or_falls_back_to_double(monkeypatch):
     """The single-precision factorisation's solves are refined in double precision to REFINEMENT_TOLERANCE
     (relative residual, against the double-precision matrix); when refinement cannot get there (here: a tolerance
     below double round-off) the same matrix is factorised in double precision and solved to round-off."""
     import scipy.sparse as sp
 
-    from elastocell import linalg
+    from elastocell.solvers import sparse as linalg
 
     cell = Cell.from_parameters(cell_parameters(mesh_size=0.5, pole_size=0.5, interface_size=0.5,
                                                 stiffness_ratio=5))
@@ -157,7 +162,7 @@ def test_plate_forces_equal_and_opposite_and_pins_force_free(homogeneous_small_d
 def test_folded_mesh_is_detected():
     """An interior node beyond a plate while the surface nodes are within them is a folded (non one-to-one)
     state; the solver refuses it instead of reporting its force."""
-    from elastocell.compression import _folded, _setup
+    from elastocell.scenarios.compression import _folded, _setup
 
     cell = Cell.from_parameters(cell_parameters(nucleus="none", mesh_size=0.5, pole_size=0.5))
     problem = _setup(cell)
@@ -237,7 +242,7 @@ def test_unreachable_deformation_is_reported():
 
 
 def test_remedies_offer_the_nodal_quadrature_to_p2_only_where_it_is_not_used():
-    from elastocell.compression import _remedies
+    from elastocell.scenarios.compression import _remedies
 
     offered = {degree: _remedies(Cell.from_parameters(cell_parameters(
         nucleus="none", mesh_size=0.6, pole_size=0.6, quadrature_degree=degree))) for degree in (None, 5, 7)}
@@ -246,7 +251,7 @@ def test_remedies_offer_the_nodal_quadrature_to_p2_only_where_it_is_not_used():
 
 
 def test_compression_uses_the_nodal_rule_for_a_stiff_neo_hookean_nucleus_unless_a_degree_is_given():
-    from elastocell.compression import compression_parameters_for
+    from elastocell.scenarios.compression import compression_parameters_for
 
     def degree(**options):
         return compression_parameters_for(cell_parameters(**options)).mesh.quadrature_degree
@@ -262,7 +267,7 @@ def test_newton_stagnation_accepts_a_plateau_below_1e7_only():
     # The Newton acceptance for a creeping solve (measured: 7,705-node p2 mesh at delta 0.51, relative unbalanced
     # force 5.8e-9 -> 6.9e-9 over 20 iterations along an unstable direction) must not cut quadratic convergence
     # short, nor accept a plateau above the 1e-7 threshold.
-    from elastocell.compression import stagnated
+    from elastocell.scenarios.compression import stagnated
 
     assert stagnated([1e-2, 4e-3, 6e-9, 5.8e-9, 6.1e-9, 6.5e-9])  # the measured plateau
     assert not stagnated([1e-2, 1e-4, 1e-8, 1e-16])  # quadratic convergence
@@ -275,8 +280,8 @@ def test_min_nodal_jacobian_is_det_of_an_affine_map_and_sees_a_fold_the_quadratu
     """Reference: an affine map x = A X has det(dx/dxi)/det(dX/dxi) = det A at every point of every element
     (round-off); an edge node moved to 0.8 of its edge makes the 1D map 3 - 4 m < 0 at the far corner (a fold)
     while det F stays positive at the four quadrature points, so the energy is finite."""
-    from elastocell.compression import min_nodal_jacobian
-    from elastocell.mesh import TET10_EDGES
+    from elastocell.body.elements import TET10_EDGES
+    from elastocell.scenarios.compression import min_nodal_jacobian
 
     for element in ("p1", "p2"):
         cell = Cell.from_parameters(cell_parameters(nucleus="none", element=element, mesh_size=0.5, pole_size=0.5))
@@ -297,7 +302,7 @@ def test_min_volume_ratio_is_det_of_an_affine_map_and_finds_the_most_compressed_
     the curved boundary ones up to the interpolation error of the field (X is itself quadratic in xi there). The
     smallest value is at the highest sampled point, below z = R = 1 and, on this mesh (edge 0.5), above z = 0.8:
     J in [1 - 2c, 1 - 1.6c], with 0.01 of room below for that error (measured 0.462 with c = 0.3)."""
-    from elastocell.compression import min_volume_ratio
+    from elastocell.scenarios.compression import min_volume_ratio
 
     for element in ("p1", "p2"):
         cell = Cell.from_parameters(cell_parameters(nucleus="none", element=element, mesh_size=0.5, pole_size=0.5))
@@ -317,7 +322,7 @@ def test_a_quadrature_of_higher_degree_sees_a_fold_the_four_point_rule_misses():
     is negative where lambda_b - lambda_a > 0.556: beyond every point of the 4-point rule (at most 0.447 there,
     ratio >= 0.195) but not beyond the corner b of the 25-point rule (ratio 1 - (4m - 2) = -0.8): the energy with
     degree 2 is finite, with degree 5 not (an inverted element)."""
-    from elastocell.mesh import TET10_EDGES
+    from elastocell.body.elements import TET10_EDGES
 
     cells = {degree: Cell.from_parameters(cell_parameters(nucleus="none", mesh_size=0.5, pole_size=0.5,
                                                           quadrature_degree=degree)) for degree in (2, 5)}
@@ -342,7 +347,7 @@ def test_holding_blocked_nodes_by_schur_complement_or_new_factorisation_gives_th
     already made; with that path switched off (MAX_SCHUR_DOFS = 0) every hold falls back to a new factorisation.
     Both solve the same Newton systems (measured: the same 44 iterations, forces equal to 2e-14, 61 against 84
     factorisations); tolerance 1e-6, the Newton tolerance's order, in case round-off changes an active set."""
-    from elastocell import compression as solver
+    from elastocell.scenarios import compression as solver
 
     cell = Cell.from_parameters(cell_parameters(nucleus="none", mesh_size=0.4, pole_size=0.1))
     params = CompressionParameters(delta_max=0.3, steps=6)
@@ -353,7 +358,7 @@ def test_holding_blocked_nodes_by_schur_complement_or_new_factorisation_gives_th
     assert refactorised.factorisations > schur.factorisations
 
 
-@pytest.mark.skipif(not __import__("elastocell.linalg").linalg.HAVE_PARDISO, reason="needs PARDISO")
+@pytest.mark.skipif(not __import__("elastocell.solvers.sparse").solvers.sparse.HAVE_PARDISO, reason="needs PARDISO")
 def test_mixed_and_double_precision_factorisations_give_the_same_curve():
     """The precision of the factorisation changes the Newton path at most, never the equilibrium: F from the
     mixed-precision and the double-precision solver agree within the Newton tolerance (1e-7 of the plate force;
@@ -375,7 +380,7 @@ def test_compress_runs_openblas_on_one_thread_and_restores_it(monkeypatch):
     import scipy.linalg  # noqa: F401  (loads SciPy's OpenBLAS too)
     from threadpoolctl import threadpool_info
 
-    from elastocell import compression
+    from elastocell.scenarios import compression
 
     def openblas_threads():
         return [pool["num_threads"] for pool in threadpool_info() if pool["internal_api"] == "openblas"]

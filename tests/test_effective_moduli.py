@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from elastocell.effective_moduli import (
+from elastocell.body.effective_moduli import (
     all_estimates,
     hashin_shtrikman_lower,
     reuss,

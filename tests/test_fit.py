@@ -11,10 +11,10 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from elastocell.cli_fit import fit_app, mastercurve_app
-from elastocell.compression import hertz_force
-from elastocell.fit import FitSettings, estimate_contact_point, fit_curve, read_curves
-from elastocell.mastercurve import SHIPPED_POISSON_RATIOS, load_master_curve
+from elastocell.cli.fit import fit_app, mastercurve_app
+from elastocell.inverse.fit import FitSettings, estimate_contact_point, fit_curve, read_curves
+from elastocell.inverse.mastercurve import SHIPPED_POISSON_RATIOS, load_master_curve
+from elastocell.scenarios.compression import hertz_force
 
 app = typer.Typer()
 app.add_typer(fit_app, name="fit")
@@ -230,7 +230,7 @@ def test_dask_execution_gives_the_loops_fits_csv(tmp_path, master):
     """Three files (one given twice, so a duplicate curve name) through a 1-worker local Dask cluster; reference:
     the in-process loop's fits.csv, same columns, same row order and names, every numeric column equal to
     rtol 1e-12 except the timing column fit_time_s; the plots are renamed like the loop's."""
-    from elastocell.fit import fit_files
+    from elastocell.inverse.fit import fit_files
 
     files = [write_csv(tmp_path / f"cell{i}.csv", *synthetic(master, seed=20 + i, n=200)[:2]) for i in range(3)]
     files.append(files[1])

@@ -12,10 +12,10 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from elastocell.cli_fit import fit_app, mastercurve_app
-from elastocell.fit import fit_shear
-from elastocell.mastercurve_shear import ShearMasterCurve, load_shear_master_curve, richardson
-from elastocell.parameters import ParameterError
+from elastocell.cli.fit import fit_app, mastercurve_app
+from elastocell.inverse.fit import fit_shear
+from elastocell.inverse.mastercurve_shear import ShearMasterCurve, load_shear_master_curve, richardson
+from elastocell.parameters.units import ParameterError
 
 app = typer.Typer()
 app.add_typer(fit_app, name="fit")

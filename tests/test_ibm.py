@@ -1,5 +1,5 @@
-"""Tests of the immersed-boundary coupling (elastocell.ibm) and the compiled elastic forces and coupled
-stepping of elastocell.flow, lattice units (dx = dt = 1, rho0 = 1).
+"""Tests of the immersed-boundary coupling (elastocell.coupling.ibm) and the compiled elastic forces and coupled
+stepping of elastocell.coupling.immersed, lattice units (dx = dt = 1, rho0 = 1).
 
 References are exact identities of the discretisation (partition of unity and first-moment condition of the
 kernels, the JAX autodiff forces of the cell model, the public-API slow path), so tolerances are round-off.
@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 import elastocell
-from elastocell import flow, ibm
-from elastocell.cell import Cell
+from elastocell.body.cell import Cell
+from elastocell.coupling import elastic_forces, ibm, immersed, markers
 from elastocell.lattice import Lattice, LatticeParams
+from elastocell.scenarios import shear as shear_scenario
 
 KERNELS = ["trilinear", "peskin4"]
 
@@ -137,12 +138,12 @@ def test_compiled_elastic_forces_equal_jax_autodiff(coarse_cells, element, law, 
         deformation = np.eye(3) + 0.05 * rng.standard_normal((3, 3))
     x = cell.mesh.nodes @ deformation.T + 0.01 * rng.standard_normal(cell.mesh.nodes.shape)
     reference = -np.asarray(cell.internal_forces(x))
-    forces, j_min = flow.ElasticForces(cell)(x)
+    forces, j_min = elastic_forces.ElasticForces(cell)(x)
     scale = np.abs(reference).max()
     np.testing.assert_allclose(forces, reference, atol=1e-12 * scale)
     assert j_min > 0
     # scaled units: positions in dx (R = 7.5 dx), E_c = 0.02 -> forces E_c R^2 times the dimensionless ones
-    scaled, _ = flow.ElasticForces(cell, length_scale=7.5, modulus_scale=0.02)(3.0 + 7.5 * x)
+    scaled, _ = elastic_forces.ElasticForces(cell, length_scale=7.5, modulus_scale=0.02)(3.0 + 7.5 * x)
     np.testing.assert_allclose(scaled, 0.02 * 7.5**2 * reference, atol=1e-12 * 0.02 * 7.5**2 * scale)
 
 
@@ -150,10 +151,10 @@ def test_compiled_forces_flag_inverted_elements(coarse_cells):
     cell = coarse_cells["p1", "neo-hookean", "none"]
     x = cell.mesh.nodes.copy()
     x[:, 0] *= -1.0  # a reflection inverts every element
-    _, j_min = flow.ElasticForces(cell)(x)
+    _, j_min = elastic_forces.ElasticForces(cell)(x)
     assert j_min < 0
-    assert flow._inverse_cube_root(0.7) == pytest.approx(0.7 ** (-1 / 3), rel=1e-15)
-    assert flow._inverse_cube_root(50.0) == pytest.approx(50.0 ** (-1 / 3), rel=1e-15)
+    assert elastic_forces._inverse_cube_root(0.7) == pytest.approx(0.7 ** (-1 / 3), rel=1e-15)
+    assert elastic_forces._inverse_cube_root(50.0) == pytest.approx(50.0 ** (-1 / 3), rel=1e-15)
 
 
 # --------------------------------------------------------------------------- coupled stepping
@@ -165,7 +166,7 @@ def test_markers_without_force_follow_a_uniform_flow_exactly(coarse_cells):
     u0 = np.array([0.03, -0.02, 0.01])
     for kernel in KERNELS:
         lattice = Lattice(LatticeParams((12, 12, 12), relaxation_time=0.8, dtype="float64"), velocity=u0)
-        system = flow.ImmersedCell(lattice, cell, centre=(5.3, 6.1, 5.7), radius=3.0, youngs_modulus=0.0,
+        system = immersed.ImmersedCell(lattice, cell, centre=(5.3, 6.1, 5.7), radius=3.0, youngs_modulus=0.0,
                                    kernel=kernel)
         start = system.positions.copy()
         system.advance(150)
@@ -180,11 +181,11 @@ def test_compiled_coupled_steps_match_the_public_api_reference(coarse_cells, ele
     # full-lattice Lattice.velocity, ibm.spread/interpolate, Lattice.step), in Couette flow with moving walls.
     # float64: round-off (measured max |dX| 1.8e-15 dx after 6 steps, forces 7e-14 relative); tolerance 1e-12.
     cell = coarse_cells[element, "neo-hookean", "sphere"]
-    params = flow.ShearFlowParameters(capillary_number=0.05, resolution=3.0, confinement=0.3, box_length=4.0,
+    params = shear_scenario.ShearFlowParameters(capillary_number=0.05, resolution=3.0, confinement=0.3, box_length=4.0,
                                       kernel=kernel, dtype="float64")
-    units = flow.shear_lattice_units(cell, params)
-    compiled = flow.shear_setup(cell, params, units)
-    reference = flow.shear_setup(cell, params, units)
+    units = shear_scenario.shear_lattice_units(cell, params)
+    compiled = shear_scenario.shear_setup(cell, params, units)
+    reference = shear_scenario.shear_setup(cell, params, units)
     rng = np.random.default_rng(6)
     kick = 0.01 * rng.standard_normal(compiled.positions.shape)  # start from a strained state: large forces
     compiled.positions += kick
@@ -207,7 +208,7 @@ def test_coupled_steps_across_periodic_seams_and_a_solid_wall_match_the_referenc
     # taken modulo the lattice: here the cell straddles the periodic x seam of a pipe (solid channel wall, body
     # force) with unwrapped positions below 0, so a wrong box, seam or solid-node value shows as an O(u) error.
     # float64 round-off: measured max |dX| ~1e-16 dx after 6 steps; tolerance 1e-12.
-    from elastocell import pipe_flow
+    from elastocell.scenarios import pipe as pipe_flow
 
     cell = coarse_cells["p1", "neo-hookean", "sphere"]
     params = pipe_flow.PipeFlowParameters(capillary_number_wall=0.2, resolution=4, channel_radius_ratio=2.5,
@@ -231,16 +232,16 @@ def test_coupled_steps_across_periodic_seams_and_a_solid_wall_match_the_referenc
 @pytest.mark.parametrize("element, kernel, law", [("p1", "trilinear", "neo-hookean"), ("p2", "peskin4", "mooney-rivlin")])
 def test_jax_backend_coupled_steps_match_the_numba_kernels(coarse_cells, element, kernel, law):
     # Reference: the Numba coupled steps (themselves checked against the public-API path above). The JAX
-    # backend (elastocell.flow_jax, the path for GPUs) implements the same algorithm independently: JAX
+    # backend (elastocell.coupling.immersed_jax, the path for GPUs) implements the same algorithm independently: JAX
     # autodiff forces, scatter-add spreading, moments at the kernel nodes, rolled streaming. Couette flow with
     # moving walls, a strained nucleus cell, float64, 6 steps in two chunks. Round-off: measured (p1,
     # trilinear, neo-Hookean) max |dX| 1.8e-15 dx, forces 1.1e-13 relative, lattice velocity 1.4e-16.
     cell = coarse_cells[element, law, "sphere"]
-    params = flow.ShearFlowParameters(capillary_number=0.05, resolution=3.0, confinement=0.3, box_length=4.0,
+    params = shear_scenario.ShearFlowParameters(capillary_number=0.05, resolution=3.0, confinement=0.3, box_length=4.0,
                                       kernel=kernel, dtype="float64")
-    units = flow.shear_lattice_units(cell, params)
-    numba_system = flow.shear_setup(cell, params, units)
-    jax_system = flow.shear_setup(cell, params.model_copy(update={"backend": "jax"}), units)
+    units = shear_scenario.shear_lattice_units(cell, params)
+    numba_system = shear_scenario.shear_setup(cell, params, units)
+    jax_system = shear_scenario.shear_setup(cell, params.model_copy(update={"backend": "jax"}), units)
     assert jax_system.backend == "jax" and numba_system.backend == "numba"
     kick = 0.01 * np.random.default_rng(6).standard_normal(numba_system.positions.shape)
     numba_system.positions += kick
@@ -260,39 +261,41 @@ def test_jax_backend_coupled_steps_match_the_numba_kernels(coarse_cells, element
 @pytest.mark.parametrize("kernel", KERNELS)
 @pytest.mark.parametrize("geometry", ["walls", "solid"])
 def test_jax_spreading_and_interpolation_match_ibm_at_walls_and_solids(kernel, geometry):
-    # Reference: elastocell.ibm (spread; interpolate_lattice_velocity, which reads u = 0 at solid nodes and drops
+    # Reference: elastocell.coupling.ibm (spread; interpolate_lattice_velocity, which reads u = 0 at solid nodes and drops
     # kernel nodes beyond the y-walls). Markers are placed where the kernel support crosses a y-wall or covers
     # solid nodes of a channel; random populations, force field and body force. float64 round-off (tolerance
     # 1e-13 on forces of order 1 and velocities of order 0.01).
-    from elastocell import flow_jax
+    from elastocell.body.materials import float64
+    from elastocell.coupling import immersed_jax as flow_jax
     from elastocell.lattice.jax_backend import JaxLattice
 
-    rng = np.random.default_rng(11)
-    shape = (9, 12, 10)
-    if geometry == "walls":
-        params = LatticeParams(shape, relaxation_time=0.8, dtype="float64", wall_velocity=(-0.01, 0.01))
-        y = rng.choice([0.1, 0.6, 1.4, 10.2, 10.7, 10.95], 40)
-    else:
-        yy, zz = np.meshgrid(np.arange(shape[1]), np.arange(shape[2]), indexing="ij")
-        solid = np.broadcast_to(((yy - 5.5) ** 2 + (zz - 4.5) ** 2 > 4.2**2)[None], shape).copy()
-        params = LatticeParams(shape, relaxation_time=0.8, dtype="float64", solid=solid, body_force=(1e-3, 0, 0))
-        y = rng.uniform(1.5, 9.5, 40)
-    positions = np.column_stack([rng.uniform(-3, 12, 40), y, rng.uniform(0.5, 9.0, 40)])  # x unwrapped
-    forces = rng.standard_normal((40, 3))
-    periodic_y = not params.has_walls
-    flat, weights = flow_jax.kernel_stencil(flow_jax.jnp.asarray(positions), shape, kernel, periodic_y)
-    field = np.asarray(flow_jax.spread(flow_jax.jnp.asarray(forces), flat, weights, shape, np.float64))
-    np.testing.assert_allclose(field, ibm.spread(forces, positions, shape, kernel, periodic_y), rtol=0, atol=1e-13)
-    deviations = 0.01 * rng.standard_normal((19,) + shape)
-    numba_lattice, jax_lattice = Lattice(params), JaxLattice(params)
-    for lattice in (numba_lattice, jax_lattice):
-        lattice.set_population_deviations(deviations)
-        lattice.set_force_density(1e-3 * field)
-    expected = ibm.interpolate_lattice_velocity(numba_lattice, positions, kernel)
-    force = flow_jax.total_force(jax_lattice.force_density, jax_lattice._tables_jax, shape, np.float64)
-    velocity = flow_jax.interpolate_velocity(jax_lattice.deviations, force, flat, weights, jax_lattice._tables_jax.fluid)
-    np.testing.assert_allclose(np.asarray(velocity), expected, rtol=0, atol=1e-13)
-    assert np.abs(expected).max() > 1e-3  # the check is not trivial
+    with float64():  # the module functions run in 64 bit only inside elastocell's context
+        rng = np.random.default_rng(11)
+        shape = (9, 12, 10)
+        if geometry == "walls":
+            params = LatticeParams(shape, relaxation_time=0.8, dtype="float64", wall_velocity=(-0.01, 0.01))
+            y = rng.choice([0.1, 0.6, 1.4, 10.2, 10.7, 10.95], 40)
+        else:
+            yy, zz = np.meshgrid(np.arange(shape[1]), np.arange(shape[2]), indexing="ij")
+            solid = np.broadcast_to(((yy - 5.5) ** 2 + (zz - 4.5) ** 2 > 4.2**2)[None], shape).copy()
+            params = LatticeParams(shape, relaxation_time=0.8, dtype="float64", solid=solid, body_force=(1e-3, 0, 0))
+            y = rng.uniform(1.5, 9.5, 40)
+        positions = np.column_stack([rng.uniform(-3, 12, 40), y, rng.uniform(0.5, 9.0, 40)])  # x unwrapped
+        forces = rng.standard_normal((40, 3))
+        periodic_y = not params.has_walls
+        flat, weights = flow_jax.kernel_stencil(flow_jax.jnp.asarray(positions), shape, kernel, periodic_y)
+        field = np.asarray(flow_jax.spread(flow_jax.jnp.asarray(forces), flat, weights, shape, np.float64))
+        np.testing.assert_allclose(field, ibm.spread(forces, positions, shape, kernel, periodic_y), rtol=0, atol=1e-13)
+        deviations = 0.01 * rng.standard_normal((19,) + shape)
+        numba_lattice, jax_lattice = Lattice(params), JaxLattice(params)
+        for lattice in (numba_lattice, jax_lattice):
+            lattice.set_population_deviations(deviations)
+            lattice.set_force_density(1e-3 * field)
+        expected = ibm.interpolate_lattice_velocity(numba_lattice, positions, kernel)
+        force = flow_jax.total_force(jax_lattice.force_density, jax_lattice._tables_jax, shape, np.float64)
+        velocity = flow_jax.interpolate_velocity(jax_lattice.deviations, force, flat, weights, jax_lattice._tables_jax.fluid)
+        np.testing.assert_allclose(np.asarray(velocity), expected, rtol=0, atol=1e-13)
+        assert np.abs(expected).max() > 1e-3  # the check is not trivial
 
 
 def _invert_first_element(system):
@@ -312,10 +315,10 @@ def test_failures_stop_the_chunk_with_flow_error_on_both_backends(coarse_cells, 
     # before the first step. Non-finite populations give NaN marker velocities in the first (here also the last)
     # step of the chunk: the step is counted and the fluid is reported non-finite.
     cell = coarse_cells["p1", "neo-hookean", "none"]
-    params = flow.ShearFlowParameters(capillary_number=0.05, resolution=3.0, confinement=0.3, box_length=4.0,
+    params = shear_scenario.ShearFlowParameters(capillary_number=0.05, resolution=3.0, confinement=0.3, box_length=4.0,
                                       backend=backend)
-    system = flow.shear_setup(cell, params)
+    system = shear_scenario.shear_setup(cell, params)
     damage(system)
-    with pytest.raises(flow.FlowError, match=message):
+    with pytest.raises(markers.FlowError, match=message):
         system.advance(1 if damage is _poison_fluid else 5)
     assert system.time_step == steps_done

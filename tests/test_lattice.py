@@ -10,14 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from elastocell.lattice import (
-    VELOCITIES,
-    WEIGHTS,
-    Lattice,
-    LatticeParams,
-    check_stability,
-    mach_number,
-)
+from elastocell.lattice import VELOCITIES, WEIGHTS, Lattice, LatticeParams, check_stability, mach_number
 from elastocell.lattice.jax_backend import JaxLattice
 from elastocell.lattice.kernels import BLOCK
 from elastocell.lattice.reference import reference_step

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from elastocell.cli import app
-from elastocell.lut import (
+from elastocell.cli.app import app
+from elastocell.inverse.lut import (
     capillary_number_wall,
     compute_lut,
     isoelastics_path,
@@ -22,7 +22,7 @@ from elastocell.lut import (
     write_isoelastics,
     write_lut,
 )
-from elastocell.parameters import ParameterError
+from elastocell.parameters.units import ParameterError
 
 runner = CliRunner()
 BASE = ["lut", "--channel-radius", "10um", "--flow-rate", "0.04uL/s", "--viscosity", "15mPa*s"]
@@ -38,7 +38,7 @@ def test_flow_rate_to_capillary_number_by_hand():
     assert capillary_number_wall(4e-11, 1e-5, 0.015, 1000.0, 0.48) == pytest.approx(2.2613, rel=1e-4)
     assert wall_shear_rate(4e-11, 1e-5, 0.015) == pytest.approx(4 * 4e-11 / (math.pi * 1e-15), rel=1e-12)
     # the poiseuille flow rate of the pipe module inverts G
-    from elastocell.pipe_flow import poiseuille_flow_rate
+    from elastocell.scenarios.pipe import poiseuille_flow_rate
 
     assert poiseuille_flow_rate(g, 0.015, 1e-5) == pytest.approx(4e-11, rel=1e-12)
 
@@ -190,7 +190,7 @@ def test_quick_grid_end_to_end(tmp_path, monkeypatch):
 def test_a_point_reads_its_shape_over_the_final_window(tmp_path):
     # Reference: the definition (means over the last FINAL_WINDOW units of time), on a time series whose
     # deformation still rises over the second half, where the second-half mean would read low.
-    from elastocell.lut import FINAL_WINDOW, final_shape
+    from elastocell.inverse.lut import FINAL_WINDOW, final_shape
 
     time = np.linspace(0.0, 6.0, 61)
     deformation = 0.04 * (1.0 - np.exp(-time))

@@ -11,17 +11,17 @@ import json
 import numpy as np
 import pytest
 
-from elastocell import cell_parameters
-from elastocell.cell import Cell
-from elastocell.parameters import ParameterError
-from elastocell.pipe_flow import (
+from elastocell.api.pipe import pipe
+from elastocell.body.cell import Cell
+from elastocell.parameters.cell import cell_parameters
+from elastocell.parameters.units import ParameterError
+from elastocell.scenarios.pipe import (
     PIPE_COLUMNS,
     PipeFlowParameters,
     PipeRun,
     channel_shape,
     channel_solid,
     migration_time,
-    pipe,
     pipe_lattice_units,
     poiseuille_error,
     poiseuille_flow_rate,
@@ -218,7 +218,7 @@ def test_checkpoint_fingerprint_ignores_field_order_and_a_sweep_restarts_a_stale
                                                                                         monkeypatch):
     # The fingerprint is of the parameter values, not of their declaration order; a checkpoint another version
     # wrote is refused by --resume but a sweep (resume_or_restart) starts that run afresh.
-    from elastocell.runner import resume_or_restart
+    from elastocell.simulation.runner import resume_or_restart
 
     params = PipeFlowParameters(capillary_number_wall=0.2, **SMALL)
     run = PipeRun(cell, params, record_interval=0.5)
@@ -252,7 +252,7 @@ def test_checkpoint_fingerprint_ignores_field_order_and_a_sweep_restarts_a_stale
 def test_cli_refuses_impossible_input_in_one_line(tmp_path, arguments, option):
     from typer.testing import CliRunner
 
-    from elastocell.cli import app
+    from elastocell.cli.app import app
 
     result = CliRunner().invoke(app, ["pipe", *arguments, "--out", str(tmp_path / "out")])
     assert result.exit_code == 2
@@ -264,7 +264,7 @@ def test_cli_refuses_impossible_input_in_one_line(tmp_path, arguments, option):
 def test_cli_runs_and_writes_every_output(tmp_path):
     from typer.testing import CliRunner
 
-    from elastocell.cli import app
+    from elastocell.cli.app import app
 
     out = tmp_path / "run"
     result = CliRunner().invoke(app, [

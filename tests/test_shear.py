@@ -1,4 +1,4 @@
-"""Tests of the shape observables (elastocell.observables) and the shear-flow scenario (elastocell.flow).
+"""Tests of the shape observables (elastocell.body.observables) and the shear-flow scenario (elastocell.scenarios.shear).
 
 Physics references: exact moments of affinely mapped meshes; rigid rotation; Taylor's small-deformation
 limit of an elastic sphere in Stokes shear flow, D -> (5/4) Ca, tank-treading angular frequency ->
@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 
 import elastocell
-from elastocell import flow, observables
-from elastocell.cell import Cell
-from elastocell.parameters import ParameterError
+from elastocell.body import observables
+from elastocell.body.cell import Cell
+from elastocell.parameters.units import ParameterError
+from elastocell.scenarios import shear as shear_scenario
 
 
 @pytest.fixture(scope="module")
@@ -111,8 +112,8 @@ def test_rotation_tracker_recovers_tank_treading_on_an_ellipse():
 
 # --------------------------------------------------------------------------- lattice units and guards
 def test_lattice_units_respect_every_limit_and_give_the_capillary_number(coarse_cell):
-    params = flow.ShearFlowParameters(capillary_number=0.1, resolution=4)
-    units = flow.shear_lattice_units(coarse_cell, params)
+    params = shear_scenario.ShearFlowParameters(capillary_number=0.1, resolution=4)
+    units = shear_scenario.shear_lattice_units(coarse_cell, params)
     mu = units.youngs_modulus / (2 * (1 + 0.48))
     assert units.viscosity * units.shear_rate / mu == pytest.approx(0.1, rel=1e-12)
     assert units.reynolds_number <= 0.1 * (1 + 1e-12)
@@ -133,18 +134,18 @@ def test_lattice_units_respect_every_limit_and_give_the_capillary_number(coarse_
 )
 def test_invalid_shear_parameters_name_the_parameter(kwargs, name):
     with pytest.raises(ValueError, match=name):
-        flow.ShearFlowParameters(**kwargs)
+        shear_scenario.ShearFlowParameters(**kwargs)
 
 
 def test_unstable_or_impossible_runs_are_refused_with_the_parameter(coarse_cell):
     with pytest.raises(ParameterError, match="lattice_shear_rate"):  # elastic step unstable
-        flow.shear_lattice_units(coarse_cell, flow.ShearFlowParameters(capillary_number=0.001, resolution=4,
+        shear_scenario.shear_lattice_units(coarse_cell, shear_scenario.ShearFlowParameters(capillary_number=0.001, resolution=4,
                                                                        lattice_shear_rate=1e-3))
     with pytest.raises(ParameterError, match="capillary_number"):  # too many steps per strain
-        flow.shear_lattice_units(coarse_cell, flow.ShearFlowParameters(capillary_number=1e-4, resolution=4,
+        shear_scenario.shear_lattice_units(coarse_cell, shear_scenario.ShearFlowParameters(capillary_number=1e-4, resolution=4,
                                                                        max_steps_per_strain=1e4))
     with pytest.raises(ValueError, match="confinement"):  # walls within the kernel support: at validation
-        flow.ShearFlowParameters(capillary_number=0.1, resolution=4, confinement=0.8)
+        shear_scenario.ShearFlowParameters(capillary_number=0.1, resolution=4, confinement=0.8)
 
 
 # --------------------------------------------------------------------------- the cell in shear flow
@@ -162,8 +163,8 @@ def test_homogeneous_cell_at_small_ca_taylor_limit_tank_treading_and_volume(coar
     # Tolerances: D/Ca within +-0.45 of 5/4 at this coarse R/dx = 4 (the measured excess is +0.39);
     # tank treading 0.5 +- 0.03 (measured 0.480); inclination in (35, 45) deg (measured 41.0, below 45 as
     # expected for viscosity ratio 1); volume drift below 1 % (measured max |V/V0 - 1| = 9.2e-4).
-    params = flow.ShearFlowParameters(capillary_number=0.05, resolution=4, confinement=0.2, box_length=8)
-    result = flow.run_shear(coarse_cell, params, duration=3.0, record_interval=0.1)
+    params = shear_scenario.ShearFlowParameters(capillary_number=0.05, resolution=4, confinement=0.2, box_length=8)
+    result = shear_scenario.run_shear(coarse_cell, params, duration=3.0, record_interval=0.1)
     summary = result.summary
     ratio = summary["taylor_deformation_mean"] / 0.05
     assert ratio == pytest.approx(1.25, abs=0.45)
@@ -180,8 +181,8 @@ def test_homogeneous_cell_at_small_ca_taylor_limit_tank_treading_and_volume(coar
 
 def test_nucleus_cell_p2_runs_and_reports_the_nucleus_centre(coarse_p2_cell):
     # p2 nodes 0.25 R apart at R/dx = 3 make the elastic step limit bind: ~8000 steps per strain at Ca = 0.3
-    params = flow.ShearFlowParameters(capillary_number=0.3, resolution=3, confinement=0.3, box_length=4)
-    result = flow.run_shear(coarse_p2_cell.equivalent(), params, duration=0.2, record_interval=0.1)
+    params = shear_scenario.ShearFlowParameters(capillary_number=0.3, resolution=3, confinement=0.3, box_length=4)
+    result = shear_scenario.run_shear(coarse_p2_cell.equivalent(), params, duration=0.2, record_interval=0.1)
     assert result.units.limiting == "elastic_stability"
     assert result.summary["equivalent"] is True
     assert np.isfinite(result.series["nucleus_centre_x"]).all()
@@ -194,9 +195,9 @@ class _Killed(Exception):
 
 
 def _small_run(cell, backend="numba"):
-    from elastocell.runner import ShearRun
+    from elastocell.scenarios.shear import ShearRun
 
-    params = flow.ShearFlowParameters(capillary_number=0.1, resolution=3, confinement=0.3, box_length=4,
+    params = shear_scenario.ShearFlowParameters(capillary_number=0.1, resolution=3, confinement=0.3, box_length=4,
                                       backend=backend)
     return ShearRun(cell, params, record_interval=0.1)
 
@@ -205,7 +206,7 @@ def _small_run(cell, backend="numba"):
 def test_resume_after_a_kill_reproduces_the_uninterrupted_time_series(coarse_cell, tmp_path, backend):
     # Reference: the uninterrupted run. The compiled steps are deterministic (on the CPU) and the checkpoint
     # holds the complete state, so the resumed series must be identical (bitwise; tolerance 0).
-    from elastocell.runner import StopCriteria
+    from elastocell.simulation.runner import StopCriteria
 
     stop = StopCriteria(duration=1.0)
     uninterrupted = _small_run(coarse_cell, backend)
@@ -230,9 +231,9 @@ def test_resume_after_a_kill_reproduces_the_uninterrupted_time_series(coarse_cel
         np.testing.assert_array_equal(a[name], b[name], err_msg=name)
     np.testing.assert_array_equal(uninterrupted.tracker.angles, resumed.tracker.angles)
     np.testing.assert_array_equal(uninterrupted.system.positions, resumed.system.positions)
-    other = flow.ShearFlowParameters(capillary_number=0.2, resolution=3, confinement=0.3, box_length=4,
+    other = shear_scenario.ShearFlowParameters(capillary_number=0.2, resolution=3, confinement=0.3, box_length=4,
                                      backend=backend)
-    from elastocell.runner import ShearRun
+    from elastocell.scenarios.shear import ShearRun
 
     with pytest.raises(ParameterError, match="resume"):
         ShearRun(coarse_cell, other, record_interval=0.1).load(checkpoint)
@@ -241,7 +242,7 @@ def test_resume_after_a_kill_reproduces_the_uninterrupted_time_series(coarse_cel
 
 
 def test_stop_criteria_wall_clock_and_stationary(coarse_cell):
-    from elastocell.runner import StopCriteria
+    from elastocell.simulation.runner import StopCriteria
 
     run = _small_run(coarse_cell)
     assert run.run(StopCriteria(duration=5.0, wall_clock=1e-9)) == "wall_clock"
@@ -258,7 +259,7 @@ def test_stop_criteria_wall_clock_and_stationary(coarse_cell):
 def _cli(*arguments):
     from typer.testing import CliRunner
 
-    from elastocell.cli import app
+    from elastocell.cli.app import app
 
     return CliRunner().invoke(app, ["shear", *arguments])
 

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from elastocell.cli import app
+from elastocell.cli.app import app
 from elastocell.studies import STUDIES, get_study, load_claims, plot_study, run_studies
 from elastocell.studies.base import Member, Run, Study, read_study_table
 from elastocell.studies.cell_models import cross_section
@@ -48,7 +48,7 @@ def test_shared_runs_have_one_identity():
 
 def test_compression_run_id_follows_the_default_mesh(monkeypatch):
     """A compression run made on another default mesh is another run (not reused); a flow run keeps its id."""
-    import elastocell.parameters as parameters
+    import elastocell.studies.base as parameters
 
     compress, shear = Run.of("compress", stiffness_ratio=2), Run.of("shear", capillary_number=0.1)
     before = compress.run_id, shear.run_id
@@ -61,7 +61,7 @@ def test_compression_run_id_follows_the_default_mesh(monkeypatch):
 def test_compression_run_id_follows_the_quadrature_rule_of_a_stiff_nucleus(monkeypatch):
     """A run with a stiff neo-Hookean nucleus uses the 25-point rule since session 18 (its cached curves from the
     4-point rule are not reused); the reference cell and Mooney-Rivlin keep the default rule and their ids."""
-    import elastocell.compression as compression
+    import elastocell.studies.base as compression
 
     runs = [Run.of("compress", stiffness_ratio=20), Run.of("compress", stiffness_ratio=2),
             Run.of("compress", stiffness_ratio=20, material="mooney-rivlin")]
@@ -127,8 +127,8 @@ def test_pipe_claims_read_the_strains():
 def test_cross_section_of_a_meshed_ball_is_a_disc():
     """Reference: the cut of the unit ball through its centre, area pi. The p1 mesh (edge 0.3 R) is inscribed in
     the sphere; its cut measured 2.2 % smaller, so the tolerance is 4 %."""
-    from elastocell.api import cell_parameters
-    from elastocell.cell import Cell
+    from elastocell.body.cell import Cell
+    from elastocell.parameters.cell import cell_parameters
 
     body = Cell.from_parameters(cell_parameters(nucleus="none", element="p1", mesh_size=0.3))
     cut, polygons = cross_section(body.mesh.nodes, body.mesh.elements)
@@ -284,7 +284,7 @@ def test_run_tasks_prepares_once_before_a_local_cluster_only():
     # caller before a local cluster starts, and not when the caller hands over a running client.
     import math
 
-    from elastocell.distributed import dask_client, run_tasks
+    from elastocell.simulation.distributed import dask_client, run_tasks
 
     calls = []
     results = dict(run_tasks(math.sqrt, [4.0, 9.0], workers=1, prepare=lambda: calls.append("local")))

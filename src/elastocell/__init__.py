@@ -1,33 +1,47 @@
 """elastocell: mechanics of living cells as hyperelastic tetrahedral bodies.
 
-Parameters -> mesh -> material -> cell -> scenario -> observables -> results. The Python API mirrors the
-command line: ``elastocell.compress(out=...)`` is ``elastocell compress --out ...``.
+The package is laid out along its data flow, each stage importing only the stages before it:
+``parameters`` (validated inputs, units) -> ``solvers`` (sparse factorisation, element stiffness kernel) ->
+``body`` (elements, mesh, materials, cell, observables, effective moduli) -> ``lattice`` (lattice Boltzmann)
+-> ``coupling`` (immersed boundary, immersed cell on each backend, stability) -> ``simulation`` (flow runner,
+checkpoints, output writers, Dask execution, throughput) -> ``scenarios`` (compression, shear, pipe) -> ``api``
+(one function per scenario: build, run, write one directory) -> ``inverse`` (master curves, fits, look-up
+tables) -> ``studies`` (the paper's figures and claims) -> ``cli``.
+
+The Python API mirrors the command line: ``elastocell.compress(out=...)`` is ``elastocell compress --out ...``.
+Names are loaded on first use (PEP 562), so that ``import elastocell`` and ``elastocell --help`` do not pay
+for JAX and Numba (about 2 s) before a command needs them.
 """
 
-__version__ = "0.1.0"
+from importlib import import_module
 
-from .api import cell_parameters, compress, equivalent  # noqa: E402
-from .parameters import ParameterError  # noqa: E402
+from elastocell.version import __version__
+
+_PUBLIC = {
+    "cell_parameters": "elastocell.parameters.cell",
+    "ParameterError": "elastocell.parameters.units",
+    "compress": "elastocell.api.compression",
+    "equivalent": "elastocell.api.compression",
+    "shear": "elastocell.api.shear",
+    "pipe": "elastocell.api.pipe",
+    "study": ("elastocell.studies", "run_study"),
+    "reproduce": ("elastocell.studies", "reproduce"),
+}
 
 
 def __getattr__(name: str):
-    """Flow scenarios load their compiled kernels (Numba) only when first used."""
-    if name == "shear":
-        from .runner import shear
+    target = _PUBLIC.get(name)
+    if target is None:
+        raise AttributeError(f"module 'elastocell' has no attribute {name!r}")
+    module, attribute = target if isinstance(target, tuple) else (target, name)
+    value = getattr(import_module(module), attribute)
+    globals()[name] = value
+    return value
 
-        return shear
-    if name == "pipe":
-        from .pipe_flow import pipe
 
-        return pipe
-    if name == "reproduce":
-        from .studies import reproduce
+def __dir__():
+    return sorted(list(globals()) + list(_PUBLIC))
 
-        return reproduce
-    if name == "study":
-        from .studies import run_study
 
-        return run_study
-    raise AttributeError(f"module 'elastocell' has no attribute {name!r}")
-
-__all__ = ["cell_parameters", "compress", "equivalent", "shear", "pipe", "study", "reproduce", "ParameterError", "__version__"]
+__all__ = ["cell_parameters", "compress", "equivalent", "shear", "pipe", "study", "reproduce", "ParameterError",
+           "__version__"]

@@ -1,3 +1,3 @@
-from .cli import main
+from elastocell.cli.app import main
 
 main()

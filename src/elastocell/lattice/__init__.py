@@ -14,21 +14,21 @@ bounce-back on a solid mask and on moving plane walls at y = -1/2, ny - 1/2.
 Kernels: one fused, compiled (Numba, parallel) step with in-place AA streaming.
 """
 
-from .params import (
+from elastocell.lattice.params import (
     DEFAULT_MAGIC,
     LatticeParams,
     relaxation_time_from_viscosity,
     viscosity_from_relaxation_time,
 )
-from .solver import Lattice, equilibrium_deviation
-from .stability import (
+from elastocell.lattice.solver import Lattice, equilibrium_deviation
+from elastocell.lattice.stability import (
     DEFAULT_VELOCITY_LIMIT,
     SOUND_SPEED,
     StabilityReport,
     check_stability,
     mach_number,
 )
-from .stencil import OPPOSITE, SOUND_SPEED_SQUARED, VELOCITIES, WEIGHTS, Q
+from elastocell.lattice.stencil import OPPOSITE, SOUND_SPEED_SQUARED, VELOCITIES, WEIGHTS, Q
 
 __all__ = [
     "DEFAULT_MAGIC",

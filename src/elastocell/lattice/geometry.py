@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .stencil import VELOCITIES, Q
+from elastocell.lattice.stencil import VELOCITIES, Q
 
 
 @dataclass(frozen=True)

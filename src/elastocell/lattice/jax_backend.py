@@ -31,10 +31,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import materials  # noqa: F401  (sets jax_enable_x64 before jax is used)
-from .params import LatticeParams
-from .solver import Lattice, step_count
-from .stencil import OPPOSITE, VELOCITIES, WEIGHTS, Q
+from elastocell.body.materials import computes_in_float64
+from elastocell.lattice.params import LatticeParams
+from elastocell.lattice.solver import Lattice, step_count
+from elastocell.lattice.stencil import OPPOSITE, VELOCITIES, WEIGHTS, Q
 
 
 def default_device() -> str:
@@ -156,6 +156,7 @@ def _moments(deviations, field, tables: LatticeTables):
     return moments(deviations, force, tables)
 
 
+@computes_in_float64
 class JaxLattice(Lattice):
     """:class:`~elastocell.lattice.Lattice` with its state and steps in JAX (module docstring).
 

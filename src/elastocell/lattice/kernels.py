@@ -70,7 +70,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .stencil import OPPOSITE, VELOCITIES, WEIGHTS
+from elastocell.lattice.stencil import OPPOSITE, VELOCITIES, WEIGHTS
 
 # indices into the ``consts`` array (all in the storage dtype)
 K_OMEGA_PLUS = 0  # 1/tau+

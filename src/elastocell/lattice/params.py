@@ -13,7 +13,7 @@ from typing import Literal
 
 import numpy as np
 
-from .stability import DEFAULT_VELOCITY_LIMIT, SOUND_SPEED
+from elastocell.lattice.stability import DEFAULT_VELOCITY_LIMIT, SOUND_SPEED
 
 DEFAULT_MAGIC = 3.0 / 16.0
 """TRT magic parameter Lambda = (tau+ - 1/2)(tau- - 1/2); 3/16 puts half-way bounce-back

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .params import LatticeParams
-from .stencil import OPPOSITE, SOUND_SPEED_SQUARED, VELOCITIES, WEIGHTS, Q
+from elastocell.lattice.params import LatticeParams
+from elastocell.lattice.stencil import OPPOSITE, SOUND_SPEED_SQUARED, VELOCITIES, WEIGHTS, Q
 
 
 def _bcast(weights_like, ndim):

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import kernels
-from .geometry import build_line_geometry
-from .params import LatticeParams
-from .stability import StabilityReport, check_stability
-from .stencil import VELOCITIES, WEIGHTS, Q
+from elastocell.lattice import kernels
+from elastocell.lattice.geometry import build_line_geometry
+from elastocell.lattice.params import LatticeParams
+from elastocell.lattice.stability import StabilityReport, check_stability
+from elastocell.lattice.stencil import VELOCITIES, WEIGHTS, Q
 
 _ALIGN_BYTES = 64
 

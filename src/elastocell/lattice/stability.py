@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .stencil import SOUND_SPEED_SQUARED
+from elastocell.lattice.stencil import SOUND_SPEED_SQUARED
 
 SOUND_SPEED = math.sqrt(SOUND_SPEED_SQUARED)
 """c_s = 1/sqrt(3) lattice units (dx/dt)."""

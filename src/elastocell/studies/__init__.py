@@ -18,25 +18,14 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
-from ..parameters import ParameterError
-from .base import Claim, Study, read_study_table, run_members, write_study_table
-from .cell_models import STUDY as CELL_MODELS
-from .compression import STUDIES as COMPRESSION_STUDIES
-from .equivalent_modulus import STUDY as EQUIVALENT_MODULUS
-from .flow import STUDIES as FLOW_STUDIES
-
-STUDIES: dict[str, Study] = {s.name: s for s in [CELL_MODELS, *COMPRESSION_STUDIES, *FLOW_STUDIES,
-                                                EQUIVALENT_MODULUS]}
-
-
-def study_names() -> list[str]:
-    return list(STUDIES)
-
-
-def get_study(name: str) -> Study:
-    if name not in STUDIES:
-        raise ParameterError("name", f"unknown study {name!r}; one of: {', '.join(STUDIES)}")
-    return STUDIES[name]
+from elastocell.files import software_versions, write_json
+from elastocell.parameters.units import ParameterError
+from elastocell.simulation.distributed import check_execution, default_workers
+from elastocell.studies.base import Claim, Study, read_study_table, run_members, write_study_table
+from elastocell.studies.compression import locking
+from elastocell.studies.registry import STUDIES, get_study, load_claims, study_names
+from elastocell.studies.report import write_report
+from elastocell.version import __version__
 
 
 def run_studies(names, out, quick: bool = False, scheduler: str | None = None, workers: int | None = None,
@@ -45,7 +34,6 @@ def run_studies(names, out, quick: bool = False, scheduler: str | None = None, w
     and claims and ``out/report.md``. Finished runs in ``out/runs`` are reused: kill and rerun to resume.
 
     Returns ``{name: {"runs", "failed", "figures", "claims"}}``."""
-    from ..distributed import check_execution
 
     studies = [get_study(name) for name in names]
     check_execution(scheduler, workers)
@@ -73,7 +61,6 @@ def run_studies(names, out, quick: bool = False, scheduler: str | None = None, w
             summary[study.name] = {"figures": [], "claims": []}
             failures.append((study.name, f"analysis failed: {type(error).__name__}: {error}"))
         summary[study.name].update({"runs": len({record["run_id"] for _, record in own}), "failed": failed})
-    from .report import write_report
 
     write_report(out)
     summary["_wall_time_s"] = time.perf_counter() - start
@@ -85,7 +72,6 @@ def run_studies(names, out, quick: bool = False, scheduler: str | None = None, w
 def _log_timing(out: Path, names, quick: bool, scheduler, workers, wall_time: float, pairs, executed) -> None:
     """Append this invocation to ``out/timings.jsonl`` (read by ``benchmarks/studies.py``): the runs it
     executed and their summed run time (runs read back from earlier invocations are counted apart)."""
-    from ..distributed import default_workers
 
     records = {record["run_id"]: record for _, record in pairs}
     ran = [records[run_id] for run_id in executed if run_id in records]
@@ -116,7 +102,6 @@ def plot_study(name: str, directory) -> dict:
     directory = Path(directory)
     frame, _ = read_study_table(directory, name)
     result = _finish(study, frame, directory)
-    from .report import write_report
 
     write_report(directory)
     return result
@@ -125,7 +110,6 @@ def plot_study(name: str, directory) -> dict:
 def _finish(study: Study, frame, out: Path) -> dict:
     figures = study.plot(frame, out, study.name)
     claims, moved = judge(study, frame)
-    from ..io import write_json
 
     write_json(out / f"{study.name}.claims.json", {"study": study.name, "claims": [asdict(c) for c in claims],
                                                     "discretisation": moved})
@@ -135,7 +119,6 @@ def _finish(study: Study, frame, out: Path) -> dict:
 def judge(study: Study, frame) -> tuple[list[Claim], dict]:
     """The study's claims on its primary discretisation, each with its verdict on the other discretisations
     (does it survive on the converged mesh?), and how far the others move each curve (:func:`locking`)."""
-    from .compression import locking
 
     if not study.by_discretisation or "discretisation" not in frame or frame.empty:
         return study.claims(frame), {}
@@ -165,21 +148,8 @@ def _check_mode(out: Path, quick: bool) -> None:
 
 
 def _versions() -> dict:
-    from .. import __version__
-    from ..io import software_versions
 
     return {"elastocell_version": __version__, "software": software_versions()}
-
-
-def load_claims(directory) -> list[Claim]:
-    """Every claim recorded in ``directory``, in the order of the studies."""
-    directory = Path(directory)
-    claims = []
-    for name in STUDIES:
-        path = directory / f"{name}.claims.json"
-        if path.exists():
-            claims += [Claim(**c) for c in json.loads(path.read_text())["claims"]]
-    return claims
 
 
 __all__ = ["STUDIES", "Claim", "Study", "get_study", "load_claims", "plot_study", "reproduce", "run_studies", "run_study",

@@ -22,7 +22,19 @@ from pathlib import Path
 
 import numpy as np
 
-from ..parameters import ParameterError
+from elastocell.api.compression import compress
+from elastocell.api.pipe import pipe
+from elastocell.api.shear import shear
+from elastocell.body.cell import Cell
+from elastocell.files import replace_atomically, write_json
+from elastocell.parameters.cell import DEFAULT_MESH_SIZES, CellParameters, cell_parameters
+from elastocell.parameters.units import ParameterError
+from elastocell.scenarios.compression import CompressionError, compression_parameters_for
+from elastocell.scenarios.shear import compile_kernels
+from elastocell.simulation.distributed import TaskFailure, run_tasks
+from elastocell.simulation.runner import resume_or_restart
+from elastocell.solvers.stiffness_kernel import compile_kernel
+from elastocell.version import __version__
 
 RUN_FILE = "run.json"
 
@@ -31,8 +43,6 @@ def _compression_quadrature_degree(options: dict) -> int | None:
     """The quadrature degree ``elastocell.compress`` uses for a run with these options (None: the default)."""
     import inspect
 
-    from ..api import cell_parameters
-    from ..compression import compression_parameters_for
 
     names = inspect.signature(cell_parameters).parameters
     try:
@@ -61,11 +71,9 @@ class Run:
     @property
     def run_id(self) -> str:
         """Readable and unique: scenario, the leading options, and a hash of all of them and the code version."""
-        from .. import __version__
 
         identity = [self.scenario, [list(p) for p in self.options], __version__]
         if self.scenario == "compress":  # the default mesh changed (session 14): not the same run any more
-            from ..parameters import DEFAULT_MESH_SIZES
 
             identity.append(DEFAULT_MESH_SIZES)
             if _compression_quadrature_degree(self.kwargs) in (4, 5):  # that rule changed in session 18
@@ -158,15 +166,12 @@ def execute_run(task: tuple[Run, str]) -> dict:
     else:
         raise ParameterError("scenario", f"unknown scenario {run.scenario!r}")
     record["wall_time_s"] = time.perf_counter() - start
-    from ..io import write_json
 
     write_json(record_path, record)
     return record
 
 
 def _execute_compression(directory: Path, options: dict) -> dict:
-    from ..api import compress
-    from ..compression import CompressionError
 
     out = {}
     try:
@@ -198,12 +203,7 @@ FLOW_SUMMARY_KEYS = {
 
 
 def _execute_flow(scenario: str, directory: Path, options: dict) -> dict:
-    from ..runner import resume_or_restart
-
-    if scenario == "shear":
-        from ..runner import shear as simulate
-    else:
-        from ..pipe_flow import pipe as simulate
+    simulate = shear if scenario == "shear" else pipe
     summary = resume_or_restart(simulate, directory, progress=False, **options)
     out = {key: summary.get(key) for key in FLOW_SUMMARY_KEYS[scenario]}
     out["resolution"] = summary.get("lattice", {}).get("radius")
@@ -216,9 +216,6 @@ def _execute_flow(scenario: str, directory: Path, options: dict) -> dict:
 def _save_final_shape(directory: Path, summary: dict, options: dict) -> None:
     """The final node positions relative to the cell centre, in units of R, and which nodes belong to the
     nucleus: the study's snapshot of the stationary shape (``shape.npz``)."""
-    from ..api import cell_parameters
-    from ..cell import Cell
-    from ..parameters import CellParameters
 
     with np.load(directory / "checkpoint.npz", allow_pickle=False) as data:
         positions = np.array(data["positions"])
@@ -238,7 +235,6 @@ def run_members(members: list[Member], out: Path, scheduler: str | None = None, 
     ids of the runs executed now.
 
     Runs already finished in ``out/runs`` are read without starting a cluster."""
-    from ..distributed import TaskFailure, run_tasks
 
     runs_directory = Path(out) / "runs"
     runs_directory.mkdir(parents=True, exist_ok=True)
@@ -259,11 +255,9 @@ def run_members(members: list[Member], out: Path, scheduler: str | None = None, 
 
         def prepare():  # compile the Numba kernels once here, so that the workers only load them
             if flows:
-                from ..flow import compile_kernels
 
                 compile_kernels(sorted(flows))
             if compressions:
-                from ..stiffness_kernel import compile_kernel
 
                 compile_kernel()
 
@@ -328,13 +322,12 @@ def write_study_table(frame, out: Path, name: str, metadata: dict) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from ..io import _replace_atomically
 
     table = pa.Table.from_pandas(frame, preserve_index=False)
     table = table.replace_schema_metadata({**(table.schema.metadata or {}),
                                            b"elastocell": json.dumps(metadata, default=str).encode()})
-    _replace_atomically(out / f"{name}.parquet", lambda temporary: pq.write_table(table, temporary))
-    _replace_atomically(out / f"{name}.csv",
+    replace_atomically(out / f"{name}.parquet", lambda temporary: pq.write_table(table, temporary))
+    replace_atomically(out / f"{name}.csv",
                         lambda temporary: frame.to_csv(temporary, index=False, float_format="%.8g"))
 
 

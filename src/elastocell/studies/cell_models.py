@@ -8,8 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .base import Claim, Study
-from .compression import _figure, _save, percent, settings
+from elastocell.body.cell import Cell
+from elastocell.parameters.cell import cell_parameters
+from elastocell.studies.base import Claim, Study
+from elastocell.studies.compression import new_figure, percent, save_figure, settings
 
 MODELS = (
     ("nucleus cell (gamma 10, lambda 0.5)", {"stiffness_ratio": 10, "size_ratio": 0.5}, False),
@@ -19,8 +21,6 @@ MODELS = (
 
 
 def _cell(options: dict, equivalent: bool, quick: bool):
-    from ..api import cell_parameters
-    from ..cell import Cell
 
     mesh_options = {k: v for k, v in settings(quick).items() if k in ("element", "mesh_size")}
     parameters = cell_parameters(**mesh_options, **options)
@@ -77,7 +77,7 @@ def plot_models(frame, directory: Path, stem: str, quick: bool | None = None) ->
     from matplotlib.collections import PolyCollection
 
     quick = bool(frame["element_order"].iloc[0] == 1) if quick is None else quick
-    figure, axes = _figure(1, 3)
+    figure, axes = new_figure(1, 3)
     norm = plt.Normalize(1, 10)
     for axis, (label, options, equivalent) in zip(axes[0], MODELS, strict=True):
         _, body = _cell(options, equivalent, quick)
@@ -92,7 +92,7 @@ def plot_models(frame, directory: Path, stem: str, quick: bool | None = None) ->
         axis.set_xlabel("x/R")
         axis.set_ylabel("z/R")
     figure.colorbar(collection, ax=axes[0].tolist(), label=r"stiffness ratio $E_i/E_c$", shrink=0.8)
-    return _save(figure, directory, stem)
+    return save_figure(figure, directory, stem)
 
 
 def claims_models(frame) -> list[Claim]:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .base import Claim, Member, Run, Study, rows_per_delta
+from elastocell.studies.base import Claim, Member, Run, Study, rows_per_delta
 
 DELTA_MIN = 0.05
 LARGE_DELTA = 0.3  # "large deformation": where the paper's linear-axis figures show the curves apart
@@ -204,7 +204,7 @@ def _style(equivalent: bool, colour: str) -> dict:
     return {"color": colour, "lw": 1.4} if equivalent else {"color": colour, "marker": "o", "ms": 3, "ls": "none"}
 
 
-def _save(figure, directory: Path, stem: str) -> list[Path]:
+def save_figure(figure, directory: Path, stem: str) -> list[Path]:
     import matplotlib.pyplot as plt
 
     paths = [directory / f"{stem}.png", directory / f"{stem}.pdf"]
@@ -242,7 +242,7 @@ def _draw(axes, frame, pairs: list[str], value: int, deviation_axis=None, refere
         deviation_axis.legend(fontsize=7)
 
 
-def _figure(rows: int = 2, columns: int = 2):
+def new_figure(rows: int = 2, columns: int = 2):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -258,12 +258,12 @@ def pairs_of(frame, series: str) -> list[str]:
 # =========================================================================== compression-stiffness
 def plot_stiffness(frame, directory: Path, stem: str) -> list[Path]:
     frame = primary(frame)
-    figure, axes = _figure(1, 2)
+    figure, axes = new_figure(1, 2)
     pairs = pairs_of(frame, "stiffness") + pairs_of(frame, "random")
     _draw(axes[0][0], frame, pairs, 1, axes[0][1])
     axes[0][0].set_title(r"(a) force against deformation, $\lambda = 0.5$")
     axes[0][1].set_title(r"(b) $F/F_\mathrm{eq} - 1$")
-    return _save(figure, directory, stem)
+    return save_figure(figure, directory, stem)
 
 
 def claims_stiffness(frame) -> list[Claim]:
@@ -358,12 +358,12 @@ def _effective_ratio(frame, pair: str) -> float:
 # =========================================================================== compression-normalised
 def plot_normalised(frame, directory: Path, stem: str) -> list[Path]:
     frame = primary(frame)
-    figure, axes = _figure(2, 2)
+    figure, axes = new_figure(2, 2)
     _draw(axes[0][0], frame, pairs_of(frame, "stiffness") + pairs_of(frame, "random"), 2, axes[1][0])
     _draw(axes[0][1], frame, pairs_of(frame, "size"), 2, axes[1][1])
     axes[0][0].set_title(r"(a) $F^*$, stiffness ratios ($\lambda$ = 0.5) and random cell")
     axes[0][1].set_title(r"(b) $F^*$, size ratios ($\gamma$ = 2)")
-    return _save(figure, directory, stem)
+    return save_figure(figure, directory, stem)
 
 
 def size_peak(frame) -> tuple[dict, float]:
@@ -446,14 +446,14 @@ def _homogeneous_shell(frame, table):
 # =========================================================================== compression-position-shape
 def plot_position_shape(frame, directory: Path, stem: str) -> list[Path]:
     frame = primary(frame)
-    figure, axes = _figure(2, 2)
+    figure, axes = new_figure(2, 2)
     _draw(axes[0][0], frame, ["reference"] + pairs_of(frame, "offset"), 1, axes[1][0], reference_pair="reference")
     _draw(axes[0][1], frame, ["reference"] + pairs_of(frame, "ellipsoid"), 1, axes[1][1], reference_pair="reference")
     axes[0][0].set_title(f"(a) nucleus offset {OFFSET:g} R (plates push along z)")
     axes[0][1].set_title("(b) equal-volume ellipsoidal nucleus (0.8, 0.4, 0.4) R")
     for axis in axes[1]:
         axis.set_ylabel(r"$F/F_\mathrm{ref} - 1$ (%)")
-    return _save(figure, directory, stem)
+    return save_figure(figure, directory, stem)
 
 
 def claims_position_shape(frame) -> list[Claim]:
@@ -498,7 +498,7 @@ def claims_position_shape(frame) -> list[Claim]:
 # =========================================================================== compression-mooney-rivlin
 def plot_mooney_rivlin(frame, directory: Path, stem: str) -> list[Path]:
     frame = primary(frame)
-    figure, axes = _figure(1, 2)
+    figure, axes = new_figure(1, 2)
     _draw(axes[0][0], frame, pairs_of(frame, "mooney-rivlin"), 1, axes[0][1])
     devs = deviations(frame)
     for index, pair in enumerate(pairs_of(frame, "neo-hookean")):
@@ -508,7 +508,7 @@ def plot_mooney_rivlin(frame, directory: Path, stem: str) -> list[Path]:
     axes[0][1].legend(fontsize=7)
     axes[0][0].set_title(r"(a) Mooney-Rivlin, $\mu_1 = 0.25\mu$, $\mu_2 = 0.75\mu$")
     axes[0][1].set_title(r"(b) $F/F_\mathrm{eq} - 1$ (dashed: neo-Hookean)")
-    return _save(figure, directory, stem)
+    return save_figure(figure, directory, stem)
 
 
 def claims_mooney_rivlin(frame) -> list[Claim]:

@@ -1,6 +1,6 @@
 """Beyond the paper: which equivalent modulus holds? For every heterogeneous cell of the compression and
 shear-flow studies, the modulus of the homogeneous cell that best reproduces its response, beside the paper's
-volume average (Voigt) and the classical estimates of composite theory (:mod:`elastocell.effective_moduli`).
+volume average (Voigt) and the classical estimates of composite theory (:mod:`elastocell.body.effective_moduli`).
 
 Best fit, compression: a homogeneous (neo-Hookean or Mooney-Rivlin) cell's force scales with its modulus, so the
 least-squares fit in log F over delta >= 0.05 is ``E_fit/E_c = gamma_eff exp(mean log(F/F_eq))`` with the
@@ -16,10 +16,22 @@ from pathlib import Path
 
 import numpy as np
 
-from ..effective_moduli import ESTIMATES, all_estimates
-from .base import Claim, Study
-from .compression import DELTA_MIN, _figure, _save, curves, percent, size_members, stiffness_members
-from .flow import shear_capillary_members
+from elastocell.body.cell import Cell
+from elastocell.body.effective_moduli import ESTIMATES, all_estimates
+from elastocell.parameters.cell import cell_parameters
+from elastocell.parameters.flow import flow_cell
+from elastocell.studies.base import Claim, Study
+from elastocell.studies.compression import (
+    DELTA_MIN,
+    curves,
+    new_figure,
+    percent,
+    save_figure,
+    size_members,
+    stiffness_members,
+    tidy,
+)
+from elastocell.studies.flow import shear_capillary_members, shear_table
 
 LABELS = {"voigt": "Voigt (paper: volume average)", "reuss": "Reuss", "hashin_shtrikman_lower": "HS lower",
           "hashin_shtrikman_upper": "HS upper", "self_consistent": "self-consistent"}
@@ -110,9 +122,6 @@ SCENARIO_OPTIONS = ("steps", "delta_max", "vtk", "equivalent", "capillary_number
 def _mesh_phases(info):
     """The random cell's own phases: every tetrahedron's stiffness ratio and volume fraction (rebuilt from the
     run's options; the mesh is cached), so that its Voigt value is the simulated equivalent's."""
-    from ..api import cell_parameters
-    from ..cell import Cell
-    from ..runner import flow_cell
 
     options = {k[len("option_"):]: v for k, v in info.items() if k.startswith("option_") and v == v and v is not None}
     options = {k: v for k, v in options.items() if k not in SCENARIO_OPTIONS}
@@ -141,8 +150,6 @@ def _row(loading, cell, discretisation, info, gamma_eff, fit, residual, reach) -
 def table(pairs, directory: Path, quick: bool = False):
     import pandas as pd
 
-    from .compression import tidy
-    from .flow import shear_table
 
     compression = tidy([p for p in pairs if p[1]["scenario"] == "compress"], directory)
     shear = shear_table([p for p in pairs if p[1]["scenario"] == "shear"], directory)
@@ -150,9 +157,9 @@ def table(pairs, directory: Path, quick: bool = False):
 
 
 def plot(frame, directory: Path, stem: str) -> list[Path]:
-    figure, axes = _figure(1, 3)
+    figure, axes = new_figure(1, 3)
     if frame.empty or "loading" not in frame:
-        return _save(figure, directory, stem)
+        return save_figure(figure, directory, stem)
     by_gamma, by_size, errors = axes[0]
     compression = frame[frame["loading"] == "compression"]
     first = compression["discretisation"].iloc[0] if not compression.empty else "-"
@@ -190,7 +197,7 @@ def plot(frame, directory: Path, stem: str) -> list[Path]:
     by_gamma.set_title("(a) best-fit modulus and estimates")
     by_size.set_title("(b) size-ratio sweep")
     errors.set_title("(c) which estimate to use")
-    return _save(figure, directory, stem)
+    return save_figure(figure, directory, stem)
 
 
 def recommendation(frame) -> dict:

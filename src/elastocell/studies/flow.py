@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .base import Claim, Member, Run, Study, rows_per_run
-from .compression import _figure, _save, percent, verdict
+from elastocell.scenarios.pipe import DEFAULT_CAPILLARY_NUMBER_WALL
+from elastocell.studies.base import FLOW_SUMMARY_KEYS, Claim, Member, Run, Study, rows_per_run
+from elastocell.studies.compression import new_figure, percent, save_figure, verdict
 
 SHEAR_CA_FULL = (0.0125, 0.025, 0.05, 0.1, 0.2, 0.3)
 SHEAR_CA_QUICK = (0.05, 0.2)  # at small Ca the stiff elements (random cell, gamma 10) need 2-6x more steps
@@ -72,7 +73,6 @@ def shear_offset_members(quick: bool) -> list[Member]:
 
 
 def pipe_members(quick: bool) -> list[Member]:
-    from ..pipe_flow import DEFAULT_CAPILLARY_NUMBER_WALL
 
     base = {**pipe_settings(quick), "capillary_number_wall": DEFAULT_CAPILLARY_NUMBER_WALL}
     members = []
@@ -86,7 +86,6 @@ def pipe_members(quick: bool) -> list[Member]:
 def shear_table(pairs, directory: Path, quick: bool = False):
     import pandas as pd
 
-    from .base import FLOW_SUMMARY_KEYS
 
     return pd.DataFrame(rows_per_run(pairs, FLOW_SUMMARY_KEYS["shear"] + ("resolution", "nodes")))
 
@@ -94,7 +93,6 @@ def shear_table(pairs, directory: Path, quick: bool = False):
 def pipe_table(pairs, directory: Path, quick: bool = False):
     import pandas as pd
 
-    from .base import FLOW_SUMMARY_KEYS
 
     return pd.DataFrame(rows_per_run(pairs, FLOW_SUMMARY_KEYS["pipe"] + ("resolution", "nodes")))
 
@@ -111,7 +109,7 @@ def _series(frame, cell: str, equivalent: bool, x: str = "capillary_number_mu_c"
 
 # =========================================================================== shear-capillary
 def plot_shear_capillary(frame, directory: Path, stem: str) -> list[Path]:
-    figure, axes = _figure(1, 2)
+    figure, axes = new_figure(1, 2)
     left, right = axes[0]
     cells = [c for c in dict.fromkeys(frame["cell"]) if c != "homogeneous mu_c"]
     for index, cell in enumerate(cells):
@@ -141,7 +139,7 @@ def plot_shear_capillary(frame, directory: Path, stem: str) -> list[Path]:
     right.legend(fontsize=7)
     for axis in (left, right):
         axis.grid(alpha=0.3, which="both")
-    return _save(figure, directory, stem)
+    return save_figure(figure, directory, stem)
 
 
 def _relative(frame, cell: str, reference_cell: str | None = None, reference_equivalent: bool = True):
@@ -219,7 +217,7 @@ def _timeseries(directory: Path, run_directory: str):
 
 
 def plot_shear_offset(frame, directory: Path, stem: str) -> list[Path]:
-    figure, axes = _figure(1, 2)
+    figure, axes = new_figure(1, 2)
     left, right = axes[0]
     rows = _complete(frame)
     first_ca = rows["capillary_number_mu_c"].min() if len(rows) else np.nan
@@ -246,7 +244,7 @@ def plot_shear_offset(frame, directory: Path, stem: str) -> list[Path]:
     right.legend(fontsize=7)
     for axis in (left, right):
         axis.grid(alpha=0.3)
-    return _save(figure, directory, stem)
+    return save_figure(figure, directory, stem)
 
 
 def claims_shear_offset(frame) -> list[Claim]:
@@ -296,7 +294,7 @@ def claims_shear_offset(frame) -> list[Claim]:
 
 # =========================================================================== pipe-centred
 def plot_pipe(frame, directory: Path, stem: str) -> list[Path]:
-    figure, axes = _figure(1, 2)
+    figure, axes = new_figure(1, 2)
     left, right = axes[0]
     rows = _complete(frame)
     for shown, cell in enumerate(("gamma 2", "gamma 10")):
@@ -334,7 +332,7 @@ def plot_pipe(frame, directory: Path, stem: str) -> list[Path]:
     right.set_title("(b) strains (error bars: std over the stationary part)")
     right.legend(fontsize=7)
     right.grid(alpha=0.3)
-    return _save(figure, directory, stem)
+    return save_figure(figure, directory, stem)
 
 
 def _outline(axis, points, colour, fill: bool, label: str):

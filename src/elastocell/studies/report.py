@@ -7,11 +7,13 @@ import json
 from collections import Counter
 from pathlib import Path
 
+from elastocell.studies.base import read_study_table
+from elastocell.studies.registry import STUDIES, load_claims
+
 VERDICT_MARK = {"agree": "agree", "partly": "partly", "disagree": "DISAGREE", "not measured": "not measured"}
 
 
 def _studies_present(directory: Path) -> list[tuple[str, dict]]:
-    from . import STUDIES, read_study_table
 
     present = []
     for name in STUDIES:
@@ -23,7 +25,6 @@ def _studies_present(directory: Path) -> list[tuple[str, dict]]:
 
 def write_report(directory) -> Path:
     """Write ``directory/report.md`` and ``report.html`` from the tables and claims found there."""
-    from . import STUDIES, load_claims
 
     directory = Path(directory)
     studies = _studies_present(directory)
@@ -74,7 +75,6 @@ def write_report(directory) -> Path:
 
 
 def _discretisation_lines(directory: Path) -> list[str]:
-    from . import STUDIES
 
     lines = []
     for name in STUDIES:

@@ -1,0 +1,219 @@
+"""``elastocell.compress`` and ``elastocell.equivalent``: the same names and options as the command line, writing
+the same files.
+
+    import elastocell
+    result = elastocell.compress(out="results/reference")            # the paper's reference cell
+    result = elastocell.compress(out="r/eq", equivalent=True)         # its homogeneous equivalent
+    info = elastocell.equivalent(stiffness_ratio=10, size_ratio=0.5)  # E_eff/E_c of a cell
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from elastocell.api.plotting import plot_compression
+from elastocell.body.cell import Cell, enable_compilation_cache
+from elastocell.files import Stopwatch, software_versions, write_json, write_table
+from elastocell.parameters.cell import (
+    CellParameters,
+    cell_parameters,
+    describe_cell,
+)
+from elastocell.parameters.units import ParameterError
+from elastocell.scenarios.compression import (
+    CompressionError,
+    CompressionParameters,
+    CompressionResult,
+    compression_parameters_for,
+)
+from elastocell.scenarios.compression import compress as compress_cell
+from elastocell.simulation.output import von_mises, vtk_enabled, write_vtk_series
+
+
+def equivalent(cell: CellParameters | None = None, **cell_options) -> dict:
+    """E_eff/E_c (``effective_stiffness_ratio``), volumes and mesh counts of a cell."""
+    cell = cell or cell_parameters(**cell_options)
+    enable_compilation_cache()
+    body = Cell.from_parameters(cell)
+    summary = body.summary()
+    summary["effective_stiffness_ratio_analytic"] = (
+        1 + (cell.nucleus.stiffness_ratio - 1) * cell.nucleus.volume_fraction()
+        if cell.random is None else (cell.random.low + cell.random.high) / 2
+    )
+    summary["effective_youngs_modulus"] = summary["effective_stiffness_ratio"] * cell.youngs_modulus
+    summary["mesh_quality"] = body.mesh.quality()
+    return summary
+
+
+def compress(
+    out: str | Path,
+    cell: CellParameters | None = None,
+    delta_max: float = 0.75,
+    steps: int = 40,
+    equivalent: bool = False,
+    compare: bool = False,
+    vtk: bool = True,
+    solver: str = "auto",
+    progress: bool = True,
+    **cell_options,
+) -> dict:
+    """Compress a cell between two plates and write ``out/compression.csv``, ``metadata.json``,
+    ``compression.png`` and VTK files (``out/vtk/compression.pvd``).
+
+    Unless the cell sets ``quadrature_degree``, a p2 neo-Hookean cell whose nucleus is at least 7 times stiffer
+    than the cytoplasm uses the rule with the nodes (degree 5, see ``compression.compression_parameters_for``),
+    and so does its equivalent; ``metadata.json`` records the degree.
+
+    equivalent: simulate the homogeneous equivalent of the described cell instead.
+    compare: also simulate the equivalent (written to ``out/equivalent/``) and draw both in
+    ``out/comparison.png`` with their force ratio in ``out/comparison.csv``.
+    """
+    if cell is not None and cell_options:
+        raise ParameterError("cell", f"give either cell= or cell options, not both ({', '.join(cell_options)})")
+    if compare and equivalent:
+        raise ParameterError("compare", "--compare already runs the equivalent; do not combine it with --equivalent")
+    cell = compression_parameters_for(cell or cell_parameters(**cell_options))
+    scenario = CompressionParameters(delta_max=delta_max, steps=steps)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    enable_compilation_cache()
+    body = Cell.from_parameters(cell)
+    primary = body.equivalent() if equivalent else body
+    label = "homogeneous equivalent" if equivalent else describe_cell(cell)
+    summary = _run_and_write(out, primary, scenario, cell, solver, progress, label, vtk)
+    if compare and not equivalent:
+        other = _run_and_write(out / "equivalent", body.equivalent(), scenario, cell, solver, progress,
+                               "homogeneous equivalent", vtk)
+        _write_comparison(out, summary, other, cell)
+        summary["equivalent_summary"] = other
+    return summary
+
+
+def _progress_bar(enabled: bool):
+    """A rich progress bar (delta against delta_max) or nothing."""
+    from contextlib import nullcontext
+
+    if not enabled:
+        return nullcontext(None)
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    return Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("delta {task.completed:.3f}"),
+                    TimeElapsedColumn(), TimeRemainingColumn())
+
+
+def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell: CellParameters, solver: str,
+                   show_progress: bool, label: str, vtk: bool = True) -> dict:
+    out.mkdir(parents=True, exist_ok=True)
+    clock = Stopwatch()
+    with _progress_bar(show_progress) as progress:
+        if progress is not None:
+            task = progress.add_task(f"compress {label}", total=scenario.delta_max)
+            callback = lambda delta: progress.update(task, completed=delta)  # noqa: E731
+        else:
+            callback = None
+        try:
+            result = compress_cell(body, scenario, solver=solver, progress=callback)
+            failure = None
+        except CompressionError as error:  # keep every converged row, then report
+            if error.partial is None or len(error.partial.delta) < 2:
+                raise
+            result, failure = error.partial, error
+    gamma_eff = body.effective_stiffness_ratio if not body.is_equivalent else body.youngs_moduli[0]
+    scale = cell.force_scale()
+    table = {
+        "delta": result.delta,
+        "force": result.force * scale,
+        "force_per_Ec_R2": result.force,
+        "force_per_Eeff_R2": result.force / gamma_eff,
+    }
+    write_table(out / "compression.csv", table)
+
+    plot_compression(out / "compression.png", [{"label": label, **table}], cell.material.poisson_ratio, title=label)
+    if vtk and vtk_enabled():
+        stresses = [body.element_cauchy_stress(x) for x in result.positions]
+        cell_data = [{
+            "youngs_modulus": body.youngs_moduli * cell.youngs_modulus,
+            "stiffness_ratio": body.youngs_moduli,
+            "region": body.mesh.region.astype(np.int32),
+            "cauchy_stress": s.reshape(-1, 9) * cell.youngs_modulus,
+            "von_mises_stress": von_mises(s) * cell.youngs_modulus,
+        } for s in stresses]
+        write_vtk_series(out / "vtk", "compression", body.mesh, result.positions * cell.radius, result.delta, cell_data)
+    summary = _metadata(result, body, cell, scenario, label, gamma_eff, clock.elapsed, solver)
+    summary["complete"] = failure is None
+    summary["delta_reached"] = float(result.delta[-1])
+    if failure is not None:
+        summary["error"] = str(failure)
+    write_json(out / "metadata.json", summary)
+    if failure is not None:
+        raise CompressionError(f"{failure} (rows up to delta={result.delta[-1]:.4f} written to {out})", None)
+    return summary
+
+
+def _metadata(result: CompressionResult, body: Cell, cell: CellParameters, scenario: CompressionParameters,
+              label: str, gamma_eff: float, wall_time: float, solver: str) -> dict:
+    return {
+        "scenario": "compression",
+        "label": label,
+        "equivalent": body.is_equivalent,
+        "cell": cell.model_dump(mode="json"),
+        "compression": scenario.model_dump(mode="json"),
+        "effective_stiffness_ratio": float(gamma_eff),
+        "effective_youngs_modulus": float(gamma_eff * cell.youngs_modulus),
+        "units": {
+            "force": {(True, True): "N", (True, False): "E_c m^2", (False, True): "Pa R^2",
+                      (False, False): "E_c R^2"}[(cell.radius_is_physical, cell.youngs_modulus_is_physical)],
+            "radius": cell.radius, "youngs_modulus": cell.youngs_modulus,
+        },
+        "element_order": body.mesh.order,
+        "mesh": {**body.mesh.counts(), **body.mesh.quality(), "volume": body.volume},
+        "solver": {
+            "linear_solver": result.solver,
+            "factorisation_precision": result.precision,
+            "refinement_steps": result.refinements,
+            "newton_iterations": result.newton_iterations,
+            "factorisations": result.factorisations,
+            "symbolic_analyses": result.analyses,
+            "substeps": result.substeps,
+            "max_pin_reaction_over_force": float(result.max_rigid_reaction),
+            "max_plate_force_imbalance": float(np.abs(result.force - result.force_lower).max()),
+            "curve_time_s": result.wall_time,
+            # rows whose equilibrium is a saddle of the discrete energy (the branch from delta = 0 has lost
+            # stability; a refined mesh may stay stable longer). None: every row is a minimum.
+            "unstable_rows": int(result.unstable.sum()),
+            "first_unstable_delta": (float(result.delta[np.argmax(result.unstable)])
+                                     if result.unstable.any() else None),
+            # rows where a quadratic element has folded at a node (det dx/dxi <= 0 there while positive at its
+            # quadrature points, see compression.min_nodal_jacobian); None: none folded
+            "min_nodal_jacobian": float(result.min_nodal_jacobian.min()),
+            "folded_rows": int((result.min_nodal_jacobian <= 0).sum()),
+            "first_folded_delta": (float(result.delta[np.argmax(result.min_nodal_jacobian <= 0)])
+                                   if (result.min_nodal_jacobian <= 0).any() else None),
+            # smallest volume ratio J = det F at a quadrature point, and the first delta where half the volume
+            # is lost somewhere (see compression.min_volume_ratio); None: never
+            "min_volume_ratio": float(result.min_volume_ratio.min()),
+            "first_half_volume_delta": (float(result.delta[np.argmax(result.min_volume_ratio < 0.5)])
+                                        if (result.min_volume_ratio < 0.5).any() else None),
+        },
+        "wall_time_s": wall_time,
+        "software": software_versions(),
+    }
+
+
+def _write_comparison(out: Path, cell_summary: dict, equivalent_summary: dict, cell: CellParameters) -> None:
+
+    a = np.genfromtxt(out / "compression.csv", delimiter=",", names=True)
+    b = np.genfromtxt(out / "equivalent" / "compression.csv", delimiter=",", names=True)
+    ratio = np.divide(a["force"], b["force"], out=np.full_like(a["force"], np.nan), where=b["force"] > 0)
+    write_table(out / "comparison.csv", {"delta": a["delta"], "force_cell": a["force"],
+                                         "force_equivalent": b["force"], "force_ratio": ratio})
+    curves = [
+        {"label": cell_summary["label"], "delta": a["delta"], "force_per_Ec_R2": a["force_per_Ec_R2"],
+         "force_per_Eeff_R2": a["force_per_Eeff_R2"], "style": {"marker": "o", "ms": 3, "ls": "none"}},
+        {"label": "homogeneous equivalent", "delta": b["delta"], "force_per_Ec_R2": b["force_per_Ec_R2"],
+         "force_per_Eeff_R2": b["force_per_Eeff_R2"], "style": {"lw": 1.5}},
+    ]
+    plot_compression(out / "comparison.png", curves, cell.material.poisson_ratio,
+                     title=f"{cell_summary['label']} vs its equivalent (gamma_eff={cell_summary['effective_stiffness_ratio']:.4f})")

@@ -1,0 +1,99 @@
+"""``elastocell.pipe``, the API behind ``elastocell pipe``: writes ``timeseries.csv``, ``summary.json``, a plot
+and VTK files to a directory, and resumes from its checkpoint.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from elastocell.body.cell import Cell, enable_compilation_cache
+from elastocell.files import Stopwatch, write_json
+from elastocell.parameters.cell import describe_cell
+from elastocell.parameters.flow import flow_cell
+from elastocell.parameters.units import ParameterError
+from elastocell.scenarios.pipe import STATIONARY_OBSERVABLES, PipeFlowParameters, PipeRun, plot_pipe
+from elastocell.simulation.output import directory_summary, run_in_directory
+from elastocell.simulation.runner import StopCriteria
+
+
+def pipe(
+    out: str | Path,
+    capillary_number_wall: float,
+    cell=None,
+    equivalent: bool = False,
+    channel_radius_ratio: float | None = None,
+    start_offset: float | None = None,
+    resolution: float | None = None,
+    duration: float = 10.0,
+    resume: bool = False,
+    progress: bool = True,
+    wall_clock: float | None = None,
+    stationary_tolerance: float | None = None,
+    stationary_observable: str = "strain_axial",
+    record_interval: float = 0.1,
+    checkpoint_every: int = 20,
+    vtk_interval: float | None = 1.0,
+    flow_options: dict | None = None,
+    capillary_number_modulus: str = "reference",
+    **cell_options,
+) -> dict:
+    """A cell in a capillary; writes ``out/timeseries.csv``, ``summary.json``, ``pipe.png``, ``vtk/`` and
+    ``checkpoint.npz``; returns the summary.
+
+    capillary_number_wall: Ca_w = G R_ch/(2 mu_c) (mu_eff with ``equivalent``). cell: CellParameters or the
+    CELL OPTIONS of ``cell_parameters`` (default mesh: uniform p1 with edges of 2 dx, as shear flow).
+    duration: units of 1/gdot_w. resume: continue from ``out/checkpoint.npz`` if it exists.
+    stationary_tolerance: stop once the running mean of ``stationary_observable`` ("strain_axial" or
+    "deformation") over the last unit of time changes by less than this fraction of it (see
+    :class:`~elastocell.simulation.runner.StopCriteria`). flow_options: further :class:`PipeFlowParameters`.
+    capillary_number_modulus: "reference" (Ca_w against the simulated cell's mu: mu_eff with ``equivalent``)
+    or "mu_c" (against the described cell's mu_c; with ``equivalent`` the run uses Ca_w / gamma_eff, i.e. the
+    same pressure gradient G as the heterogeneous cell, as the paper compares them).
+    """
+
+    flow_options = dict(flow_options or {})
+    for name, value in (("channel_radius_ratio", channel_radius_ratio), ("start_offset", start_offset),
+                        ("resolution", resolution)):
+        if value is not None:
+            flow_options[name] = value
+    params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)
+    if stationary_observable not in STATIONARY_OBSERVABLES:
+        raise ParameterError("stationary_observable", f"must be one of {', '.join(STATIONARY_OBSERVABLES)}, "
+                             f"got {stationary_observable!r}")
+    stop = StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
+                        stationary_observable=stationary_observable, unit=PipeRun.TIME_UNIT)
+    if vtk_interval is not None and not vtk_interval > 0:
+        raise ParameterError("vtk_interval", f"must be > 0 (units of 1/gdot_w), got {vtk_interval}")
+    cell = flow_cell(cell, cell_options, params.resolution)
+    clock = Stopwatch()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    enable_compilation_cache()
+    body = Cell.from_parameters(cell)
+    if capillary_number_modulus not in ("reference", "mu_c"):
+        raise ParameterError("capillary_number_modulus",
+                             f"must be 'reference' or 'mu_c', got {capillary_number_modulus!r}")
+    capillary_number_mu_c = capillary_number_wall
+    if equivalent:
+        body = body.equivalent()
+        if capillary_number_modulus == "mu_c":  # same G: Ca_w,eff = G R_ch / (2 mu_eff)
+            capillary_number_wall = capillary_number_wall / body.effective_stiffness_ratio
+            params = PipeFlowParameters(**{**params.model_dump(), "capillary_number_wall": capillary_number_wall})
+        else:
+            capillary_number_mu_c = capillary_number_wall * body.effective_stiffness_ratio
+    run = PipeRun(body, params, record_interval=record_interval)
+    resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
+                                    description=f"pipe Ca_w={capillary_number_wall:g}",
+                                    checkpoint_every=checkpoint_every, vtk_interval=vtk_interval)
+    label = "homogeneous equivalent" if equivalent else describe_cell(cell)
+    summary = {"scenario": "pipe", "label": label}
+    summary.update(run.summary())
+    summary["capillary_number_wall_mu_c"] = capillary_number_mu_c
+    summary.update(directory_summary(run, body, cell, params, clock, resumed, equivalent))
+    write_json(out / "summary.json", summary)
+    plot_pipe(out / "pipe.png", run.arrays(), summary,
+              title=f"{label}, Ca_w = {capillary_number_wall:g}, R_ch/R = {params.channel_radius_ratio:g}, "
+                    f"r0/R_ch = {params.start_offset:g}, R/dx = {params.resolution:g}")
+    if vtk is not None:
+        vtk.close(run)
+    return summary

@@ -1,0 +1,93 @@
+"""``elastocell.shear``, the API behind ``elastocell shear``: writes ``timeseries.csv``, ``summary.json``,
+``taylor_deformation.png`` and VTK files (cell snapshots and the mid-plane fluid velocity) to a directory,
+and resumes from its checkpoint.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from elastocell.body.cell import Cell, enable_compilation_cache
+from elastocell.files import Stopwatch, write_json
+from elastocell.parameters.cell import describe_cell
+from elastocell.parameters.flow import flow_cell
+from elastocell.parameters.units import ParameterError
+from elastocell.scenarios.shear import (
+    ShearFlowParameters,
+    ShearRun,
+    plot_taylor_deformation,
+)
+from elastocell.simulation.output import directory_summary, run_in_directory
+from elastocell.simulation.runner import StopCriteria
+
+
+# =========================================================================== API
+def shear(
+    out: str | Path,
+    capillary_number: float,
+    cell=None,
+    equivalent: bool = False,
+    resolution: float | None = None,
+    duration: float = 6.0,
+    resume: bool = False,
+    progress: bool = True,
+    wall_clock: float | None = None,
+    stationary_tolerance: float | None = None,
+    record_interval: float = 0.05,
+    checkpoint_every: int = 20,
+    vtk_interval: float | None = 1.0,
+    flow_options: dict | None = None,
+    capillary_number_modulus: str = "reference",
+    **cell_options,
+) -> dict:
+    """A cell in plane Couette flow; writes ``out/timeseries.csv``, ``summary.json``,
+    ``taylor_deformation.png``, ``vtk/`` and ``checkpoint.npz``; returns the summary.
+
+    capillary_number: Ca = eta shear_rate / mu_c (mu_eff = gamma_eff mu_c with ``equivalent``).
+    cell: :class:`~elastocell.parameters.cell.CellParameters` or the CELL OPTIONS of ``cell_parameters``; without
+    an explicit mesh size the mesh is uniform with edges of 2 dx (``flow.shear_mesh_size``) and linear
+    tetrahedra (``element="p1"``) unless another element is given.
+    capillary_number_modulus: "reference" (Ca against the simulated cell's mu: mu_eff with ``equivalent``) or
+    "mu_c" (Ca against the described cell's mu_c, as physical eta, shear rate and E_c give it; with
+    ``equivalent`` the run then uses Ca_eff = Ca / gamma_eff, the same physical shear rate).
+    resolution: R/dx (default 8). duration: strain shear_rate * t. resume: continue from
+    ``out/checkpoint.npz`` (same options) if it exists. flow_options: further :class:`ShearFlowParameters`.
+    """
+
+    flow_options = dict(flow_options or {})
+    if resolution is not None:
+        flow_options["resolution"] = resolution
+    params = ShearFlowParameters(capillary_number=capillary_number, **flow_options)
+    stop = StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance)
+    if vtk_interval is not None and not vtk_interval > 0:
+        raise ParameterError("vtk_interval", f"must be > 0 (strain), got {vtk_interval}")
+    if capillary_number_modulus not in ("reference", "mu_c"):
+        raise ParameterError("capillary_number_modulus", f"must be 'reference' or 'mu_c', got {capillary_number_modulus!r}")
+    cell = flow_cell(cell, cell_options, params.resolution)
+    clock = Stopwatch()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    enable_compilation_cache()
+    body = Cell.from_parameters(cell)
+    capillary_number_mu_c = capillary_number if capillary_number_modulus == "mu_c" else None
+    if equivalent:
+        body = body.equivalent()
+        if capillary_number_modulus == "mu_c":  # same physical shear rate: Ca_eff = eta shear_rate / mu_eff
+            capillary_number = capillary_number / body.effective_stiffness_ratio
+            params = ShearFlowParameters(**{**params.model_dump(), "capillary_number": capillary_number})
+    run = ShearRun(body, params, record_interval=record_interval)
+    resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
+                                    description=f"shear Ca={capillary_number:g}", checkpoint_every=checkpoint_every,
+                                    vtk_interval=vtk_interval)
+    label = "homogeneous equivalent" if equivalent else describe_cell(cell)
+    summary = {"scenario": "shear", "label": label}
+    summary.update(run.summary())
+    summary["capillary_number_mu_c"] = capillary_number_mu_c if capillary_number_mu_c is not None else (
+        capillary_number * body.effective_stiffness_ratio if equivalent else capillary_number)
+    summary.update(directory_summary(run, body, cell, params, clock, resumed, equivalent))
+    write_json(out / "summary.json", summary)
+    plot_taylor_deformation(out / "taylor_deformation.png", run.arrays(), summary,
+                            title=f"{label}, Ca = {capillary_number:g}, R/dx = {params.resolution:g}")
+    if vtk is not None:
+        vtk.close(run)
+    return summary

@@ -1,0 +1,270 @@
+"""Shape and motion observables of a deformed tetrahedral cell (DESIGN.md section 1, "Shear flow").
+
+All integrals are exact over the elements of the mesh in their deformed configuration ``x``:
+
+* order 1 (4-node tetrahedra): closed forms, ``V = det[x1-x0, x2-x0, x3-x0]/6``,
+  ``int x dV = V (x0+x1+x2+x3)/4`` and ``int x x^T dV = V/20 (sum_a x_a x_a^T + s s^T)``, ``s = sum_a x_a``;
+* order 2 (10-node tetrahedra, curved): quadrature of the quadratic element map, whose Jacobian is a
+  cubic polynomial, so ``x x^T det J`` has degree 7; a 4x4x4 collapsed (Stroud conical) Gauss-Jacobi rule,
+  exact to degree 7 on the tetrahedron, integrates volume, centroid and second moments exactly.
+
+The equivalent ellipsoid is the uniform ellipsoid with the same second-moment ("volume inertia") tensor
+``M = int (x - c)(x - c)^T dV``: for semi-axes a >= b >= c, ``M`` has eigenvalues ``(4 pi/15) abc (a^2, b^2,
+c^2)``. Taylor deformation ``D = (a - c)/(a + c)`` depends only on the ratio of the extreme eigenvalues.
+Units follow the input (units of R for the cell model's coordinates).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from elastocell.body.elements import TET10_EDGES, conical_product_rule, local_gradients
+
+FOUR_PI_OVER_15 = 4.0 * np.pi / 15.0
+
+
+# --------------------------------------------------------------------------- quadrature (order 2)
+@lru_cache(maxsize=4)
+def _tet10_tables(points_per_direction: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(shape functions N (q, 10), local gradients dN/dxi (q, 10, 3), weights (q,)) for TET10, VTK order."""
+    points, weights = conical_product_rule(points_per_direction)
+    lam = np.column_stack([1 - points.sum(axis=1), points])  # barycentric (q, 4)
+    a, b = TET10_EDGES[:, 0], TET10_EDGES[:, 1]
+    shape = np.concatenate([lam * (2 * lam - 1), 4 * lam[:, a] * lam[:, b]], axis=1)
+    return shape, local_gradients(2, points), weights
+
+
+# --------------------------------------------------------------------------- moments
+@dataclass(frozen=True)
+class Moments:
+    """Zeroth, first and second moments of a body.
+
+    volume: V = int dV; centre: c = (1/V) int x dV; second_moment: M = int (x - c)(x - c)^T dV (3, 3).
+    """
+
+    volume: float
+    centre: np.ndarray
+    second_moment: np.ndarray
+
+
+def element_moments(x: np.ndarray, elements: np.ndarray, origin=None,
+                    points_per_direction: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per element: volume (e,), int (x - o) dV (e, 3), int (x - o)(x - o)^T dV (e, 3, 3), exact.
+
+    x: (n_nodes, 3) deformed positions; elements: (e, 4) or (e, 10) (VTK order); o = origin (default 0).
+    points_per_direction: of the order-2 rule (4 is exact; more only to check that)."""
+    x = np.asarray(x, dtype=np.float64)
+    if origin is not None:
+        x = x - np.asarray(origin, dtype=np.float64)
+    coordinates = x[elements]  # (e, k, 3)
+    if elements.shape[1] == 4:
+        edges = coordinates[:, 1:] - coordinates[:, :1]
+        volume = np.linalg.det(edges) / 6.0
+        total = coordinates.sum(axis=1)
+        first = volume[:, None] * total / 4.0
+        second = (volume / 20.0)[:, None, None] * (
+            np.einsum("eki,ekj->eij", coordinates, coordinates) + total[:, :, None] * total[:, None, :]
+        )
+        return volume, first, second
+    if elements.shape[1] != 10:
+        raise ValueError(f"elements must have 4 or 10 nodes, got {elements.shape[1]}")
+    shape, gradients, weights = _tet10_tables(points_per_direction)
+    jacobian = np.einsum("eki,qkj->eqij", coordinates, gradients)
+    dv = np.linalg.det(jacobian) * weights  # (e, q)
+    points = np.einsum("qk,eki->eqi", shape, coordinates)
+    volume = dv.sum(axis=1)
+    first = np.einsum("eq,eqi->ei", dv, points)
+    second = np.einsum("eq,eqi,eqj->eij", dv, points, points)
+    return volume, first, second
+
+
+def moments(x: np.ndarray, elements: np.ndarray, mask: np.ndarray | None = None) -> Moments:
+    """Volume, centroid and second-moment tensor of the (sub)body made of ``elements[mask]``."""
+    x = np.asarray(x, dtype=np.float64)
+    if mask is not None:
+        elements = elements[np.asarray(mask)]
+    origin = x[np.unique(elements[:, :4])].mean(axis=0)  # shift first: no cancellation in M
+    volume, first, second = element_moments(x, elements, origin)
+    v = float(volume.sum())
+    mean = first.sum(axis=0) / v
+    m = second.sum(axis=0) - v * np.outer(mean, mean)
+    return Moments(volume=v, centre=origin + mean, second_moment=0.5 * (m + m.T))
+
+
+def volume(x: np.ndarray, elements: np.ndarray) -> float:
+    """Exact volume of the deformed mesh (units of the coordinates cubed)."""
+    return float(element_moments(x, elements)[0].sum())
+
+
+# --------------------------------------------------------------------------- ellipsoid and shape
+@dataclass(frozen=True)
+class Ellipsoid:
+    """The uniform ellipsoid with the body's second-moment tensor.
+
+    semi_axes: (a, b, c), descending; axes: (3, 3) unit vectors, column k along semi-axis k; centre (3,).
+    """
+
+    semi_axes: np.ndarray
+    axes: np.ndarray
+    centre: np.ndarray
+
+    @property
+    def taylor_deformation(self) -> float:
+        """D = (a - c)/(a + c), largest and smallest semi-axes."""
+        a, c = self.semi_axes[0], self.semi_axes[-1]
+        return float((a - c) / (a + c))
+
+
+def equivalent_ellipsoid(m: Moments) -> Ellipsoid:
+    """Semi-axes from the eigenvalues m_k of M: abc = (m1 m2 m3 / (4 pi/15)^3)^(1/5),
+    a_k = sqrt(m_k / ((4 pi/15) abc))."""
+    values, vectors = np.linalg.eigh(m.second_moment)
+    order = np.argsort(values)[::-1]
+    values, vectors = np.clip(values[order], 0.0, None), vectors[:, order]
+    product = (np.prod(values) / FOUR_PI_OVER_15**3) ** 0.2
+    semi_axes = np.sqrt(values / (FOUR_PI_OVER_15 * product)) if product > 0 else np.zeros(3)
+    return Ellipsoid(semi_axes=semi_axes, axes=vectors, centre=m.centre)
+
+
+def taylor_deformation(x: np.ndarray, elements: np.ndarray) -> float:
+    """D = (a - c)/(a + c) of the inertia-equivalent ellipsoid (DESIGN.md)."""
+    return equivalent_ellipsoid(moments(x, elements)).taylor_deformation
+
+
+def inclination_deg(second_moment: np.ndarray, plane: tuple[int, int] = (0, 1)) -> float:
+    """Inclination (degrees, in (-90, 90]) of the long axis within a plane, relative to its first axis.
+
+    The long axis is the principal direction of the in-plane 2x2 block of M (for a tank-treading cell the
+    vorticity axis is a principal axis, so this is the projection of the longest axis); for shear flow with
+    u_x = shear_rate * y the plane is (x, y) and the angle is measured from the flow direction x towards +y
+    (45 degrees at small Ca)."""
+    i, j = plane
+    mxx, myy, mxy = second_moment[i, i], second_moment[j, j], second_moment[i, j]
+    angle = 0.5 * np.degrees(np.arctan2(2.0 * mxy, mxx - myy))
+    return float(angle if angle > -90.0 else angle + 180.0)
+
+
+@dataclass(frozen=True)
+class ShapeObservables:
+    """One snapshot: volume V, centre (3,), semi-axes (a, b, c), Taylor deformation D, inclination (deg),
+    nucleus centre (3,) or None, second moment M about the centre (3, 3)."""
+
+    volume: float
+    centre: np.ndarray
+    semi_axes: np.ndarray
+    taylor_deformation: float
+    inclination_deg: float
+    nucleus_centre: np.ndarray | None
+    second_moment: np.ndarray | None = None
+
+
+def shape_observables(x: np.ndarray, elements: np.ndarray, nucleus_mask: np.ndarray | None = None,
+                      plane: tuple[int, int] = (0, 1)) -> ShapeObservables:
+    """All shape observables of a deformed mesh in one pass (coordinates in any unit, e.g. R)."""
+    m = moments(x, elements)
+    ellipsoid = equivalent_ellipsoid(m)
+    nucleus_centre = None
+    if nucleus_mask is not None and np.any(nucleus_mask):
+        nucleus_centre = moments(x, elements, nucleus_mask).centre
+    return ShapeObservables(
+        volume=m.volume,
+        centre=m.centre,
+        semi_axes=ellipsoid.semi_axes,
+        taylor_deformation=ellipsoid.taylor_deformation,
+        inclination_deg=inclination_deg(m.second_moment, plane),
+        nucleus_centre=nucleus_centre,
+        second_moment=m.second_moment,
+    )
+
+
+# --------------------------------------------------------------------------- tank treading
+def inplane_angles(x: np.ndarray, centre: np.ndarray, plane: tuple[int, int] = (0, 1),
+                   second_moment: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """In-plane angle of every point about ``centre`` and its squared in-plane distance.
+
+    Without ``second_moment``: the polar angle atan2(r_y, r_x). With the body's second moment M (3, 3): the
+    angle theta + phi, theta the in-plane long-axis angle of M and phi = atan2(v/b, u/a) the phase of the point
+    in the principal frame scaled by the in-plane semi-axes (a, b proportional to the square roots of the
+    eigenvalues of M's in-plane block). A point tank-treading on an ellipse, x = a cos(omega t), advances its
+    phase uniformly at omega, whereas its polar angle does not (its r^2-weighted rate is 2ab/(a^2+b^2) omega);
+    for a circle or a rigid rotation both angles agree."""
+    i, j = plane
+    r = np.asarray(x) - np.asarray(centre)
+    radius2 = r[:, i] ** 2 + r[:, j] ** 2
+    if second_moment is None:
+        return np.arctan2(r[:, j], r[:, i]), radius2
+    block = np.asarray(second_moment)[np.ix_([i, j], [i, j])]
+    eigenvalues, vectors = np.linalg.eigh(block)  # ascending
+    long_axis, short_axis = vectors[:, 1], np.array([-vectors[1, 1], vectors[0, 1]])  # short = long rotated +90
+    theta = np.arctan2(long_axis[1], long_axis[0])
+    planar = np.column_stack([r[:, i], r[:, j]])
+    u = planar @ long_axis / np.sqrt(max(eigenvalues[1], 1e-300))
+    v = planar @ short_axis / np.sqrt(max(eigenvalues[0], 1e-300))
+    return theta + np.arctan2(v, u), radius2
+
+
+class RotationTracker:
+    """Unwrapped in-plane angles of material points (e.g. the surface nodes) about the cell centre.
+
+    Call :meth:`record` with the time (e.g. strain = shear_rate * t) and the positions; consecutive
+    records must be less than half a revolution apart. :meth:`angular_velocity` fits the mean angular
+    velocity of the points over a time window."""
+
+    def __init__(self, plane: tuple[int, int] = (0, 1)):
+        self.plane = plane
+        self.times: list[float] = []
+        self._angles: list[np.ndarray] = []
+        self._radii2: list[np.ndarray] = []
+
+    def record(self, time: float, x: np.ndarray, centre: np.ndarray, second_moment: np.ndarray | None = None) -> None:
+        """Add a record; with the body's ``second_moment`` the angles are ellipse phases (see
+        :func:`inplane_angles`), which advance uniformly for tank treading."""
+        angle, radius2 = inplane_angles(x, centre, self.plane, second_moment)
+        if self._angles:
+            previous = self._angles[-1]
+            angle = previous + (angle - previous + np.pi) % (2 * np.pi) - np.pi
+        self.times.append(float(time))
+        self._angles.append(angle)
+        self._radii2.append(radius2)
+
+    @property
+    def angles(self) -> np.ndarray:
+        """Unwrapped angles (n_records, n_points)."""
+        return np.array(self._angles)
+
+    def angular_velocity(self, start: float = -np.inf, stop: float = np.inf) -> float:
+        """Mean angular velocity (rad per unit of time) of the points over records with start <= t <= stop:
+        a least-squares slope per point, averaged with weights r^2 (mean squared in-plane distance), so points
+        near the rotation axis, whose angle is ill-defined, count little. Positive counter-clockwise."""
+        return tracked_angular_velocity(np.array(self.times), self.angles, np.array(self._radii2), start, stop)
+
+    def state(self) -> dict:
+        """Arrays that restore the tracker (for checkpoints)."""
+        return {"times": np.array(self.times), "angles": self.angles, "radii2": np.array(self._radii2)}
+
+    @classmethod
+    def from_state(cls, state: dict, plane: tuple[int, int] = (0, 1)) -> RotationTracker:
+        tracker = cls(plane)
+        tracker.times = [float(t) for t in state["times"]]
+        tracker._angles = list(np.asarray(state["angles"]))
+        tracker._radii2 = list(np.asarray(state["radii2"]))
+        return tracker
+
+
+def tracked_angular_velocity(times, angles, radii2, start: float = -np.inf, stop: float = np.inf) -> float:
+    """Weighted mean of the per-point least-squares slopes d(angle)/dt over start <= t <= stop.
+
+    times (n,), angles (n, p) unwrapped, radii2 (n, p) squared in-plane distances (weights)."""
+    times = np.asarray(times, dtype=np.float64)
+    keep = (times >= start) & (times <= stop)
+    if keep.sum() < 2:
+        return float("nan")
+    t = times[keep]
+    a = np.asarray(angles)[keep]
+    w = np.asarray(radii2)[keep].mean(axis=0)
+    tc = t - t.mean()
+    slopes = tc @ (a - a.mean(axis=0)) / (tc @ tc)
+    return float(np.sum(w * slopes) / np.sum(w))

@@ -1,0 +1,225 @@
+"""Coupled lattice-Boltzmann / immersed-boundary stepping of an elastic cell (Numba backend).
+
+Lattice units throughout (dx = dt = 1, rho0 = 1): every mesh node is a massless marker at X; each step (one
+compiled chunk runs many):
+
+1. clear the force density at the previous markers' supports, compute the elastic nodal forces
+   f = -dE/dx at X, spread them to the force density;
+2. one LB step with the force density; it stores the velocity its collision used,
+   u = (sum c f + F/2)/rho (Guo half-force term), at the nodes of the markers' kernel supports;
+3. interpolate that u at X; 4. X += u dt.
+"""
+
+from __future__ import annotations
+
+import math
+
+# =========================================================================== shear flow
+import numpy as np
+from numba import njit
+
+from elastocell.coupling import ibm
+from elastocell.coupling.elastic_forces import ElasticForces, elastic_forces
+from elastocell.coupling.markers import MarkerState, raise_flow_failure
+from elastocell.lattice import Lattice, LatticeParams
+from elastocell.lattice import kernels as lb_kernels
+
+
+@njit(cache=True, error_model="numpy")
+def _velocity_box(positions, support, box):
+    """box[0:3] = lowest lattice index and box[3:6] = number of indices per axis of the kernel supports of all
+    markers (unwrapped; the sweep takes them modulo the lattice)."""
+    for a in range(3):
+        lo = np.inf
+        hi = -np.inf
+        for m in range(positions.shape[0]):
+            v = positions[m, a]
+            lo = min(lo, v)
+            hi = max(hi, v)
+        first = int(math.floor(lo)) - (support // 2 - 1)
+        last = int(math.floor(hi)) + support // 2
+        box[a] = first
+        box[3 + a] = last - first + 1
+
+
+@njit(cache=True, error_model="numpy")
+def _coupled_steps(
+    n_steps, A, parity, nz, field, consts, has_walls, wall_corr, cint, opp, solid, has_solid,
+    run_ptr, run_lo, run_hi, link_ptr, link_z, link_q, lb_weights, cvel, fluid_velocity, box,
+    positions, spread_positions, has_spread, forces, velocity, kernel, support,
+    elements, gradients, weights, params, node_ptr, node_slots, eforce, j_elem,
+):  # fmt: skip
+    """Advance ``n_steps`` coupled LB + IBM steps in compiled code (see the module docstring).
+
+    The LB step itself stores the velocity its collision used, u = (sum c f + F/2)/rho with this step's
+    force density, at the fluid nodes of the markers' kernel supports (``fluid_velocity``, storage dtype,
+    zero at solid nodes); the markers read it there, so no population is read twice.
+
+    Returns (parity, steps done, smallest det F, largest marker speed); stops early (steps done <
+    n_steps) when an element inverts or a marker velocity is not finite."""
+    periodic_y = not has_walls
+    j_min = np.inf
+    max_speed = 0.0
+    n_markers = positions.shape[0]
+    for step in range(n_steps):
+        if has_spread:
+            ibm._clear_field(spread_positions, kernel, periodic_y, field)
+        j = elastic_forces(positions, elements, gradients, weights, params, node_ptr, node_slots, eforce,
+                            j_elem, forces)
+        if not j > 0.0:
+            return parity, step, j, max_speed
+        j_min = min(j_min, j)
+        ibm._spread_field(forces, positions, kernel, periodic_y, field)
+        spread_positions[:, :] = positions
+        has_spread = True
+        _velocity_box(positions, support, box)
+        lb_kernels._sweep(A, parity, nz, field, True, run_ptr, run_lo, run_hi, has_walls, wall_corr,
+                          link_ptr, link_z, link_q, consts, lb_weights, cvel, cint, opp, fluid_velocity, box)
+        parity = 1 - parity
+        ibm._interpolate_field_serial(fluid_velocity, positions, kernel, periodic_y, velocity)
+        for m in range(n_markers):
+            vx = velocity[m, 0]
+            vy = velocity[m, 1]
+            vz = velocity[m, 2]
+            speed = vx * vx + vy * vy + vz * vz
+            if not speed < 1.0:  # NaN or absurd: the fluid blew up
+                return parity, step + 1, -np.inf, np.sqrt(speed)
+            max_speed = max(max_speed, speed)
+            positions[m, 0] += vx
+            positions[m, 1] += vy
+            positions[m, 2] += vz
+    return parity, n_steps, j_min, np.sqrt(max_speed)
+
+
+def immersed_cell(backend: str, lattice_params: LatticeParams, velocity, cell, units, kernel: str):
+    """The coupled system on a backend ("numba" or "jax"): a lattice at the equilibrium of ``velocity``
+    (3, nx, ny, nz) and the cell at ``units.centre`` with radius ``units.radius`` (dx) and modulus
+    ``units.youngs_modulus`` (lattice units)."""
+    if backend == "jax":
+        from elastocell.coupling.immersed_jax import (  # lazy: JAX (about 1 s) only for backend='jax'
+            JaxImmersedCell,
+            JaxLattice,
+        )
+
+        lattice_class, cell_class = JaxLattice, JaxImmersedCell
+    elif backend == "numba":
+        lattice_class, cell_class = Lattice, ImmersedCell
+    else:
+        raise ValueError(f"backend must be 'numba' or 'jax', got {backend!r}")
+    lattice = lattice_class(lattice_params)
+    lattice.initialize(velocity=velocity)
+    return cell_class(lattice, cell, units.centre, units.radius, units.youngs_modulus, kernel=kernel)
+
+
+class ImmersedCell(MarkerState):
+    """An elastic cell immersed in a lattice Boltzmann fluid (immersed boundary, every node a marker).
+
+    Parameters
+    ----------
+    lattice : Lattice
+        The fluid; its force density field is owned by the coupling from now on.
+    cell : Cell
+        The elastic body (mesh in units of R, moduli in units of E_c).
+    centre : 3 floats
+        Initial position of the mesh origin (dx).
+    radius : float
+        R in dx (the resolution R/dx).
+    youngs_modulus : float
+        E_c in lattice units (rho0 dx^2/dt^2).
+    kernel : "trilinear" (default) or "peskin4".
+
+    State: :attr:`positions` (n_nodes, 3) in dx (unwrapped: periodic images are taken by the kernels),
+    :attr:`time_step`. Lattice velocities are dx/dt; forces rho0 dx^4/dt^2.
+    """
+
+    backend = "numba"
+
+    def __init__(self, lattice: Lattice, cell, centre, radius: float, youngs_modulus: float,
+                 kernel: str = "trilinear"):
+        self.lattice = lattice
+        self.cell = cell
+        self.radius = float(radius)
+        self.youngs_modulus = float(youngs_modulus)
+        self.kernel = kernel
+        self._kernel_id = ibm.kernel_id(kernel)
+        self.centre0 = np.asarray(centre, dtype=np.float64)
+        self.positions = np.ascontiguousarray(self.centre0 + self.radius * cell.mesh.nodes)
+        self.forces = ElasticForces(cell, length_scale=self.radius, modulus_scale=self.youngs_modulus)
+        n = cell.mesh.n_nodes
+        self._spread_positions = np.zeros((n, 3))
+        self._has_spread = False
+        self._marker_forces = np.zeros((n, 3))
+        self._velocity = np.zeros((n, 3))
+        # the velocity the LB step stores at the markers' supports (storage dtype; solid nodes stay 0)
+        self._fluid_velocity = np.zeros((3,) + lattice.shape, dtype=lattice.dtype)
+        self._box = np.zeros(6, dtype=np.int64)
+        if lattice.force_density is None:
+            lattice.set_force_density(np.zeros((3,) + lattice.shape))
+        else:
+            lattice.force_density[...] = 0.0
+        self.time_step = 0
+        self.max_speed = 0.0
+        """Largest marker speed |u| (dx/dt) seen in the last :meth:`advance`."""
+
+    def advance(self, n_steps: int) -> None:
+        """n_steps coupled steps in one compiled call; raises :class:`FlowError` on an inverted element or a
+        non-finite fluid (the lattice is left at the step where it stopped)."""
+        n_steps = int(n_steps)
+        if n_steps <= 0:
+            return
+        lat = self.lattice
+        tables = lat._tables()  # (run_ptr, run_lo, run_hi, has_walls, wall_corr, link_ptr, link_z, link_q,
+        #                          consts, weights, cvel, cint, opp)
+        (A, parity, nz, field, _, consts, has_walls, wall_corr, cint, opp, solid,
+         has_solid) = ibm.lattice_arguments(lat)  # fmt: skip
+        parity, done, j_min, max_speed = _coupled_steps(
+            n_steps, A, parity, nz, field, consts, has_walls, wall_corr, cint, opp, solid, has_solid,
+            tables[0], tables[1], tables[2], tables[5], tables[6], tables[7], tables[9], tables[10],
+            self._fluid_velocity, self._box, self.positions, self._spread_positions, self._has_spread,
+            self._marker_forces, self._velocity, self._kernel_id, ibm.KERNEL_SUPPORT[self.kernel],
+            *self.forces.arguments(),
+        )  # fmt: skip
+        lat._parity = int(parity)
+        lat.time_step += int(done)
+        self.time_step += int(done)
+        self._has_spread = self._has_spread or done > 0 or not (j_min > 0)
+        self.max_speed = float(max_speed)
+        if not j_min > 0:
+            raise_flow_failure(self.time_step, j_min, max_speed)
+
+    def fluid_velocity_at(self, positions) -> np.ndarray:
+        """The fluid velocity (half-force corrected) interpolated at points (n, 3) in dx."""
+        return ibm.interpolate_lattice_velocity(self.lattice, positions, self.kernel)
+
+    def state_arrays(self) -> dict:
+        """The coupled state for a checkpoint (NumPy arrays)."""
+        return {**self.lattice.state_arrays(), "positions": self.positions,
+                "spread_positions": self._spread_positions, "has_spread": np.array(self._has_spread),
+                "time_step": np.array(self.time_step), "max_speed": np.array(self.max_speed)}  # fmt: skip
+
+    def load_state_arrays(self, data) -> None:
+        self.lattice.load_state_arrays(data)
+        self.positions[...] = data["positions"]
+        self._spread_positions[...] = data["spread_positions"]
+        self._has_spread = bool(data["has_spread"])
+        self.time_step = int(data["time_step"])
+        self.max_speed = float(data["max_speed"])
+
+    # ------------------------------------------------------------------ reference path (public APIs only)
+    def advance_reference(self, n_steps: int) -> None:
+        """The same coupled steps through public, uncompiled APIs (JAX forces of ``Cell.internal_forces``,
+        full-lattice ``Lattice.velocity``, Python loop per step): slow, for verification only."""
+        lat = self.lattice
+        periodic_y = not lat.params.has_walls
+        scale = self.youngs_modulus * self.radius**2
+        for _ in range(int(n_steps)):
+            forces = -np.asarray(self.cell.internal_forces(self.positions / self.radius)) * scale
+            field = ibm.spread(forces, self.positions, lat.shape, self.kernel, periodic_y)
+            lat.set_force_density(field)
+            self._has_spread = False  # the field was replaced, not cleared
+            velocity = ibm.interpolate(lat.velocity(), self.positions, self.kernel, periodic_y)
+            lat.step(1)
+            self._marker_forces[...] = forces
+            self._velocity[...] = velocity
+            self.positions += velocity
+            self.time_step += 1

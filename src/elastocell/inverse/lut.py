@@ -1,0 +1,435 @@
+"""Look-up tables (LUTs) for real-time deformability cytometry (RT-DC), in dclab's text format.
+
+    from elastocell.inverse.lut import compute_lut
+    compute_lut("lut.txt", channel_radius="10um", flow_rate="0.04uL/s", viscosity="15mPa*s", quick=True)
+
+Every (cell radius R, Young's modulus E) grid point is one centred pipe-flow run
+(:func:`elastocell.api.pipe.pipe`, ``start_offset=0``, homogeneous cell) driven to a stationary shape. The
+physical flow fixes the dimensionless driving:
+
+    Poiseuille in a cylinder:   Q = pi G R_ch^4 / (8 eta)   ->   G = 8 eta Q / (pi R_ch^4)
+    shear modulus:              mu = E / (2 (1 + nu))
+    wall capillary number:      Ca_w = G R_ch / (2 mu)       (= eta gdot_w / mu, gdot_w = G R_ch / (2 eta))
+    confinement:                R_ch / R
+
+and the stationary side-view contour gives the table's columns: ``area_um`` = the projected area times R^2 (um^2;
+the convex hull of the mesh nodes projected on the x-y plane), ``deform`` = the deformation (1 - circularity of
+that hull), both averaged over the last unit of 1/gdot_w (:data:`FINAL_WINDOW`), ``emodulus`` = E (kPa). A run
+stops once the mean deformation over that window differs from the window before by less than the tolerance.
+
+Approximation: elastocell's channel is a cylinder of radius R_ch; RT-DC channels are square. A square channel
+of width W stands for the cylinder of radius R_ch = 1.094 W/2 (:data:`SQUARE_CHANNEL_RADIUS_FACTOR`), the
+equivalent radius of Mietke et al. 2015 (Biophys. J. 109, 2023, supplement S3) with which the axisymmetric FEM
+of dclab's own LE-2D-FEM-19 table was computed; ``--channel-width W`` uses it, and the metadata give
+``channel_width`` = 2 R_ch/1.094, so a table made here and LE-2D-FEM-19 describe the same channel. The fluid is
+Newtonian (one viscosity).
+
+File format (dclab ``dclab/features/emodulus/load.py``, ``load_mtext``; checked against dclab 0.73.4): comment
+lines, the metadata as JSON between ``# BEGIN METADATA`` and ``# END METADATA`` (every line prefixed by
+``# ``), then a last comment line with the tab-separated column names and units
+(``area_um [um^2]``, ``deform``, ``emodulus [kPa]``), then the numbers. dclab requires ``channel_width``
+(unit "um"), ``flow_rate`` ("uL/s"), ``fluid_viscosity`` ("mPa s"), and ``identifier`` for
+``register_lut``; the isoelastics file (``dclab/isoelastics/__init__.py``, ``Isoelastics.load_data``) has the
+same layout, one line per distinct ``emodulus`` value, and needs ``lut identifier``.
+
+Runs: ``<stem>_runs/<key>/`` next to the output file (the pipe run's own files plus ``point.json``, written
+last); a rerun reads finished points back and resumes unfinished ones from their checkpoint. The key holds a
+hash of every input of the run, so changing the flow rate or the resolution makes new runs.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import time
+from datetime import date
+from pathlib import Path
+
+import numpy as np
+
+from elastocell.api.pipe import pipe
+from elastocell.body.cell import Cell
+from elastocell.files import write_json
+from elastocell.parameters.flow import flow_cell
+from elastocell.parameters.units import ParameterError, parse_quantity
+from elastocell.scenarios.pipe import PipeFlowParameters, pipe_lattice_units
+from elastocell.scenarios.shear import compile_kernels
+from elastocell.simulation.distributed import TaskFailure, check_execution, run_tasks
+from elastocell.simulation.runner import StopCriteria, resume_or_restart
+from elastocell.version import __version__
+
+POINT_FILE = "point.json"
+"""Written last in a grid point's run directory: the point is finished."""
+
+LUT_COLUMNS = ("area_um [um^2]", "deform", "emodulus [kPa]")
+
+FULL_RADII_UM = (3.0, 4.0, 5.0, 6.0, 7.0, 8.0)
+FULL_MODULI_KPA = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0)
+FULL = {"resolution": 8.0, "duration": 20.0, "stationary_tolerance": 1e-3}
+"""The full grid: 6 radii x 7 moduli = 42 runs at R/dx 8, at most 20 units of 1/gdot_w each (stopping earlier
+once the mean deformation over a unit of time is stationary to 1e-3)."""
+
+SQUARE_CHANNEL_RADIUS_FACTOR = 1.094
+"""R_ch/(W/2) of the cylinder that stands for a square channel of width W (Mietke et al. 2015, supplement S3;
+dclab's LE-2D-FEM-19 table)."""
+
+QUICK_RADII_UM = (5.0, 6.0)
+QUICK_MODULI_KPA = (1.0, 2.0)
+QUICK = {"resolution": 4.0, "duration": 1.0, "stationary_tolerance": None}
+"""The --quick grid (tests): 2 x 2 runs at R/dx 4 for one unit of time; far from converged."""
+
+
+# =========================================================================== physics
+def pressure_gradient(flow_rate: float, channel_radius: float, viscosity: float) -> float:
+    """G = 8 eta Q / (pi R_ch^4) (SI: m^3/s, m, Pa s -> Pa/m): Poiseuille flow in a cylinder."""
+    return 8.0 * viscosity * flow_rate / (math.pi * channel_radius**4)
+
+
+def capillary_number_wall(flow_rate: float, channel_radius: float, viscosity: float, youngs_modulus: float,
+                          poisson_ratio: float) -> float:
+    """Ca_w = G R_ch / (2 mu), mu = E / (2 (1 + nu)) (SI inputs)."""
+    shear_modulus = youngs_modulus / (2.0 * (1.0 + poisson_ratio))
+    return pressure_gradient(flow_rate, channel_radius, viscosity) * channel_radius / (2.0 * shear_modulus)
+
+
+def wall_shear_rate(flow_rate: float, channel_radius: float, viscosity: float) -> float:
+    """gdot_w = G R_ch / (2 eta) = 4 Q / (pi R_ch^3) (1/s): the unit of time of the runs is 1/gdot_w."""
+    return pressure_gradient(flow_rate, channel_radius, viscosity) * channel_radius / (2.0 * viscosity)
+
+
+# =========================================================================== inputs
+def _positive(value, unit: str, display_unit: str, name: str) -> float:
+    """A positive quantity in SI ``unit``; a plain number is read in ``display_unit``."""
+    magnitude, physical = parse_quantity(value, unit, name)
+    if not physical:
+        magnitude, _ = parse_quantity(f"{magnitude!r} {display_unit}", unit, name)
+    if not (math.isfinite(magnitude) and magnitude > 0):
+        raise ParameterError(name, f"must be > 0, got {value}")
+    return magnitude
+
+
+def _list(values, unit: str, display_unit: str, name: str) -> list[float]:
+    """Comma-separated values (or a sequence), each a number in ``display_unit`` or a quantity."""
+    if isinstance(values, str):
+        values = [v for v in values.replace(";", ",").split(",") if v.strip()]
+    values = list(values)
+    if not values:
+        raise ParameterError(name, "give at least one value")
+    out = sorted({_positive(v, unit, display_unit, name) for v in values})
+    return out
+
+
+def point_key(radius_um: float, emodulus_kpa: float, options: dict) -> str:
+    """Run directory name: readable radius and modulus plus a hash of every input of the run."""
+    digest = hashlib.sha256(json.dumps(options, sort_keys=True).encode()).hexdigest()[:10]
+    return f"R{radius_um:g}um_E{emodulus_kpa:g}kPa_{digest}"
+
+
+def channel_radius_from(channel_radius=None, channel_width=None) -> float:
+    """R_ch (m) from exactly one of ``channel_radius`` (the cylinder's) or ``channel_width`` (a square RT-DC
+    channel's W: R_ch = 1.094 W/2); quantities or numbers in um."""
+    if (channel_radius is None) == (channel_width is None):
+        raise ParameterError("channel_radius", "give either the channel radius or the width of a square channel "
+                             "(--channel-width), not both and not neither")
+    if channel_width is not None:
+        return SQUARE_CHANNEL_RADIUS_FACTOR * _positive(channel_width, "m", "um", "channel_width") / 2.0
+    return _positive(channel_radius, "m", "um", "channel_radius")
+
+
+def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: bool = False,
+         poisson_ratio: float = 0.48, material: str = "neo-hookean", resolution: float | None = None,
+         duration: float | None = None, stationary_tolerance: float | None = None,
+         channel_width=None) -> tuple[list[dict], dict]:
+    """Check every input and return (grid points, settings); raises ParameterError (named option) on an
+    impossible one, before anything runs. Each point holds its key and the keyword arguments of ``pipe``.
+    ``channel_width`` (a square channel's W) replaces ``channel_radius`` (give None for it)."""
+    from pydantic import ValidationError
+
+
+    r_ch = channel_radius_from(channel_radius, channel_width)
+    q = _positive(flow_rate, "m^3/s", "uL/s", "flow_rate")
+    eta = _positive(viscosity, "Pa*s", "mPa*s", "viscosity")
+    defaults = QUICK if quick else FULL
+    radii_m = _list(radii if radii is not None else
+                    [f"{r}um" for r in (QUICK_RADII_UM if quick else FULL_RADII_UM)], "m", "um", "radii")
+    moduli_pa = _list(moduli if moduli is not None else
+                      [f"{e}kPa" for e in (QUICK_MODULI_KPA if quick else FULL_MODULI_KPA)], "Pa", "kPa",
+                      "moduli")
+    if not (math.isfinite(poisson_ratio) and -1 < poisson_ratio < 0.5):
+        raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {poisson_ratio}")
+    resolution = defaults["resolution"] if resolution is None else float(resolution)
+    duration = defaults["duration"] if duration is None else float(duration)
+    if not (math.isfinite(duration) and duration > 0):
+        raise ParameterError("duration", f"must be > 0 (units of 1/gdot_w), got {duration}")
+    tolerance = defaults["stationary_tolerance"] if stationary_tolerance is None else float(stationary_tolerance)
+    if tolerance is not None and not (math.isfinite(tolerance) and tolerance > 0):
+        raise ParameterError("stationary_tolerance", f"must be > 0, got {tolerance}")
+    too_large = [r for r in radii_m if r >= r_ch]
+    if too_large:
+        raise ParameterError("radii", f"a cell of radius {too_large[0] * 1e6:g} um does not fit in a channel of "
+                             f"radius {r_ch * 1e6:g} um (need R < R_ch)")
+    points = []
+    for radius in radii_m:
+        ratio = r_ch / radius
+        try:  # the pipe scenario's own refusals (ratio range, wall gap at this resolution)
+            PipeFlowParameters(capillary_number_wall=1.0, channel_radius_ratio=ratio, resolution=resolution)
+        except (ParameterError, ValidationError) as error:
+            if isinstance(error, ValidationError):
+                error = (error.errors()[0].get("ctx") or {}).get("error", error)
+            if not isinstance(error, ParameterError):
+                raise
+            name = "radii" if error.parameter == "channel_radius_ratio" else error.parameter
+            raise ParameterError(name, f"cell radius {radius * 1e6:g} um in a channel of radius {r_ch * 1e6:g} um: "
+                                 f"{str(error).split(': ', 1)[1]}") from None
+        for modulus in moduli_pa:
+            ca = capillary_number_wall(q, r_ch, eta, modulus, poisson_ratio)
+            options = {"capillary_number_wall": ca, "channel_radius_ratio": ratio, "start_offset": 0.0,
+                       "resolution": resolution, "duration": duration, "stationary_tolerance": tolerance,
+                       "stationary_observable": "deformation", "nucleus": "none", "material": material, "poisson_ratio": float(poisson_ratio)}
+            points.append({"key": point_key(radius * 1e6, modulus * 1e-3, options), "radius_um": radius * 1e6,
+                           "emodulus_kpa": modulus * 1e-3, "options": options})
+    settings = {"channel_radius_um": r_ch * 1e6, "flow_rate_ul_s": q * 1e9, "viscosity_mpa_s": eta * 1e3,
+                "pressure_gradient_pa_m": pressure_gradient(q, r_ch, eta),
+                "wall_shear_rate_1_s": wall_shear_rate(q, r_ch, eta), "poisson_ratio": float(poisson_ratio),
+                "material": material, "resolution": resolution, "duration": duration,
+                "stationary_tolerance": tolerance, "quick": bool(quick)}
+    return points, settings
+
+
+def check_lattice(points: list[dict]) -> list[dict]:
+    """The pipe scenario's lattice refusals for every point (steps per unit time, stability), before anything
+    runs; returns per point the lattice shape, the LB steps per unit time 1/gdot_w and the lattice-node updates of
+    the longest run (a cost measure). Raises ParameterError naming the point."""
+    from pydantic import ValidationError
+
+
+    cells, out = {}, []
+    for point in points:
+        options = point["options"]
+        cell_options = {k: options[k] for k in ("nucleus", "material", "poisson_ratio")}
+        key = (options["resolution"], json.dumps(cell_options, sort_keys=True))
+        if key not in cells:
+            cells[key] = Cell.from_parameters(flow_cell(None, cell_options, options["resolution"]))
+        try:
+            params = PipeFlowParameters(capillary_number_wall=options["capillary_number_wall"],
+                                        channel_radius_ratio=options["channel_radius_ratio"],
+                                        start_offset=0.0, resolution=options["resolution"])
+            units = pipe_lattice_units(cells[key], params)
+        except (ParameterError, ValidationError) as error:
+            if isinstance(error, ValidationError):
+                error = (error.errors()[0].get("ctx") or {}).get("error", error)
+            if not isinstance(error, ParameterError):
+                raise
+            raise ParameterError("moduli", f"R = {point['radius_um']:g} um, E = {point['emodulus_kpa']:g} kPa: "
+                                 f"{str(error).split(': ', 1)[1]}") from None
+        out.append({"key": point["key"], "shape": list(units.shape), "steps_per_time": units.steps_per_time,
+                    "lattice_updates": float(np.prod(units.shape)) * units.steps_per_time * options["duration"]})
+    return out
+
+
+# =========================================================================== one grid point
+def _stop_window() -> float:
+
+    return float(StopCriteria.stationary_window)
+
+
+FINAL_WINDOW = _stop_window()
+"""Units of 1/gdot_w at the end of a run over which a point's area and deformation are averaged: the stop
+criterion's window (``runner.StopCriteria.stationary_window``), i.e. the stretch judged stationary when the run
+stopped on the criterion (a run that reached its duration cap, or a --quick run, has no stationary stretch: the
+window is then just its end, and the point is listed as not stationary). The pipe
+summary's means over the second half would mix in the approach to the steady shape (measured: R = 5 um,
+E = 2 kPa, 20 um channel, 0.04 uL/s: deformation 0.0365 over the second half against 0.039 at the end)."""
+
+
+def final_shape(timeseries: Path) -> dict:
+    """Means of ``deformation`` and ``projected_area`` (and the deformation's standard deviation) over the last
+    :data:`FINAL_WINDOW` of a pipe run's time series."""
+    import pandas as pd
+
+    table = pd.read_csv(timeseries)
+    last = table[table["time"] > table["time"].iloc[-1] - FINAL_WINDOW]
+    return {"deformation": float(last["deformation"].mean()), "deformation_std": float(last["deformation"].std(ddof=0)),
+            "projected_area": float(last["projected_area"].mean())}
+
+
+def run_point(task: tuple[dict, str]) -> dict:
+    """Run one grid point in ``runs_directory/<key>`` (a Dask task); a finished point is read back."""
+    point, runs_directory = task
+    directory = Path(runs_directory) / point["key"]
+    marker = directory / POINT_FILE
+    if marker.exists():
+        return json.loads(marker.read_text())
+
+    directory.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    summary = resume_or_restart(pipe, directory, progress=False, vtk_interval=None, **point["options"])
+    radius = point["radius_um"]
+    final = final_shape(directory / "timeseries.csv")
+    record = {
+        "key": point["key"], "radius_um": radius, "emodulus_kpa": point["emodulus_kpa"],
+        "area_um": final["projected_area"] * radius**2,
+        "deform": final["deformation"], "deform_std": final["deformation_std"],
+        "final_window": FINAL_WINDOW,
+        "deformation_mean_second_half": summary["deformation_mean"],
+        "projected_area_mean": summary["projected_area_mean"],
+        "projected_area_initial": summary.get("projected_area_initial"),
+        "deformation_initial": summary.get("deformation_initial"),
+        "strain_axial_mean": summary.get("strain_axial_mean"), "strain_radial_mean": summary.get("strain_radial_mean"),
+        "volume_change_max_abs": summary.get("volume_change_max_abs"),
+        "stop_reason": summary.get("stop_reason"), "stationary": summary.get("stop_reason") == "stationary",
+        "duration": summary.get("duration"),
+        "steps": summary.get("steps"), "options": point["options"],
+        "wall_time_s": time.perf_counter() - start,
+    }
+    write_json(marker, record)
+    return record
+
+
+# =========================================================================== output
+def lut_metadata(settings: dict, identifier: str) -> dict:
+    """dclab's metadata keys (units as dclab asserts them) plus elastocell's own settings."""
+
+    nu = settings["poisson_ratio"]
+    return {
+        "identifier": identifier,
+        "channel_width": 2.0 * settings["channel_radius_um"] / SQUARE_CHANNEL_RADIUS_FACTOR,
+        "channel_width_unit": "um",
+        "flow_rate": settings["flow_rate_ul_s"],
+        "flow_rate_unit": "uL/s",
+        "fluid_viscosity": settings["viscosity_mpa_s"],
+        "fluid_viscosity_unit": "mPa s",
+        "date": date.today().isoformat(),
+        "dimensionality": "3D",
+        "method": "LBM-IBM (lattice Boltzmann + immersed boundary, tetrahedral FEM cell)",
+        "model": f"hyper-elastic solid ({settings['material']}, Poisson ratio {nu:g}) / Newtonian fluid",
+        "software": f"elastocell {__version__}",
+        "authors": "elastocell",
+        "summary": (
+            "Stationary shape of a homogeneous cell centred in a CYLINDRICAL channel of radius R_ch = "
+            f"{settings['channel_radius_um']:g} um; channel_width = 2 R_ch/1.094 is the width of the SQUARE RT-DC "
+            "channel it stands for (the equivalent radius of Mietke et al. 2015, as in dclab's LE-2D-FEM-19). "
+            "area_um and deform are the convex hull of the mesh nodes seen from the side (deform = 1 - "
+            "circularity)."),
+        "elastocell": settings,
+    }
+
+
+def _header(metadata: dict, comment: str) -> str:
+    lines = [f"# {line}" if line else "#" for line in comment.splitlines()]
+    lines += ["#", "# BEGIN METADATA"]
+    lines += [f"# {line}" for line in json.dumps(metadata, indent=2, sort_keys=True).splitlines()]
+    lines += ["# END METADATA", "#", "# " + "\t".join(LUT_COLUMNS)]
+    return "\n".join(lines) + "\n"
+
+
+def _rows(records: list[dict]) -> np.ndarray:
+    table = np.array([[r["area_um"], r["deform"], r["emodulus_kpa"]] for r in records], dtype=float)
+    if table.size == 0:
+        return table.reshape(0, 3)
+    return table[np.lexsort((table[:, 0], table[:, 2]))]  # by modulus, then area: isoelastic lines in order
+
+
+def write_lut(path: str | Path, records: list[dict], metadata: dict) -> Path:
+    """The look-up table: dclab's commented-JSON text format, columns area_um, deform, emodulus."""
+    path = Path(path)
+    comment = ("Look-up table for RT-DC computed with elastocell (pipe flow, centred homogeneous cell).\n"
+               "Approximation: cylindrical channel standing for a square one of width channel_width.")
+    body = "".join(f"{a:.6e}\t{d:.6e}\t{e:.6e}\n" for a, d, e in _rows(records))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(_header(metadata, comment) + body)
+    return path
+
+
+def write_isoelastics(path: str | Path, records: list[dict], metadata: dict) -> Path:
+    """Isoelastics (lines of constant E in the area_um-deform plane) in dclab's isoelastics text format
+    (same layout as the LUT, ``lut identifier`` instead of ``identifier``; one line per emodulus value)."""
+    path = Path(path)
+    meta = dict(metadata)
+    meta["lut identifier"] = meta.pop("identifier")
+    comment = "Isoelasticity lines computed with elastocell: one line per emodulus value, sorted by area."
+    body = "".join(f"{a:.6e}\t{d:.6e}\t{e:.6e}\n" for a, d, e in _rows(records))
+    path.write_text(_header(meta, comment) + body)
+    return path
+
+
+def isoelastics_path(path: str | Path) -> Path:
+    path = Path(path)
+    return path.with_name(f"{path.stem}_isoelastics{path.suffix or '.txt'}")
+
+
+def runs_directory(path: str | Path) -> Path:
+    path = Path(path)
+    return path.with_name(f"{path.stem}_runs")
+
+
+def read_lut(path: str | Path) -> tuple[np.ndarray, dict, list[str]]:
+    """(data (N, 3), metadata, column header) of a LUT or isoelastics file written here (as dclab reads it)."""
+    meta_lines, header, inside = [], "", False
+    for line in Path(path).read_text().splitlines():
+        if not line.startswith("#"):
+            break
+        if line.startswith("# BEGIN METADATA"):
+            inside = True
+        elif line.startswith("# END METADATA"):
+            inside = False
+        elif inside:
+            meta_lines.append(line.strip("#").strip())
+        else:
+            header = line
+    data = np.loadtxt(path, ndmin=2)
+    return data, json.loads("\n".join(meta_lines)), header.strip("# ").split("\t")
+
+
+# =========================================================================== driver
+def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=None, moduli=None,
+                quick: bool = False, poisson_ratio: float = 0.48, material: str = "neo-hookean",
+                resolution: float | None = None, duration: float | None = None,
+                stationary_tolerance: float | None = None, identifier: str | None = None,
+                scheduler: str | None = None, workers: int | None = None, progress: bool = False,
+                client=None, channel_width=None) -> dict:
+    """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``.
+
+    channel_radius, flow_rate, viscosity: quantities ("10um", "0.04uL/s", "15mPa*s") or numbers in um, uL/s,
+    mPa s; or ``channel_radius=None`` and ``channel_width`` the width W of a square RT-DC channel (R_ch =
+    1.094 W/2). radii, moduli: comma-separated lists or sequences (numbers in um and kPa); default the full grid
+    (:data:`FULL_RADII_UM` x :data:`FULL_MODULI_KPA`) or, with ``quick``, the 2 x 2 test grid. Returns a
+    summary: paths, the finished records, the failed points (key and one-line error; left out of the table and
+    rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion
+    (kept in the table, listed in the metadata under ``elastocell.not_stationary``: their shape is a transient
+    mean, not a steady shape)."""
+
+    check_execution(scheduler, workers)
+    out = Path(out)
+    if out.exists() and out.is_dir():
+        raise ParameterError("out", f"{out} is a directory; give a file name such as lut.txt")
+    points, settings = plan(channel_radius, flow_rate, viscosity, radii, moduli, quick, poisson_ratio, material,
+                            resolution, duration, stationary_tolerance, channel_width=channel_width)
+    lattice = check_lattice(points)
+    identifier = identifier or f"elastocell-{out.stem}"
+    runs = runs_directory(out)
+    runs.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    records, failures = [], []
+    tasks = [(point, str(runs)) for point in points]
+    dtype = PipeFlowParameters.model_fields["dtype"].default  # the runs' LB storage precision
+    for index, outcome in run_tasks(run_point, tasks, scheduler=scheduler, workers=workers, progress=progress,
+                                    prepare=lambda: compile_kernels((dtype,)),
+                                    description="LUT grid", client=client):
+        if isinstance(outcome, TaskFailure):
+            failures.append({"key": points[index]["key"], "error": str(outcome)})
+        else:
+            records.append(outcome)
+    records.sort(key=lambda r: (r["emodulus_kpa"], r["radius_um"]))
+    metadata = lut_metadata(settings, identifier)
+    not_stationary = [r["key"] for r in records if not r.get("stationary")]
+    metadata["elastocell"] = {**settings, "points": len(points), "finished": len(records),
+                              "failed": [f["key"] for f in failures], "not_stationary": not_stationary}
+    result = {"lut": str(out), "isoelastics": str(isoelastics_path(out)), "runs": str(runs),
+              "records": records, "failures": failures, "wall_time_s": time.perf_counter() - start,
+              "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary}
+    if records:
+        write_lut(out, records, metadata)
+        write_isoelastics(isoelastics_path(out), records, metadata)
+    return result

@@ -1,0 +1,235 @@
+"""Master curves: the converged homogeneous compression curve F/(E R^2) against delta, as data.
+
+A homogeneous sphere of Young's modulus ``E`` and radius ``R`` squeezed between two rigid frictionless plates
+(``delta = 1 - h/(2R)``, DESIGN.md) pushes back with ``F = E R^2 f(delta; nu, law)``. ``f`` is computed once per
+Poisson ratio and material law on two p2 meshes (sizes 0.35/0.1, the default until 2026-12, and 0.25/0.05);
+the finer gives the curve, the difference between the two its error estimate. Curves for nu = 0.45, 0.48, 0.49 (neo-Hookean) ship
+with the package (``elastocell/data/mastercurve_*.csv``) so that fitting needs no simulation; others are
+computed on demand by ``elastocell mastercurve compression`` and cached (``ELASTOCELL_CACHE``), keyed by the
+inputs and the package version.
+
+Small deformations: a mesh under-resolves the contact patch when delta is small (nu = 0.48: the fine mesh is
+6.9 % above Hertz at delta = 0.0125 and the two meshes differ by 9 % there, 3.4 % at 0.05, 1.0 % at 0.1).
+Below ``hertz_blend_below`` (0.1) the curve is therefore Hertz's two-contact law times a ratio that goes
+linearly from 1 at delta = 0 to the computed ratio f/f_Hertz at 0.1 (1.156 at nu = 0.48); above it, monotone
+cubic (PCHIP) interpolation of log f against log delta. The error estimate below 0.1 is the blend's distance from
+the fine mesh (2.5 % at delta = 0.05, nu = 0.48), at least the mesh difference at 0.1.
+
+File format: comment lines ``# {json}`` (metadata: the command, meshes, node counts, versions), then a CSV
+table ``delta,force_per_E_R2,error,force_per_E_R2_default_mesh``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from elastocell.body.cell import Cell
+from elastocell.body.mesh import cache_directory
+from elastocell.files import read_curve_csv, software_versions, write_curve_csv
+from elastocell.parameters.cell import cell_parameters
+from elastocell.parameters.units import ParameterError
+from elastocell.scenarios.compression import CompressionParameters, compress, hertz_force
+from elastocell.version import __version__
+
+SHIPPED_POISSON_RATIOS = (0.45, 0.48, 0.49)
+# (mesh_size, pole_size) of the two meshes: a coarse one (the default p2 mesh until 2026-12; the key and the
+# CSV column keep that name) and a finer one (its error estimate)
+MESHES = {"default": (0.35, 0.1), "fine": (0.25, 0.05)}
+POLE_RADIUS = 0.9  # the pole grading of the shipped curves (the default until session 14)
+DELTA_MAX = 0.75
+STEPS = 60
+HERTZ_BLEND_BELOW = 0.1  # below: Hertz x linear ratio (the meshes differ by > 1 % there, see module doc)
+FORMAT_VERSION = 1
+
+
+@dataclass
+class MasterCurve:
+    """f(delta) = F/(E R^2) of a homogeneous sphere between parallel plates.
+
+    delta, force: the tabulated curve (fine mesh), starting at delta = 0; error: |fine - default mesh|.
+    Call the object with delta (array) for the interpolated f; :meth:`error_at` for the error estimate.
+    """
+
+    delta: np.ndarray
+    force: np.ndarray
+    error: np.ndarray
+    poisson_ratio: float
+    material: str = "neo-hookean"
+    hertz_blend_below: float = HERTZ_BLEND_BELOW
+    metadata: dict = field(default_factory=dict)
+    force_default_mesh: np.ndarray | None = None
+
+    def __post_init__(self):
+        from scipy.interpolate import PchipInterpolator
+
+        self.delta = np.asarray(self.delta, dtype=float)
+        self.force = np.asarray(self.force, dtype=float)
+        self.error = np.asarray(self.error, dtype=float)
+        keep = self.delta >= self.hertz_blend_below - 1e-12
+        if keep.sum() < 4:
+            raise ValueError("master curve: fewer than 4 tabulated points above the Hertz blend")
+        self._start = float(self.delta[keep][0])
+        self._end = float(self.delta[-1])
+        self._log = PchipInterpolator(np.log(self.delta[keep]), np.log(self.force[keep]), extrapolate=True)
+        self._ratio_start = float(self.force[keep][0] / hertz_force(self._start, self.poisson_ratio))
+        # relative error: |fine - default| / fine above the blend; below it, the blend's distance from the fine
+        # mesh, at least the mesh error at the blend's start (an estimate, not a bound: both meshes over-estimate
+        # small-delta forces, and Hertz is exact only as delta -> 0)
+        relative = self.error / np.where(self.force > 0, self.force, np.inf)
+        below = (self.delta > 0) & ~keep
+        if below.any():
+            blend = self(self.delta[below])
+            relative[below] = np.maximum(relative[keep][0], np.abs(blend / self.force[below] - 1))
+        positive = self.delta > 0
+        self._relative_error = PchipInterpolator(self.delta[positive], relative[positive])
+        self._first = float(self.delta[positive][0])
+
+    @property
+    def delta_range(self) -> tuple[float, float]:
+        return 0.0, self._end
+
+    def __call__(self, delta) -> np.ndarray:
+        delta = np.asarray(delta, dtype=float)
+        out = np.zeros_like(delta)
+        positive = delta > 0
+        small = positive & (delta < self._start)
+        large = delta >= self._start
+        d = delta[small]
+        ratio = 1.0 + (self._ratio_start - 1.0) * d / self._start
+        out[small] = hertz_force(d, self.poisson_ratio) * ratio
+        out[large] = np.exp(self._log(np.log(np.minimum(delta[large], self._end))))
+        beyond = delta > self._end
+        if beyond.any():  # continue with the last local power law (only used transiently by optimisers)
+            slope = float(self._log.derivative()(np.log(self._end)))
+            out[beyond] = np.exp(self._log(np.log(self._end))) * (delta[beyond] / self._end) ** slope
+        return out
+
+    def relative_error_at(self, delta) -> np.ndarray:
+        """Estimated relative error of f: |fine - default mesh| / fine; below the Hertz blend the larger of that
+        and |blend - fine| / fine; constant below the first tabulated delta."""
+        delta = np.clip(np.asarray(delta, dtype=float), self._first, self._end)
+        return np.abs(self._relative_error(delta))
+
+    def to_csv(self, path: Path, force_default_mesh: np.ndarray | None = None) -> None:
+        path = Path(path)
+        force_default_mesh = self.force_default_mesh if force_default_mesh is None else force_default_mesh
+        metadata = dict(self.metadata, poisson_ratio=self.poisson_ratio, material=self.material,
+                        hertz_blend_below=self.hertz_blend_below, format_version=FORMAT_VERSION)
+        columns = {"delta": self.delta, "force_per_E_R2": self.force, "error": self.error}
+        if force_default_mesh is not None:
+            columns["force_per_E_R2_default_mesh"] = force_default_mesh
+        write_curve_csv(path, metadata, columns)
+
+    @classmethod
+    def from_csv(cls, path) -> MasterCurve:
+        metadata, table = read_curve_csv(path)
+        return cls(delta=table["delta"], force=table["force_per_E_R2"], error=table["error"],
+                   poisson_ratio=float(metadata["poisson_ratio"]), material=metadata.get("material", "neo-hookean"),
+                   hertz_blend_below=float(metadata.get("hertz_blend_below", HERTZ_BLEND_BELOW)), metadata=metadata,
+                   force_default_mesh=table.get("force_per_E_R2_default_mesh"))
+
+
+def check_inputs(poisson_ratio: float, material: str) -> None:
+    if not (np.isfinite(poisson_ratio) and -1 < poisson_ratio < 0.5):
+        raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {poisson_ratio}")
+    if material not in ("neo-hookean", "mooney-rivlin"):
+        raise ParameterError("material", f"must be neo-hookean or mooney-rivlin, got {material!r}")
+
+
+def shipped_name(poisson_ratio: float, material: str = "neo-hookean") -> str:
+    return f"mastercurve_compression_{material}_nu{poisson_ratio:.4f}.csv"
+
+
+def cache_path(poisson_ratio: float, material: str = "neo-hookean") -> Path:
+    """On-disk cache file of a computed curve, keyed by inputs, meshes, steps and the package version."""
+
+    key = json.dumps({"nu": round(float(poisson_ratio), 10), "material": material, "meshes": MESHES,
+                      "steps": STEPS, "delta_max": DELTA_MAX, "blend": HERTZ_BLEND_BELOW,
+                      "version": __version__, "format": FORMAT_VERSION}, sort_keys=True)
+    digest = hashlib.sha256(key.encode()).hexdigest()[:16]
+    return cache_directory() / f"mastercurve-compression-{digest}.csv"
+
+
+def shipped_file(name: str):
+    """The packaged data file ``name`` (``elastocell/data``), or None."""
+    resource = resources.files("elastocell") / "data" / name
+    return resource if resource.is_file() else None
+
+
+def shipped(poisson_ratio: float, material: str = "neo-hookean") -> MasterCurve | None:
+    resource = shipped_file(shipped_name(poisson_ratio, material))
+    return None if resource is None else MasterCurve.from_csv(resource)
+
+
+def shipped_or_cached(shipped_curve, cached: Path, read, kind: str, poisson_ratio: float, material: str, hint: str = "",
+                      shipped_ratios=SHIPPED_POISSON_RATIOS):
+    """The shipped curve, else the cached file read with ``read``; otherwise a ParameterError naming the
+    ``elastocell mastercurve KIND`` command that computes it."""
+    if shipped_curve is not None:
+        return shipped_curve
+    if cached.exists():
+        return read(cached)
+    shipped_list = ", ".join(f"{nu:g}" for nu in shipped_ratios)
+    raise ParameterError(
+        "poisson_ratio",
+        f"no {kind} master curve for nu={poisson_ratio:g} ({material}); shipped: {shipped_list} (neo-hookean); "
+        f"compute it with: elastocell mastercurve {kind} --poisson-ratio {poisson_ratio:g} --material {material}"
+        + (f" ({hint})" if hint else ""))
+
+
+def load_master_curve(poisson_ratio: float = 0.48, material: str = "neo-hookean") -> MasterCurve:
+    """The shipped curve, else a cached one; otherwise a ParameterError naming the command that computes it."""
+    check_inputs(poisson_ratio, material)
+    return shipped_or_cached(shipped(poisson_ratio, material), cache_path(poisson_ratio, material),
+                             MasterCurve.from_csv, "compression", poisson_ratio, material)
+
+
+def compute_master_curve(poisson_ratio: float = 0.48, material: str = "neo-hookean", use_cache: bool = True,
+                         progress=None, meshes: dict | None = None, steps: int = STEPS) -> MasterCurve:
+    """Compute (or read from the cache) the homogeneous curve on the default and the fine mesh.
+
+    ``progress(mesh_name, delta)`` is called after each converged row. Returns the fine-mesh curve with
+    ``error = |fine - default|``; the default-mesh forces are kept as ``force_default_mesh`` (a CSV column).
+    """
+
+    check_inputs(poisson_ratio, material)
+    meshes = meshes or MESHES
+    path = cache_path(poisson_ratio, material)
+    if use_cache and meshes is MESHES and steps == STEPS and path.exists():
+        return MasterCurve.from_csv(path)
+    forces, info = {}, {}
+    delta = None
+    for name, (mesh_size, pole_size) in meshes.items():
+        start = time.perf_counter()
+        cell = Cell.from_parameters(cell_parameters(nucleus="none", poisson_ratio=poisson_ratio, material=material,
+                                                    element="p2", mesh_size=mesh_size, pole_size=pole_size,
+                                                    pole_radius=POLE_RADIUS))
+        result = compress(cell, CompressionParameters(delta_max=DELTA_MAX, steps=steps),
+                          progress=(lambda d, n=name: progress(n, d)) if progress else None)
+        delta = result.delta
+        forces[name] = result.force
+        info[name] = {"mesh_size": mesh_size, "pole_size": pole_size, "pole_radius": POLE_RADIUS,
+                      "n_nodes": int(cell.mesh.n_nodes),
+                      "wall_time_s": round(time.perf_counter() - start, 2),
+                      "unstable_rows": int(np.asarray(result.unstable).sum()),
+                      "max_rigid_reaction": float(result.max_rigid_reaction)}
+    fine, default = forces["fine"], forces["default"]
+    curve = MasterCurve(
+        delta=delta, force=fine, error=np.abs(fine - default), poisson_ratio=poisson_ratio, material=material,
+        metadata={"command": f"elastocell mastercurve compression --poisson-ratio {poisson_ratio:g} "
+                             f"--material {material}",
+                  "quantity": "F/(E R^2) of a homogeneous sphere between rigid frictionless parallel plates, "
+                              "delta = 1 - h/(2R); error = |fine - default mesh|",
+                  "element": "p2", "steps": steps, "delta_max": DELTA_MAX, "meshes": info,
+                  "elastocell_version": __version__, "software": software_versions()})
+    curve.force_default_mesh = default
+    if use_cache and meshes is MESHES and steps == STEPS:
+        curve.to_csv(path)
+    return curve

@@ -1,0 +1,592 @@
+"""A cell in pressure-driven (Poiseuille) flow through a cylindrical capillary (paper sections 2.6 and 3.3).
+
+Channel (docs/theory.md, "Pipe (capillary) flow"): a cylinder of radius R_ch along x, periodic along x,
+driven by a uniform body-force density G along x (the pressure gradient). Lattice nodes (integer indices)
+whose distance from the axis exceeds R_ch are solid; every fluid-solid link is a half-way bounce-back
+(the staircase of the lattice, no interpolation). The empty channel reproduces Poiseuille flow
+
+    u(r) = G (R_ch^2 - r^2) / (4 eta),      Q = pi G R_ch^4 / (8 eta),
+
+to the accuracy measured by :func:`poiseuille_error` (the staircase makes the error first order in dx).
+
+Scenario: an elastic cell (mesh in units of R, every node an immersed-boundary marker; the coupled stepping
+of :class:`~elastocell.coupling.immersed.ImmersedCell`, whose compiled path applies the lattice's uniform body force and
+its solid mask) starts at the radial offset r0 from the axis, along +y. The driving is set by the capillary
+number at the wall, Ca_w = G R_ch / (2 mu_ref) (mu_ref = mu_c, or mu_eff for the homogeneous equivalent),
+so that the local value is Ca(r) = Ca_w r / R_ch. Time is measured in units of the inverse wall shear rate
+1/gdot_w, gdot_w = G R_ch / (2 eta) (so that Ca_w = eta gdot_w / mu_ref, as Ca in shear flow).
+
+Observables (a row every record): radial position of the volume centroid (units of R_ch), its axial
+velocity (mean marker velocity, units of the empty channel's centre-line speed u_max = G R_ch^2/(4 eta)),
+the local capillary number at the centre, the strains eps_x = l_x/(2R) (extent along the axis) and
+eps_r = l_r/(2R) (extent along y, the radial direction of the start offset; by symmetry the cell stays in
+the x-y plane; 2R is taken as the undeformed mesh's own extent along the same axis, so that a coarse mesh,
+whose extreme nodes lie inside the sphere's poles, reads exactly 1 at rest), the projected side-view contour (the convex hull of the nodes projected on the x-y plane,
+what a camera looking along z sees): its area (units of R^2; pi for the undeformed cell) and its
+deformation 1 - circularity, circularity = 2 sqrt(pi area)/perimeter; the volume change and the nucleus
+position.
+
+Running (:class:`PipeRun`, :func:`pipe`): the simulation runner of the shear-flow scenario
+(:class:`elastocell.simulation.runner.FlowRun` and its output-directory helpers: stop criteria on duration, wall clock
+or a stationary running mean of ``strain_axial`` or ``deformation``, guards, observers, VTK snapshots,
+progress bar, atomic checkpoints whose resumed series equals the uninterrupted one).
+"""
+
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pydantic import model_validator
+
+from elastocell.body.observables import moments
+from elastocell.coupling import ibm
+from elastocell.coupling.immersed import ImmersedCell, immersed_cell
+from elastocell.coupling.markers import FlowError
+from elastocell.coupling.stability import shear_rate_limits
+from elastocell.lattice import Lattice, LatticeParams
+from elastocell.parameters.flow import FlowLatticeParameters
+from elastocell.parameters.units import ParameterError
+from elastocell.simulation.output import save_time_series_figure, time_series_figure
+from elastocell.simulation.runner import FlowRun, StopCriteria
+
+# =========================================================================== empty channel
+
+
+def channel_shape(radius: float, length: int) -> tuple[int, int, int]:
+    """Lattice shape (nx, ny, nz) of a channel of radius ``radius`` (dx) and ``length`` nodes along x: the
+    cross-section holds the disc r <= radius plus at least one solid layer on every side."""
+    n = 2 * int(math.ceil(radius)) + 2
+    return (int(length), n, n)
+
+
+def channel_axis(shape: tuple[int, int, int]) -> tuple[float, float]:
+    """(y, z) of the channel axis in node coordinates: the centre of the cross-section."""
+    return ((shape[1] - 1) / 2.0, (shape[2] - 1) / 2.0)
+
+
+def channel_solid(shape: tuple[int, int, int], radius: float) -> np.ndarray:
+    """Solid mask (nx, ny, nz): nodes farther than ``radius`` (dx) from the axis (a staircase cylinder)."""
+    nx, ny, nz = shape
+    ay, az = channel_axis(shape)
+    y = np.arange(ny) - ay
+    z = np.arange(nz) - az
+    r2 = y[:, None] ** 2 + z[None, :] ** 2
+    return np.broadcast_to(r2 > radius * radius, (nx, ny, nz)).copy()
+
+
+def radial_distance(shape: tuple[int, int, int]) -> np.ndarray:
+    """Distance of every cross-section node (ny, nz) from the axis (dx)."""
+    ay, az = channel_axis(shape)
+    y = np.arange(shape[1]) - ay
+    z = np.arange(shape[2]) - az
+    return np.sqrt(y[:, None] ** 2 + z[None, :] ** 2)
+
+
+def poiseuille_velocity(r, body_force: float, viscosity: float, radius: float):
+    """u(r) = G (R_ch^2 - r^2)/(4 eta) for r <= R_ch, 0 outside (eta = rho0 nu; any consistent units)."""
+    r = np.asarray(r, dtype=float)
+    return np.where(r <= radius, body_force * (radius**2 - r**2) / (4.0 * viscosity), 0.0)
+
+
+def poiseuille_flow_rate(body_force: float, viscosity: float, radius: float) -> float:
+    """Q = pi G R_ch^4 / (8 eta)."""
+    return math.pi * body_force * radius**4 / (8.0 * viscosity)
+
+
+def empty_channel(radius: float, length: int = 4, relaxation_time: float = 1.0, body_force: float = 1e-6,
+                  dtype: str = "float64", initialize: bool = True) -> Lattice:
+    """Lattice of an empty channel of radius ``radius`` (dx) driven by ``body_force`` along x; with
+    ``initialize`` the fluid starts from the closed-form Poiseuille profile (the staircase walls then
+    relax it to the lattice's own steady state in a few hundred steps)."""
+    shape = channel_shape(radius, length)
+    solid = channel_solid(shape, radius)
+    viscosity = (relaxation_time - 0.5) / 3.0
+    u_max = body_force * radius**2 / (4.0 * viscosity)
+    lattice = Lattice(LatticeParams(shape, relaxation_time=relaxation_time, dtype=dtype, solid=solid,
+                                    body_force=(body_force, 0.0, 0.0),
+                                    velocity_limit=min(0.5, max(0.05, 1.5 * u_max))))
+    if initialize:
+        velocity = np.zeros((3,) + shape)
+        velocity[0] = poiseuille_velocity(radial_distance(shape), body_force, viscosity, radius)[None]
+        lattice.initialize(velocity=velocity)
+    return lattice
+
+
+def flow_rate(lattice: Lattice) -> float:
+    """Volumetric flow rate along x (dx^3/dt): the mean over x of the sum of u_x over a cross-section."""
+    u = lattice.velocity()[0]
+    if lattice.solid is not None:
+        u = np.where(lattice.solid, 0.0, u)
+    return float(u.sum(axis=(1, 2)).mean())
+
+
+def relax_to_steady(lattice: Lattice, tolerance: float = 1e-7, chunk: int | None = None,
+                    max_steps: int = 200_000) -> int:
+    """Step until the flow rate changes by less than ``tolerance`` (relative) over one chunk (default
+    R_ch^2/(4 nu) steps, a quarter of a viscous time); returns the steps taken."""
+    nu = lattice.kinematic_viscosity
+    if chunk is None:
+        chunk = max(50, int(0.25 * (lattice.shape[1] / 2.0) ** 2 / nu))
+    q_old = flow_rate(lattice)
+    steps = 0
+    while steps < max_steps:
+        lattice.step(chunk)
+        steps += chunk
+        q = flow_rate(lattice)
+        if abs(q - q_old) <= tolerance * abs(q):
+            break
+        q_old = q
+    return steps
+
+
+def poiseuille_error(radius: float, relaxation_time: float = 1.0, body_force: float = 1e-6, length: int = 2,
+                     dtype: str = "float64", tolerance: float = 1e-8) -> dict:
+    """Steady empty channel against the closed form at R_ch = ``radius`` dx.
+
+    Returns the relative errors of the flow rate (Q_lattice/Q - 1), of the centre-line speed, and the L2
+    error of the profile over the fluid nodes relative to the L2 norm of the closed form, plus the steps."""
+    lattice = empty_channel(radius, length, relaxation_time, body_force, dtype)
+    steps = relax_to_steady(lattice, tolerance)
+    viscosity = lattice.kinematic_viscosity
+    shape = lattice.shape
+    r = radial_distance(shape)
+    fluid = r <= radius
+    u = lattice.velocity()[0].mean(axis=0)
+    exact = poiseuille_velocity(r, body_force, viscosity, radius)
+    q_exact = poiseuille_flow_rate(body_force, viscosity, radius)
+    u_max = body_force * radius**2 / (4.0 * viscosity)
+    centre = np.unravel_index(np.argmin(np.where(fluid, r, np.inf)), r.shape)
+    return {
+        "radius": float(radius),
+        "flow_rate_error": flow_rate(lattice) / q_exact - 1.0,
+        "profile_l2_error": float(np.sqrt(((u - exact)[fluid] ** 2).sum() / (exact[fluid] ** 2).sum())),
+        "profile_max_error": float(np.abs(u - exact)[fluid].max() / u_max),
+        "centre_speed_error": float(u[centre] / exact[centre] - 1.0),
+        "steps": steps,
+    }
+
+
+# =========================================================================== scenario parameters
+DEFAULT_CAPILLARY_NUMBER_WALL = 0.2
+"""Ca_w of the reference runs (benchmarks/pipe.py): the local Ca at the cell's edge, Ca_w R/R_ch = 0.1 at the
+default confinement, is in the range of the shear-flow studies (0.05 - 0.3)."""
+
+DEFAULT_CHANNEL_RADIUS_RATIO = 2.0
+"""R_ch/R default. The paper gives no value in its text and its figures are not in the source we have; a
+cell filling half the channel diameter (R/R_ch = 0.5) is confined enough for the curvature of the profile
+across the cell (u varies by ~25 % of u_max over its diameter) to produce the axisymmetric bullet-like
+shape, while the gap to the wall (R = 8 dx at the default resolution) stays far larger than the
+immersed-boundary kernel's reach, and the lattice stays small (34 x 34 nodes in the cross-section)."""
+
+
+class PipeFlowParameters(FlowLatticeParameters):
+    """Pressure-driven flow of a cell through a cylindrical capillary; numbers are dimensionless unless stated.
+
+    capillary_number_wall: Ca_w = G R_ch / (2 mu_ref) = eta gdot_w / mu_ref, mu_ref = mu_c = E_c/(2(1+nu))
+        (mu_eff for the homogeneous equivalent); the local value is Ca(r) = Ca_w r/R_ch.
+    channel_radius_ratio: R_ch/R (> 1). Default :data:`DEFAULT_CHANNEL_RADIUS_RATIO`.
+    start_offset: r0/R_ch, the initial distance of the cell centre from the axis (along +y); the undeformed
+        cell must lie inside the channel: r0/R_ch + R/R_ch < 1.
+    resolution: R/dx (default 8, as shear flow).
+    box_length: periodic length of the channel along x, in units of R (default 8, as shear flow).
+    relaxation_time: LB tau (time steps); kinematic viscosity (tau - 1/2)/3.
+    reynolds_number: upper limit of the particle Reynolds number gdot_w R^2/nu with the wall shear rate
+        (the largest shear rate in the channel; Stokes regime).
+    velocity_limit: upper limit of the centre-line speed u_max = gdot_w R_ch/2 (dx/dt).
+    kernel: immersed-boundary kernel ("trilinear" or "peskin4").
+    lattice_wall_shear_rate: impose gdot_w (1/dt) instead of the largest allowed one; refused if it breaks
+        a limit.
+    max_steps_per_time: refuse a run needing more LB steps per unit time 1/gdot_w.
+    dtype: LB storage precision.
+    backend: compute engine: "numba" (fused compiled CPU kernels, the fastest on a CPU) or "jax" (the same
+        physics in JAX on its default device: a GPU when JAX has CUDA/ROCm, else the CPU).
+    """
+
+    capillary_number_wall: float
+    channel_radius_ratio: float = DEFAULT_CHANNEL_RADIUS_RATIO
+    start_offset: float = 0.0
+    lattice_wall_shear_rate: float | None = None
+    max_steps_per_time: float = 1.0e6
+
+    @model_validator(mode="after")
+    def _check(self) -> PipeFlowParameters:
+        def require(ok, name, message):
+            if not ok:
+                raise ParameterError(name, message)
+
+        ca = self.capillary_number_wall
+        require(math.isfinite(ca) and ca > 0, "capillary_number_wall", f"must be > 0, got {ca}")
+        ratio = self.channel_radius_ratio
+        require(math.isfinite(ratio) and 1 < ratio <= 20, "channel_radius_ratio",
+                f"R_ch/R must be in (1, 20] (the cell must fit in the channel), got {ratio}")
+        offset = self.start_offset
+        require(math.isfinite(offset) and 0 <= offset < 1 - 1 / ratio, "start_offset",
+                f"r0/R_ch must be in [0, {1 - 1 / ratio:.4g}) at R_ch/R = {ratio:g} (r0 + R < R_ch: the cell "
+                f"inside the channel), got {offset}")
+        check_channel_fit(self.resolution, ratio, offset, self.kernel)
+        if self.lattice_wall_shear_rate is not None:
+            rate = self.lattice_wall_shear_rate
+            require(math.isfinite(rate) and rate > 0, "lattice_wall_shear_rate", f"must be > 0 (1/dt), got {rate}")
+        return self
+
+
+def check_channel_fit(resolution: float, channel_radius_ratio: float, start_offset: float,
+                      kernel: str = "trilinear") -> None:
+    """Raise ParameterError unless the undeformed cell at r0 keeps the kernel's reach + 1 dx from the wall."""
+    radius = float(resolution)
+    channel_radius = channel_radius_ratio * radius
+    half_width = ibm.kernel_half_width(kernel)
+    margin = half_width + 1.0
+    if channel_radius - radius < margin:
+        raise ParameterError(
+            "channel_radius_ratio",
+            f"the wall is {channel_radius - radius:.2f} dx from the centred cell at R_ch/R = "
+            f"{channel_radius_ratio:g} and resolution {resolution:g}; need >= {margin:g} dx (kernel "
+            f"half-width + 1): use R_ch/R >= {1 + margin / radius:.4g} or a higher resolution",
+        )
+    offset = start_offset * channel_radius
+    if offset + radius + margin > channel_radius:
+        raise ParameterError(
+            "start_offset",
+            f"r0/R_ch = {start_offset:g} puts the cell within {channel_radius - offset - radius:.2f} dx of the "
+            f"wall; need >= {margin:g} dx: use r0/R_ch <= {(channel_radius - radius - margin) / channel_radius:.4g}",
+        )
+
+
+@dataclass(frozen=True)
+class PipeUnits:
+    """Lattice parameters of a pipe run (lattice units: dx = R/resolution, dt = one step, rho0 = 1).
+
+    ``shape`` (nx, ny, nz), channel axis along x through ``axis`` (y, z); ``channel_radius`` R_ch (dx);
+    ``body_force`` G; ``wall_shear_rate`` gdot_w = G R_ch/(2 eta) (1/dt); ``centre_speed`` u_max = G R_ch^2/(4 eta);
+    ``youngs_modulus`` E_c such that G R_ch/(2 mu_ref) = Ca_w; ``limits`` the wall shear rates each
+    constraint allows, ``limiting`` the binding one.
+    """
+
+    radius: float
+    channel_radius: float
+    shape: tuple[int, int, int]
+    relaxation_time: float
+    viscosity: float
+    wall_shear_rate: float
+    body_force: float
+    centre_speed: float
+    youngs_modulus: float
+    reference_shear_modulus: float
+    reynolds_number: float
+    channel_reynolds_number: float
+    start_offset: float
+    stiffness_mobility: float
+    stability_number: float
+    min_node_spacing: float
+    limits: dict = field(default_factory=dict)
+    limiting: str = ""
+
+    @property
+    def steps_per_time(self) -> float:
+        """LB steps per unit time 1/gdot_w."""
+        return 1.0 / self.wall_shear_rate
+
+    @property
+    def axis(self) -> tuple[float, float]:
+        return channel_axis(self.shape)
+
+    @property
+    def centre(self) -> np.ndarray:
+        """Initial cell centre (dx): mid-box in x, r0 off the axis along +y."""
+        ay, az = self.axis
+        return np.array([self.shape[0] / 2.0, ay + self.start_offset * self.channel_radius, az])
+
+    def as_dict(self) -> dict:
+        out = {k: getattr(self, k) for k in (
+            "radius", "channel_radius", "relaxation_time", "viscosity", "wall_shear_rate", "body_force",
+            "centre_speed", "youngs_modulus", "reference_shear_modulus", "reynolds_number",
+            "channel_reynolds_number", "start_offset", "stiffness_mobility", "stability_number",
+            "min_node_spacing", "limiting")}  # fmt: skip
+        out["shape"] = list(self.shape)
+        out["axis"] = list(self.axis)
+        out["steps_per_time"] = self.steps_per_time
+        out["limits"] = dict(self.limits)
+        return out
+
+
+def pipe_lattice_units(cell, params: PipeFlowParameters) -> PipeUnits:
+    """Derive the lattice parameters of a pipe run from (Ca_w, R/dx, R_ch/R, r0) and the limits.
+
+    R = resolution, R_ch = ratio R (dx), nu = eta = (tau - 1/2)/3. The wall shear rate is the largest one
+    that keeps (1) the particle Reynolds number gdot_w R^2/nu <= reynolds_number, (2) the centre-line speed
+    gdot_w R_ch/2 <= velocity_limit, (3) the explicit elastic step stable, E_c lambda_max(W K) <=
+    C0 c(tau) c(d) (as :func:`elastocell.scenarios.shear.shear_lattice_units`), with E_c from Ca_w:
+    mu_ref = eta gdot_w/Ca_w, E_c = 2 (1 + nu_p) mu_ref/(mu_ref/mu_c). Then G = 2 eta gdot_w/R_ch.
+    Raises ParameterError when the channel cannot hold the cell with the kernel's reach to spare."""
+    check_channel_fit(params.resolution, params.channel_radius_ratio, params.start_offset, params.kernel)
+    radius = float(params.resolution)
+    channel_radius = params.channel_radius_ratio * radius
+    tau = params.relaxation_time
+    ca = params.capillary_number_wall
+    rates = shear_rate_limits(cell, radius, tau, ca, params.kernel, params.reynolds_number,
+                              params.velocity_limit, channel_radius)
+    viscosity, modulus_per_rate, limits = rates.viscosity, rates.modulus_per_rate, rates.limits
+    stiffness_mobility, spacing = rates.stiffness_mobility, rates.spacing
+    if params.lattice_wall_shear_rate is None:
+        limiting = min(limits, key=limits.get)
+        rate = limits[limiting]
+    else:
+        rate = float(params.lattice_wall_shear_rate)
+        limiting = "lattice_wall_shear_rate"
+        for name, value in limits.items():
+            if rate > value * (1 + 1e-12):
+                raise ParameterError("lattice_wall_shear_rate",
+                                     f"{rate:.4g} breaks the {name} limit; use <= {value:.4g}")
+    if 1.0 / rate > params.max_steps_per_time:
+        raise ParameterError(
+            "capillary_number_wall",
+            f"Ca_w = {ca} needs {1 / rate:.3g} LB steps per unit time 1/gdot_w (limited by {limiting}), more than "
+            f"max_steps_per_time = {params.max_steps_per_time:.3g}: raise capillary_number_wall or lower resolution",
+        )
+    length = int(round(params.box_length * radius))
+    shape = channel_shape(channel_radius, length)
+    youngs_modulus = modulus_per_rate * rate
+    body_force = 2.0 * viscosity * rate / channel_radius
+    centre_speed = rate * channel_radius / 2.0
+    return PipeUnits(
+        radius=radius,
+        channel_radius=channel_radius,
+        shape=shape,
+        relaxation_time=tau,
+        viscosity=viscosity,
+        wall_shear_rate=rate,
+        body_force=body_force,
+        centre_speed=centre_speed,
+        youngs_modulus=youngs_modulus,
+        reference_shear_modulus=viscosity * rate / ca,
+        reynolds_number=rate * radius**2 / viscosity,
+        channel_reynolds_number=0.5 * centre_speed * 2.0 * channel_radius / viscosity,  # mean speed u_max/2
+        start_offset=float(params.start_offset),
+        stiffness_mobility=stiffness_mobility,
+        stability_number=youngs_modulus * stiffness_mobility,
+        min_node_spacing=spacing,
+        limits=limits,
+        limiting=limiting,
+    )
+
+
+def pipe_setup(cell, params: PipeFlowParameters, units: PipeUnits | None = None) -> ImmersedCell:
+    """Channel lattice (Poiseuille profile already established) and the immersed cell at its start."""
+    units = pipe_lattice_units(cell, params) if units is None else units
+    shape = units.shape
+    lattice_params = LatticeParams(
+        shape, relaxation_time=units.relaxation_time, dtype=params.dtype,
+        solid=channel_solid(shape, units.channel_radius), body_force=(units.body_force, 0.0, 0.0),
+        velocity_limit=max(params.velocity_limit, units.centre_speed) * 1.2)
+    velocity = np.zeros((3,) + shape)
+    velocity[0] = poiseuille_velocity(radial_distance(shape), units.body_force, units.viscosity,
+                                      units.channel_radius)[None]
+    return immersed_cell(params.backend, lattice_params, velocity, cell, units, params.kernel)
+
+
+# =========================================================================== observables
+def side_view(x: np.ndarray) -> tuple[float, float]:
+    """(area, perimeter) of the convex hull of the points projected on the x-y plane (units of x)."""
+    from scipy.spatial import ConvexHull
+
+    hull = ConvexHull(np.ascontiguousarray(x[:, :2]))
+    return float(hull.volume), float(hull.area)  # 2D: volume = area, area = perimeter
+
+
+PIPE_COLUMNS = (
+    "time", "radial_position", "axial_velocity", "local_capillary_number", "strain_axial", "strain_radial",
+    "strain_transverse", "projected_area", "deformation", "volume_change", "axial_position", "centre_y",
+    "centre_z", "nucleus_radial_position", "nucleus_axial_offset", "max_speed",
+)  # fmt: skip
+"""Time-series columns: time (1/gdot_w); radial_position |r_c|/R_ch of the volume centroid; axial_velocity
+(u_max); local_capillary_number Ca_w r_c/R_ch; strain_axial l_x/(2R); strain_radial l_y/(2R);
+strain_transverse l_z/(2R); projected_area (R^2, side view along z); deformation 1 - circularity;
+volume_change V/V0 - 1; axial_position (R, distance travelled); centre_y, centre_z (R_ch, from the axis);
+nucleus_radial_position (R_ch) and nucleus_axial_offset (R, ahead of the cell centroid; NaN without a
+nucleus); max_speed (largest marker speed in the last step, dx/dt)."""
+
+STATIONARY_OBSERVABLES = ("strain_axial", "deformation")
+"""Observables the stationary stop criterion of :func:`pipe` may follow."""
+
+
+class PipeRun(FlowRun):
+    """A cell in a capillary, advanced record by record by the shared runner (:class:`~elastocell.simulation.runner.FlowRun`:
+    compiled chunks, guards, stop criteria, observers, atomic checkpoints whose resumed series equals the
+    uninterrupted one).
+
+    Time in units of 1/gdot_w; a record every ``record_interval``. The scenario adds the channel lattice, the
+    columns :data:`PIPE_COLUMNS`, the guard against the cylindrical wall and its summary.
+    """
+
+    COLUMNS = PIPE_COLUMNS
+    TIME_UNIT = "units of 1/gdot_w"
+    WHEN = "time {:.3g}/gdot_w"
+    DRIVING = "capillary_number_wall"
+    RATE = "wall_shear_rate"
+    DEFAULT_RECORD_INTERVAL = 0.1
+    PROGRESS = ("t {task.completed:.2f}/gdot_w", "strain_axial", "eps_x")
+    lattice_units = staticmethod(pipe_lattice_units)
+    setup = staticmethod(pipe_setup)
+    units: PipeUnits
+    params: PipeFlowParameters
+
+    def _start(self) -> None:
+        mesh = self.cell.mesh
+        self._x0 = self.units.centre[0]
+        self.reference_extent = mesh.nodes.max(axis=0) - mesh.nodes.min(axis=0)
+        """Undeformed extent of the mesh along x, y, z (units of R): the 2R of the strains."""
+        self.volume0 = moments(self.system.positions_in_radii(), mesh.elements).volume
+        velocity = self.system.fluid_velocity_at(self.system.positions)
+        self._append(self._row(velocity, 0.0))
+
+    def _measure(self) -> dict:
+        return self._row(self.system.marker_velocities, self.system.max_speed)
+
+    def _row(self, marker_velocity: np.ndarray, max_speed: float) -> dict:
+        units = self.units
+        x = self.system.positions  # dx
+        elements = self.cell.mesh.elements
+        m = moments(x / units.radius, elements)
+        ay, az = units.axis
+        centre = m.centre * units.radius  # dx
+        cy, cz = (centre[1] - ay) / units.channel_radius, (centre[2] - az) / units.channel_radius
+        r_c = math.hypot(cy, cz)
+        extent = (x.max(axis=0) - x.min(axis=0)) / units.radius / self.reference_extent
+        area, perimeter = side_view(x / units.radius)
+        circularity = 2.0 * math.sqrt(math.pi * area) / perimeter
+        if self._nucleus_mask is not None:
+            nc = moments(x / units.radius, elements, self._nucleus_mask).centre * units.radius
+            nucleus_r = math.hypot(nc[1] - ay, nc[2] - az) / units.channel_radius
+            nucleus_dx = (nc[0] - centre[0]) / units.radius
+        else:
+            nucleus_r = nucleus_dx = float("nan")
+        return {
+            "time": self.time, "radial_position": r_c,
+            "axial_velocity": float(marker_velocity[:, 0].mean()) / units.centre_speed,
+            "local_capillary_number": self.params.capillary_number_wall * r_c,
+            "strain_axial": extent[0], "strain_radial": extent[1], "strain_transverse": extent[2],
+            "projected_area": area, "deformation": 1.0 - circularity,
+            "volume_change": m.volume / self.volume0 - 1.0,
+            "axial_position": (centre[0] - self._x0) / units.radius, "centre_y": cy, "centre_z": cz,
+            "nucleus_radial_position": nucleus_r, "nucleus_axial_offset": nucleus_dx, "max_speed": max_speed,
+        }  # fmt: skip
+
+    def _check_walls(self) -> None:
+        units, system = self.units, self.system
+        ay, az = units.axis
+        r = np.hypot(system.positions[:, 1] - ay, system.positions[:, 2] - az)
+        reach = units.channel_radius - ibm.kernel_half_width(self.params.kernel) - 0.5
+        if r.max() > reach:
+            raise FlowError(f"the cell reached the wall at time {self.time:.3g}/gdot_w (within the kernel support): "
+                            "raise channel_radius_ratio or lower start_offset")
+
+    def vtk_origin(self, x: np.ndarray) -> np.ndarray:
+        """The current centroid: the displacement from the undeformed cell moved along with it."""
+        return moments(x, self.cell.mesh.elements).centre
+
+    def vtk_slice(self) -> tuple[int, float]:
+        """The x-y plane through the axis, velocity in u_max."""
+        return int(round(self.units.axis[1])), self.units.centre_speed
+
+    # ------------------------------------------------------------------ results
+    def summary(self, transient: float | None = None) -> dict:
+        """Means and standard deviations over time >= transient (default: the second half of the run), the
+        migration (initial and final radial position, time to halve the offset), lattice parameters, timings."""
+        s = self.arrays()
+        t = s["time"]
+        end = float(t[-1])
+        transient = 0.5 * end if transient is None else float(transient)
+        keep = t >= transient
+        out = {"capillary_number_wall": self.params.capillary_number_wall,
+               "channel_radius_ratio": self.params.channel_radius_ratio,
+               "start_offset": self.params.start_offset, "equivalent": bool(self.cell.is_equivalent),
+               "transient_time": transient, "stationary_records": int(keep.sum())}
+        for name in ("strain_axial", "strain_radial", "strain_transverse", "deformation", "projected_area",
+                     "axial_velocity", "radial_position", "volume_change", "local_capillary_number"):
+            values = s[name][keep]
+            out[f"{name}_mean"] = float(values.mean()) if values.size else float("nan")
+            out[f"{name}_std"] = float(values.std()) if values.size else float("nan")
+        out["radial_position_initial"] = float(s["radial_position"][0])
+        out["deformation_initial"] = float(s["deformation"][0])  # the polygonal hull's own at rest
+        out["projected_area_initial"] = float(s["projected_area"][0])
+        out["reference_extent"] = [float(v) for v in self.reference_extent]
+        out["radial_position"] = float(s["radial_position"][-1])
+        out["migration_half_time"] = migration_time(t, s["radial_position"], 0.5)
+        out["volume_change_max_abs"] = float(np.abs(s["volume_change"]).max())
+        out["bullet_shape"] = bool(out["strain_axial_mean"] < 1.0 < out["strain_radial_mean"])
+        out["duration"] = end
+        out.update(self.run_summary())
+        out["lattice_updates_per_s"] = (self.system.time_step * int(np.prod(self.units.shape)) / self.elapsed
+                                        if self.elapsed > 0 else float("nan"))
+        out["channel_reynolds_number"] = self.units.channel_reynolds_number
+        out["record_interval"] = self.record_interval
+        return out
+
+
+def migration_time(times, radial_positions, fraction: float = 0.5) -> float:
+    """First time the radial position falls to ``fraction`` of its initial value (linear interpolation
+    between records); NaN when it does not within the run or when the cell starts on the axis."""
+    t = np.asarray(times, dtype=float)
+    r = np.asarray(radial_positions, dtype=float)
+    if r.size < 2 or not r[0] > 1e-3:
+        return float("nan")
+    target = fraction * r[0]
+    below = np.nonzero(r <= target)[0]
+    if below.size == 0:
+        return float("nan")
+    i = int(below[0])
+    if i == 0:
+        return float(t[0])
+    return float(t[i - 1] + (t[i] - t[i - 1]) * (r[i - 1] - target) / (r[i - 1] - r[i]))
+
+
+@dataclass
+class PipeResult:
+    """Time series (:data:`PIPE_COLUMNS`) and stationary summary of a pipe run."""
+
+    series: dict
+    summary: dict
+    units: PipeUnits
+
+    def to_frame(self):
+        import pandas as pd
+
+        return pd.DataFrame(self.series)
+
+
+def run_pipe(cell, params: PipeFlowParameters, duration: float = 10.0, record_interval: float = 0.1,
+             transient: float | None = None, callback=None) -> PipeResult:
+    """Run a cell in a capillary for ``duration`` units of 1/gdot_w, in memory; stationary values over
+    time >= ``transient`` (default duration/2). ``callback(row, run)`` after every record. Raises
+    :class:`~elastocell.coupling.markers.FlowError` if the run turns unstable or the cell reaches the wall."""
+    start = time.perf_counter()
+    stop = StopCriteria(duration=duration, unit=PipeRun.TIME_UNIT)
+    run = PipeRun(cell, params, record_interval=record_interval)
+    run.run(stop, observers=() if callback is None else (callback,))
+    summary = run.summary(transient)
+    summary["wall_time_s"] = time.perf_counter() - start
+    return PipeResult(series=run.arrays(), summary=summary, units=run.units)
+
+
+# =========================================================================== output
+def plot_pipe(path: Path, series: dict, summary: dict, title: str = "") -> None:
+    """Strains eps_x, eps_r (with their stationary means) and the radial position against time."""
+    figure, top, bottom = time_series_figure()
+    t = np.asarray(series["time"])
+    start = summary.get("transient_time", 0.0)
+    for name, label, colour in (("strain_axial", r"$\epsilon_x$", "C0"), ("strain_radial", r"$\epsilon_r$", "C1")):
+        mean = summary.get(f"{name}_mean", np.nan)
+        top.plot(t, series[name], lw=1.2, color=colour, label=f"{label} (mean {mean:.4g})")
+        top.hlines(mean, start, t[-1], colors=colour, linestyles="--", lw=1)
+    top.axhline(1.0, color="k", lw=0.6)
+    top.set_ylabel("strain l/(2R)")
+    top.legend(fontsize=8)
+    bottom.plot(t, series["radial_position"], lw=1.2, color="C2")
+    bottom.set_ylabel(r"radial position $r_c/R_{ch}$")
+    save_time_series_figure(path, figure, r"time $\dot\gamma_w t$", title)

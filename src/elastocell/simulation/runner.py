@@ -1,0 +1,371 @@
+"""The simulation runner shared by the flow scenarios.
+
+A :class:`FlowRun` owns one coupled system and its recorded time series. :meth:`FlowRun.run` advances it in
+compiled chunks of one record interval each and, between chunks only (Python never loops over nodes or
+lattice cells):
+
+* records the observables (one row of the time series, measured by the scenario);
+* guards the state: an inverted element or non-finite populations (raised by the compiled steps), the cell
+  within the kernel support of a wall, non-finite fluid or a Mach number above the limit stop the run with a
+  :class:`~elastocell.coupling.markers.FlowError` whose message names the likely cause and the parameter to
+  change;
+* calls the observers ``observer(row, run)`` (output writers, progress);
+* checks the stop criteria (:class:`StopCriteria`: duration in the scenario's time unit, wall-clock limit,
+  stationary running mean of a named observable);
+* writes a checkpoint every ``checkpoint_every`` records: the complete state in one ``.npz`` written to a
+  temporary file and moved into place (atomic: a kill leaves the previous checkpoint intact). A run resumed
+  from it repeats the lost records exactly (the compiled steps are deterministic).
+
+A scenario is a thin subclass (:class:`elastocell.scenarios.shear.ShearRun`,
+:class:`elastocell.scenarios.pipe.PipeRun`): lattice setup, time unit, columns, how a row is measured, its
+wall guard, VTK slice and summary.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+# =========================================================================== shear flow
+import numpy as np
+
+from elastocell.coupling.immersed import ImmersedCell
+from elastocell.coupling.markers import FlowError
+from elastocell.parameters.units import ParameterError
+
+
+def stationary_summary(series: dict, transient: float) -> dict:
+    """Mean and standard deviation of the observables over strain >= transient."""
+    strain = np.asarray(series["strain"])
+    keep = strain >= transient
+    out = {"transient_strain": float(transient), "stationary_records": int(keep.sum())}
+    for name in ("taylor_deformation", "inclination_deg", "volume_change"):
+        values = np.asarray(series[name])[keep]
+        out[f"{name}_mean"] = float(values.mean()) if values.size else float("nan")
+        out[f"{name}_std"] = float(values.std()) if values.size else float("nan")
+    out["volume_change_max_abs"] = float(np.abs(series["volume_change"]).max())
+    return out
+
+CHECKPOINT_VERSION = 3
+"""Version of the checkpoint layout and fingerprint (3: the fingerprint hashes the flow parameters with sorted
+keys, and the coupled step reads the marker velocities from the LB sweep; 2026-12-02)."""
+
+
+@dataclass(frozen=True)
+class StopCriteria:
+    """When a run stops (whichever comes first).
+
+    duration: run length in the scenario's time unit ``unit`` (> 0): strain shear_rate * t for shear flow,
+        gdot_w t for pipe flow.
+    wall_clock: seconds of wall time in this process (None: no limit).
+    stationary_tolerance: stop once the mean of ``stationary_observable`` (a column of the scenario) over the
+        last ``stationary_window`` (time unit) differs from the mean over the window before by less than this
+        fraction of it (None: off). Checked only after ``2 * stationary_window``. The default window (1 strain)
+        is about twice the relaxation of D measured for the reference cell at Ca = 0.1 (D within 1 % of its
+        final value from strain 1 on).
+    unit: the time unit, for messages.
+    """
+
+    duration: float = 10.0
+    wall_clock: float | None = None
+    stationary_tolerance: float | None = None
+    stationary_observable: str = "taylor_deformation"
+    stationary_window: float = 1.0
+    unit: str = "strain"
+
+    def __post_init__(self):
+        if not (math.isfinite(self.duration) and self.duration > 0):
+            raise ParameterError("duration", f"must be > 0 ({self.unit}), got {self.duration}")
+        if self.wall_clock is not None and not self.wall_clock > 0:
+            raise ParameterError("wall_clock", f"must be > 0 seconds, got {self.wall_clock}")
+        if self.stationary_tolerance is not None and not self.stationary_tolerance > 0:
+            raise ParameterError("stationary_tolerance", f"must be > 0, got {self.stationary_tolerance}")
+        if not self.stationary_window > 0:
+            raise ParameterError("stationary_window", f"must be > 0 ({self.unit}), got {self.stationary_window}")
+
+    def is_stationary(self, series: dict, time_column: str = "strain") -> bool:
+        if self.stationary_tolerance is None:
+            return False
+        t = np.asarray(series[time_column])
+        if t[-1] < 2 * self.stationary_window:
+            return False
+        values = np.asarray(series[self.stationary_observable])
+        last = values[t > t[-1] - self.stationary_window]
+        before = values[(t > t[-1] - 2 * self.stationary_window) & (t <= t[-1] - self.stationary_window)]
+        if not (last.size and before.size):
+            return False
+        mean = last.mean()
+        return abs(mean - before.mean()) <= self.stationary_tolerance * abs(mean)
+
+
+class FlowRun:
+    """A cell in a flow, advanced record by record (see the module docstring); base of the scenarios.
+
+    A subclass sets :attr:`COLUMNS` (the first one is the time), :attr:`TIME_UNIT`, :attr:`RATE`,
+    :attr:`DRIVING` (the parameter that sets the flow strength, named by the guards), the record-interval
+    bounds, :attr:`PROGRESS` and defines ``lattice_units(cell, params)``, ``setup(cell, params, units)``,
+    :meth:`_start` (reference state and the first record), :meth:`_measure` (a row
+    after a chunk), :meth:`_check_walls`, :meth:`vtk_origin`, :meth:`vtk_slice` and ``summary``; optionally
+    :meth:`_extra_state`/:meth:`_load_extra` for scenario state in the checkpoint.
+    """
+
+    COLUMNS: tuple[str, ...] = ()
+    TIME_UNIT = "strain"
+    WHEN = "strain {:.3g}"
+    """How the guards name the moment of a failure (formatted with the current time)."""
+    DRIVING = "capillary_number"
+    RATE = "shear_rate"
+    """The units' attribute holding the rate that makes time dimensionless (1/dt)."""
+    DEFAULT_RECORD_INTERVAL = 0.05
+    MAX_RECORD_INTERVAL: float | None = None
+    RECORD_NOTE = ""
+    PROGRESS: tuple[str, str, str] = ("strain {task.completed:.2f}", "taylor_deformation", "D")
+    """Progress bar: time column format, the column shown, its label."""
+
+    def __init__(self, cell, params, record_interval: float | None = None, units=None):
+        record_interval = self.DEFAULT_RECORD_INTERVAL if record_interval is None else record_interval
+        limit = self.MAX_RECORD_INTERVAL
+        if not (math.isfinite(record_interval) and record_interval > 0 and (limit is None or record_interval <= limit)):
+            bounds = "> 0" if limit is None else f"in (0, {limit:g}]"
+            raise ParameterError("record_interval", f"must be {bounds} ({self.TIME_UNIT}{self.RECORD_NOTE}), "
+                                 f"got {record_interval}")
+        self.cell = cell
+        self.params = params
+        self.units = self.lattice_units(cell, params) if units is None else units
+        self.system: ImmersedCell = self.setup(cell, params, self.units)
+        self.steps_per_record = max(1, int(round(record_interval * self.steps_per_time)))
+        self.record_interval = self.steps_per_record * self.time_per_step
+        mesh = cell.mesh
+        self._nucleus_mask = (mesh.region == 1) if bool((mesh.region == 1).any()) else None
+        self.series: dict[str, list] = {name: [] for name in self.COLUMNS}
+        self.elapsed = 0.0  # wall seconds spent advancing, over all sessions (checkpointed)
+        self.session_elapsed = 0.0  # the same in this session only
+        self.wall_time_before = 0.0  # wall seconds of the earlier sessions, up to their last checkpoint
+        self._session_start = time.perf_counter()
+        self.stop_reason = ""
+        self._start()
+
+    # ------------------------------------------------------------------ scenario hooks
+    lattice_units: Callable
+    setup: Callable
+
+    @property
+    def time_per_step(self) -> float:
+        """The scenario's time per LB step: its rate (``units.<RATE>``, 1/dt) times dt."""
+        return getattr(self.units, self.RATE)
+
+    @property
+    def steps_per_time(self) -> float:
+        return 1.0 / self.time_per_step
+
+    def _start(self) -> None:
+        """Reference state (undeformed volume, ...) and the first record."""
+        raise NotImplementedError
+
+    def _measure(self) -> dict:
+        """The row of every column after a chunk."""
+        raise NotImplementedError
+
+    def _check_walls(self) -> None:
+        """Raise FlowError when the cell is within the kernel support of a wall."""
+
+    def vtk_origin(self, x: np.ndarray) -> np.ndarray:
+        """Origin of the displacement written to the cell snapshots (units of R)."""
+        raise NotImplementedError
+
+    def vtk_slice(self) -> tuple[int, float]:
+        """(z index of the fluid slice, velocity unit in dx/dt) of the VTK fluid snapshots."""
+        raise NotImplementedError
+
+    def _extra_state(self) -> dict:
+        return {}
+
+    def _load_extra(self, data) -> None:
+        pass
+
+    # ------------------------------------------------------------------ state
+    @property
+    def time_column(self) -> str:
+        return self.COLUMNS[0]
+
+    @property
+    def time(self) -> float:
+        """Current time in the scenario's unit."""
+        return self.system.time_step * self.time_per_step
+
+    @property
+    def n_records(self) -> int:
+        return len(self.series[self.time_column])
+
+    @property
+    def wall_time_cumulative(self) -> float:
+        """Wall seconds of this session (since the run was built) plus the earlier sessions'."""
+        return self.wall_time_before + time.perf_counter() - self._session_start
+
+    def _append(self, row: dict) -> dict:
+        for name in self.COLUMNS:
+            self.series[name].append(float(row[name]))
+        return row
+
+    # ------------------------------------------------------------------ guards
+    def _check(self) -> None:
+        """Guards between chunks: the cell near a wall, non-finite fluid, Mach number above its limit."""
+        self._check_walls()
+        lattice = self.system.lattice
+        velocity = lattice.velocity()
+        speed = float(np.sqrt(np.einsum("a...,a...->...", velocity, velocity)).max())
+        when = self.WHEN.format(self.time)
+        if not math.isfinite(speed):
+            raise FlowError(
+                f"the fluid became non-finite at {when}: the elastic forces are too stiff for the time step; "
+                f"lower reynolds_number (the lattice shear rate) or raise {self.DRIVING}"
+            )
+        limit = lattice.params.velocity_limit
+        if speed > limit:
+            raise FlowError(
+                f"the lattice speed reached {speed:.3g} dx/dt (Mach {speed * math.sqrt(3):.3g}) above the limit "
+                f"{limit:.3g}: lower velocity_limit or reynolds_number"
+            )
+
+    # ------------------------------------------------------------------ stepping
+    def advance_record(self) -> dict:
+        """One compiled chunk of ``steps_per_record`` steps, the guards, and one record."""
+        t0 = time.perf_counter()
+        self.system.advance(self.steps_per_record)
+        self._check()
+        row = self._append(self._measure())
+        spent = time.perf_counter() - t0
+        self.elapsed += spent
+        self.session_elapsed += spent
+        return row
+
+    def run(self, stop: StopCriteria, observers: tuple[Callable, ...] = (), checkpoint: str | Path | None = None,
+            checkpoint_every: int = 20) -> str:
+        """Advance until a stop criterion holds; returns the reason ("duration", "wall_clock", "stationary").
+
+        observers: ``observer(row, run)`` after every record. checkpoint: path of the ``.npz`` written every
+        ``checkpoint_every`` records and when the run stops."""
+        if checkpoint_every < 1:
+            raise ParameterError("checkpoint_every", f"must be >= 1 record, got {checkpoint_every}")
+        if stop.stationary_tolerance is not None and stop.stationary_observable not in self.COLUMNS:
+            raise ParameterError("stationary_observable", f"must be one of {', '.join(self.COLUMNS[1:])}")
+        session_start = time.perf_counter()
+        n_target = int(math.ceil(stop.duration / self.record_interval - 1e-9))
+        reason = "duration"
+        while self.n_records - 1 < n_target:
+            row = self.advance_record()
+            for observer in observers:
+                observer(row, self)
+            if checkpoint is not None and (self.n_records - 1) % checkpoint_every == 0:
+                self.save(checkpoint)
+            if stop.is_stationary(self.series, self.time_column):
+                reason = "stationary"
+                break
+            if stop.wall_clock is not None and time.perf_counter() - session_start >= stop.wall_clock:
+                reason = "wall_clock"
+                break
+        self.stop_reason = reason
+        if checkpoint is not None:
+            self.save(checkpoint)
+        return reason
+
+    # ------------------------------------------------------------------ results
+    def arrays(self) -> dict[str, np.ndarray]:
+        return {name: np.asarray(values) for name, values in self.series.items()}
+
+    def run_summary(self) -> dict:
+        """What every scenario reports about the run itself: steps, stop reason, timings, lattice."""
+        return {
+            "steps": int(self.system.time_step),
+            "stop_reason": self.stop_reason,
+            "time_stepping_s": self.elapsed,
+            "time_stepping_session_s": self.session_elapsed,
+            "lattice": self.units.as_dict(),
+            "reynolds_number": self.units.reynolds_number,
+            "backend": self.system.backend,
+            "device": getattr(self.system.lattice, "device", "cpu"),
+        }
+
+    # ------------------------------------------------------------------ checkpoints
+    def fingerprint(self) -> str:
+        """Hash of what a checkpoint must match: flow parameters, lattice units, mesh, moduli and law."""
+        digest = hashlib.sha256()
+        digest.update(json.dumps(self.params.model_dump(mode="json"), sort_keys=True).encode())
+        digest.update(json.dumps(self.units.as_dict(), sort_keys=True, default=float).encode())
+        digest.update(np.ascontiguousarray(self.cell.mesh.nodes).tobytes())
+        digest.update(np.ascontiguousarray(self.cell.mesh.elements).tobytes())
+        digest.update(np.ascontiguousarray(self.cell.youngs_moduli, dtype=np.float64).tobytes())
+        digest.update(self.cell.law.name.encode())
+        digest.update(np.ascontiguousarray(self.cell.material_parameters, dtype=np.float64).tobytes())
+        degree = self.cell.parameters.mesh.quadrature_degree
+        if degree not in (None, 2):  # the default keeps older fingerprints
+            # degrees 4-5 changed rule in session 18 (14 points -> 25 with the nodes): not the same run
+            digest.update(f"quadrature {degree}{' nodal 25' if degree in (4, 5) else ''}".encode())
+        digest.update(str(self.steps_per_record).encode())
+        return digest.hexdigest()
+
+    def save(self, path: str | Path) -> None:
+        """Write the complete state to ``path`` atomically (temporary file, then ``os.replace``)."""
+        path = Path(path)
+        arrays = {
+            "version": np.array(CHECKPOINT_VERSION), "fingerprint": np.array(self.fingerprint()),
+            "backend": np.array(self.system.backend), **self.system.state_arrays(), "volume0": np.array(self.volume0),
+            "elapsed": np.array(self.elapsed), "wall_time": np.array(self.wall_time_cumulative),
+        }  # fmt: skip
+        arrays.update(self._extra_state())
+        for name, values in self.series.items():
+            arrays[f"series_{name}"] = np.asarray(values, dtype=np.float64)
+        temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        with open(temporary, "wb") as handle:
+            np.savez(handle, **arrays)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(temporary, path)
+
+    def load(self, path: str | Path) -> None:
+        """Restore the state saved by :meth:`save` (same cell, parameters and record interval)."""
+        with np.load(path, allow_pickle=False) as data:
+            if int(data["version"]) != CHECKPOINT_VERSION:
+                raise ParameterError("resume", f"{path} was written by another elastocell version: rerun without "
+                                     "--resume")
+            backend = str(data["backend"])
+            if backend != self.system.backend:
+                raise ParameterError(
+                    "resume", f"{path} was written by the {backend} backend: resume with --backend {backend}"
+                )
+            if str(data["fingerprint"]) != self.fingerprint():
+                raise ParameterError(
+                    "resume", f"{path} was written for other cell or flow parameters: rerun without --resume "
+                    "or with the original options",
+                )
+            self.system.load_state_arrays(data)
+            self.volume0 = float(data["volume0"])
+            self.elapsed = float(data["elapsed"])
+            self.wall_time_before = float(data["wall_time"]) if "wall_time" in data.files else self.elapsed
+            self._session_start = time.perf_counter()
+            self.series = {name: [float(v) for v in data[f"series_{name}"]] for name in self.COLUMNS}
+            self._load_extra(data)
+
+
+def resume_or_restart(simulate: Callable, out: Path, **options) -> dict:
+    """``simulate(out=out, resume=True, **options)`` for a sweep's run directory (keyed by its options): continue
+    from the checkpoint if it is there and compatible, otherwise (a checkpoint an older elastocell or another
+    backend wrote) delete it and run from the start. ``--resume`` on the command line refuses such a checkpoint
+    instead, because the user asked for that run to continue."""
+    try:
+        return simulate(out=out, resume=True, **options)
+    except ParameterError as error:
+        if error.parameter != "resume":
+            raise
+    (Path(out) / "checkpoint.npz").unlink(missing_ok=True)
+    return simulate(out=out, resume=False, **options)
+
+
+
+
