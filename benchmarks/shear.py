@@ -13,7 +13,7 @@ Every run uses the shear defaults (``ShearFlowParameters()``: R/dx = 8, confinem
 tau = 1, particle Reynolds number 0.1, trilinear kernel) and a uniform p1 mesh with edges of 2 dx
 (``shear_mesh_size``). Stationary values are means over strain >= duration/2; the tank-treading
 frequency is the r^2-weighted mean angular velocity of the surface nodes about the cell centre over the
-same window, in units of the shear rate. Reference (DESIGN.md): D -> (5/4) Ca, 45 deg and 1/2 as Ca -> 0.
+same window, in units of the shear rate. Reference (docs/theory.md): D -> (5/4) Ca, 45 deg and 1/2 as Ca -> 0.
 
 The cost split times each part of the coupled step alone, in the same compiled kernels the coupled step
 calls (the LB sweep with the force field, the compiled elastic forces, spreading + interpolation), over

@@ -1,4 +1,4 @@
-"""Plate compression checks (DESIGN.md section 4, item 3).
+"""Plate compression checks (docs/theory.md, "Verification ladder").
 
 References: Hertz's two-contact limit F/(E R^2) = 4/(3(1-nu^2)) delta^(3/2); equilibrium (equal and opposite
 plate forces); force-free rigid-mode pins; mesh refinement. Tolerances are the discretisation errors measured

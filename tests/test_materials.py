@@ -1,4 +1,4 @@
-"""Material law checks (DESIGN.md section 4, item 1). References: closed forms; tolerances are round-off
+"""Material law checks (docs/theory.md, "Verification ladder"). References: closed forms; tolerances are round-off
 (1e-10) for closed forms and the O(h^2) central-difference error (~1e-7) for finite differences."""
 
 import jax

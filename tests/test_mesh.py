@@ -1,4 +1,4 @@
-"""Mesh and cell checks (DESIGN.md section 4, item 2): element ordering, orientation, patch test, volume and
+"""Mesh and cell checks (docs/theory.md, "Verification ladder"): element ordering, orientation, patch test, volume and
 E_eff against analytic values under refinement. Tolerances come from the errors measured on these meshes
 (stated next to each assertion)."""
 

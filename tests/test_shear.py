@@ -2,7 +2,7 @@
 
 Physics references: exact moments of affinely mapped meshes; rigid rotation; Taylor's small-deformation
 limit of an elastic sphere in Stokes shear flow, D -> (5/4) Ca, tank-treading angular frequency ->
-shear_rate/2 (DESIGN.md, section 1 "Shear flow"). Tolerances of the flow test come from the resolution study
+shear_rate/2 (docs/theory.md, "Shear flow"). Tolerances of the flow test come from the resolution study
 quoted beside it (benchmarks/shear.py reproduces it).
 """
 
@@ -150,7 +150,7 @@ def test_unstable_or_impossible_runs_are_refused_with_the_parameter(coarse_cell)
 
 # --------------------------------------------------------------------------- the cell in shear flow
 def test_homogeneous_cell_at_small_ca_taylor_limit_tank_treading_and_volume(coarse_cell):
-    # Reference (DESIGN.md): unbounded neo-Hookean sphere in Stokes shear flow, D -> (5/4) Ca and a
+    # Reference (docs/theory.md): unbounded neo-Hookean sphere in Stokes shear flow, D -> (5/4) Ca and a
     # tank-treading angular frequency -> shear_rate/2 as Ca -> 0 (viscosity ratio 1 leaves D unchanged at
     # first order but lowers the inclination below 45 deg and the frequency below 1/2 at first order in Ca).
     # Resolution study (Ca = 0.05, p1 mesh with 2 dx edges, confinement 2R/H = 0.2, box 8R, trilinear kernel,

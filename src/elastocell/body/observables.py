@@ -1,4 +1,4 @@
-"""Shape and motion observables of a deformed tetrahedral cell (DESIGN.md section 1, "Shear flow").
+"""Shape and motion observables of a deformed tetrahedral cell (docs/theory.md, "Shear flow").
 
 All integrals are exact over the elements of the mesh in their deformed configuration ``x``:
 
@@ -130,7 +130,7 @@ def equivalent_ellipsoid(m: Moments) -> Ellipsoid:
 
 
 def taylor_deformation(x: np.ndarray, elements: np.ndarray) -> float:
-    """D = (a - c)/(a + c) of the inertia-equivalent ellipsoid (DESIGN.md)."""
+    """D = (a - c)/(a + c) of the inertia-equivalent ellipsoid (docs/theory.md)."""
     return equivalent_ellipsoid(moments(x, elements)).taylor_deformation
 
 

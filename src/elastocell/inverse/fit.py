@@ -1,6 +1,6 @@
 """From a measured compression curve to a Young's modulus: least-squares fits to the master curve and to Hertz.
 
-Geometry: parallel plates (DESIGN.md). The plate's approach ``displacement`` (m, increasing towards the cell)
+Geometry: parallel plates (docs/theory.md). The plate's approach ``displacement`` (m, increasing towards the cell)
 and the ``force`` (N) are converted to ``delta = (displacement - contact_point) / (2 R)`` (the gap is
 ``h = 2R - (displacement - contact_point)``, so ``delta = 1 - h/(2R)``) and fitted by
 ``F = E R^2 f(delta)`` with ``f`` the homogeneous master curve (:mod:`elastocell.inverse.mastercurve`) or Hertz's
@@ -701,7 +701,7 @@ def fit_shear(deformation, shear_stress, deformation_error=0.0, shear_stress_err
               curve=None, cell=None) -> dict:
     """Shear modulus and Young's modulus of a cell from its stationary Taylor deformation in shear flow.
 
-    deformation: D = (a - b)/(a + b) of the stationary cell (DESIGN.md); deformation_error: its standard
+    deformation: D = (a - b)/(a + b) of the stationary cell (docs/theory.md); deformation_error: its standard
     uncertainty (1 sigma). shear_stress: tau = eta * shear_rate of the flow (Pa; '12Pa' accepted);
     shear_stress_error: its standard uncertainty (Pa). The shear master curve D(Ca) is inverted for
     Ca = eta shear_rate / mu = tau / mu, so mu = tau / Ca and E = 2 mu (1 + nu).

@@ -1,7 +1,7 @@
 """Master curves: the converged homogeneous compression curve F/(E R^2) against delta, as data.
 
 A homogeneous sphere of Young's modulus ``E`` and radius ``R`` squeezed between two rigid frictionless plates
-(``delta = 1 - h/(2R)``, DESIGN.md) pushes back with ``F = E R^2 f(delta; nu, law)``. ``f`` is computed once per
+(``delta = 1 - h/(2R)``, docs/theory.md) pushes back with ``F = E R^2 f(delta; nu, law)``. ``f`` is computed once per
 Poisson ratio and material law on two p2 meshes (sizes 0.35/0.1, the default until 2026-12, and 0.25/0.05);
 the finer gives the curve, the difference between the two its error estimate. Curves for nu = 0.45, 0.48, 0.49 (neo-Hookean) ship
 with the package (``elastocell/data/mastercurve_*.csv``) so that fitting needs no simulation; others are

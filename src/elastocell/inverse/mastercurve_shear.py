@@ -1,7 +1,7 @@
 """The shear-flow master curve: Taylor deformation D, inclination and tank-treading frequency against Ca.
 
 A homogeneous neo-Hookean cell (Kelvin-Voigt: the immersed-boundary fluid fills it, viscosity ratio 1) in plane
-Couette flow reaches a stationary tank-treading shape (DESIGN.md, "Shear flow"). Its stationary observables
+Couette flow reaches a stationary tank-treading shape (docs/theory.md, "Shear flow"). Its stationary observables
 depend only on the capillary number ``Ca = eta * shear_rate / mu`` (and nu, the material law and the
 numerics), so measuring D gives Ca and, with the shear stress ``tau = eta * shear_rate``, the shear modulus
 ``mu = tau / Ca`` (:func:`elastocell.inverse.fit.fit_shear`).
