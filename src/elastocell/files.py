@@ -110,3 +110,14 @@ class Stopwatch:
     @property
     def elapsed(self) -> float:
         return time.perf_counter() - self.start
+
+
+def save_figure(figure, path: Path, **options) -> None:
+    """``figure.savefig`` written atomically (format from the suffix): a full disk or a kill leaves the previous
+    figure or none, never a truncated one; a failed write raises OSError naming the file."""
+    path = Path(path)
+    try:
+        replace_atomically(path, lambda temporary: figure.savefig(temporary, format=path.suffix.lstrip(".") or None,
+                                                                  **options))
+    except OSError as error:
+        raise OSError(error.errno, f"cannot write {path}: {error.strerror or error}", str(path)) from None

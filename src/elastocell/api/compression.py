@@ -9,13 +9,15 @@ the same files.
 
 from __future__ import annotations
 
+import hashlib
+import json
 from pathlib import Path
 
 import numpy as np
 
 from elastocell.api.plotting import plot_compression
 from elastocell.body.cell import Cell, enable_compilation_cache
-from elastocell.files import Stopwatch, software_versions, write_json, write_table
+from elastocell.files import Stopwatch, replace_atomically, software_versions, write_json, write_table
 from elastocell.parameters.cell import (
     CellParameters,
     cell_parameters,
@@ -24,11 +26,13 @@ from elastocell.parameters.cell import (
 from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.compression import (
     CompressionError,
+    CompressionInterrupted,
     CompressionParameters,
     CompressionResult,
     compression_parameters_for,
 )
 from elastocell.scenarios.compression import compress as compress_cell
+from elastocell.simulation.directory import interruptible, output_directory
 from elastocell.simulation.output import von_mises, vtk_enabled, write_vtk_series
 
 
@@ -57,6 +61,7 @@ def compress(
     vtk: bool = True,
     solver: str = "auto",
     progress: bool = True,
+    resume: bool = False,
     **cell_options,
 ) -> dict:
     """Compress a cell between two plates and write ``out/compression.csv``, ``metadata.json``,
@@ -69,6 +74,14 @@ def compress(
     equivalent: simulate the homogeneous equivalent of the described cell instead.
     compare: also simulate the equivalent (written to ``out/equivalent/``) and draw both in
     ``out/comparison.png`` with their force ratio in ``out/comparison.csv``.
+    resume: continue an interrupted curve from ``out/checkpoint.npz`` (written after every converged row) when
+    it was made with the same parameters; otherwise the curve starts at delta = 0.
+
+    Every option is validated before a file is written. One run at a time per ``out`` (a lock; see
+    :func:`elastocell.simulation.directory.output_directory`). Ctrl-C or SIGTERM during the curve writes the
+    converged rows (``compression.csv``, a ``metadata.json`` with ``"complete": false`` and
+    ``interrupted_at_delta``) and raises :class:`~elastocell.scenarios.compression.CompressionInterrupted`;
+    ``resume=True`` continues from there.
     """
     if cell is not None and cell_options:
         raise ParameterError("cell", f"give either cell= or cell options, not both ({', '.join(cell_options)})")
@@ -76,19 +89,65 @@ def compress(
         raise ParameterError("compare", "--compare already runs the equivalent; do not combine it with --equivalent")
     cell = compression_parameters_for(cell or cell_parameters(**cell_options))
     scenario = CompressionParameters(delta_max=delta_max, steps=steps)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    enable_compilation_cache()
-    body = Cell.from_parameters(cell)
-    primary = body.equivalent() if equivalent else body
-    label = "homogeneous equivalent" if equivalent else describe_cell(cell)
-    summary = _run_and_write(out, primary, scenario, cell, solver, progress, label, vtk)
-    if compare and not equivalent:
-        other = _run_and_write(out / "equivalent", body.equivalent(), scenario, cell, solver, progress,
-                               "homogeneous equivalent", vtk)
-        _write_comparison(out, summary, other, cell)
-        summary["equivalent_summary"] = other
+    with output_directory(out) as out, interruptible():
+        enable_compilation_cache()
+        body = Cell.from_parameters(cell)
+        primary = body.equivalent() if equivalent else body
+        label = "homogeneous equivalent" if equivalent else describe_cell(cell)
+        summary = _run_and_write(out, primary, scenario, cell, solver, progress, label, vtk, resume)
+        if compare and not equivalent:
+            other = _run_and_write(out / "equivalent", body.equivalent(), scenario, cell, solver, progress,
+                                   "homogeneous equivalent", vtk, resume)
+            _write_comparison(out, summary, other, cell)
+            summary["equivalent_summary"] = other
     return summary
+
+
+CHECKPOINT_FORMAT = 1
+"""Layout of a compression ``checkpoint.npz``: the rows of :class:`CompressionResult` and a fingerprint."""
+
+
+def _fingerprint(body: Cell, cell: CellParameters, scenario: CompressionParameters, solver: str) -> str:
+    """The hash of everything that determines the curve: the resolved cell, the load steps, which body (cell
+    or its equivalent) and the solver."""
+    identity = {"cell": cell.model_dump(mode="json"), "compression": scenario.model_dump(mode="json"),
+                "equivalent": body.is_equivalent, "solver": solver, "format": CHECKPOINT_FORMAT}
+    return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
+
+
+def _save_checkpoint(path: Path, result: CompressionResult, fingerprint: str) -> None:
+    arrays = {name: getattr(result, name) for name in CHECKPOINT_ARRAYS}
+    counts = np.array([result.newton_iterations, result.substeps])
+    replace_atomically(path, lambda temporary: np.savez(
+        temporary.open("wb"), fingerprint=np.array(fingerprint), counts=counts,
+        scalars=np.array([result.max_rigid_reaction, result.wall_time]), **arrays))
+
+
+CHECKPOINT_ARRAYS = ("delta", "force", "force_lower", "positions", "contact_nodes_upper", "unstable",
+                     "min_nodal_jacobian", "min_volume_ratio")
+
+
+def _load_checkpoint(path: Path, fingerprint: str, n_nodes: int) -> CompressionResult:
+    """The rows of an interrupted curve; a damaged or foreign file is one ParameterError naming --resume."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            found = str(data["fingerprint"])
+            arrays = {name: np.array(data[name]) for name in CHECKPOINT_ARRAYS}
+            iterations, substeps = (int(v) for v in data["counts"])
+            reaction, wall_time = (float(v) for v in data["scalars"])
+    except Exception as error:  # truncated, garbled, not an npz, missing arrays, pickled objects
+        raise ParameterError("resume", f"cannot continue from {path}: the file is damaged or not a compression "
+                                       f"checkpoint ({type(error).__name__}); delete it to start again") from None
+    if found != fingerprint:
+        raise ParameterError("resume", f"{path} belongs to a curve with other parameters; rerun with the same "
+                                       "options, or delete it to start again")
+    rows = len(arrays["delta"])
+    if rows < 1 or arrays["positions"].shape != (rows, n_nodes, 3) or any(len(a) != rows for a in arrays.values()):
+        raise ParameterError("resume", f"cannot continue from {path}: its arrays are inconsistent; delete it to "
+                                       "start again")
+    return CompressionResult(**arrays, newton_iterations=iterations, factorisations=0, analyses=0,
+                             substeps=substeps, max_rigid_reaction=reaction, wall_time=wall_time, solver="",
+                             history=[])
 
 
 def _progress_bar(enabled: bool):
@@ -104,9 +163,12 @@ def _progress_bar(enabled: bool):
 
 
 def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell: CellParameters, solver: str,
-                   show_progress: bool, label: str, vtk: bool = True) -> dict:
+                   show_progress: bool, label: str, vtk: bool = True, resume: bool = False) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     clock = Stopwatch()
+    checkpoint = out / "checkpoint.npz"
+    fingerprint = _fingerprint(body, cell, scenario, solver)
+    start = _load_checkpoint(checkpoint, fingerprint, body.mesh.n_nodes) if resume and checkpoint.exists() else None
     with _progress_bar(show_progress) as progress:
         if progress is not None:
             task = progress.add_task(f"compress {label}", total=scenario.delta_max)
@@ -114,20 +176,17 @@ def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell:
         else:
             callback = None
         try:
-            result = compress_cell(body, scenario, solver=solver, progress=callback)
+            result = compress_cell(body, scenario, solver=solver, progress=callback, resume_from=start,
+                                   on_row=lambda rows: _save_checkpoint(checkpoint, rows, fingerprint))
             failure = None
+        except CompressionInterrupted as error:  # the converged rows, marked incomplete, then stop
+            _write_interrupted(out, body, cell, scenario, label, solver, clock, error.partial)
+            raise CompressionInterrupted(f"{error} in {out}; rerun with --resume to continue", error.partial) from None
         except CompressionError as error:  # keep every converged row, then report
             if error.partial is None or len(error.partial.delta) < 2:
                 raise
             result, failure = error.partial, error
-    gamma_eff = body.effective_stiffness_ratio if not body.is_equivalent else body.youngs_moduli[0]
-    scale = cell.force_scale()
-    table = {
-        "delta": result.delta,
-        "force": result.force * scale,
-        "force_per_Ec_R2": result.force,
-        "force_per_Eeff_R2": result.force / gamma_eff,
-    }
+    table, gamma_eff = _table(result, body, cell)
     write_table(out / "compression.csv", table)
 
     plot_compression(out / "compression.png", [{"label": label, **table}], cell.material.poisson_ratio, title=label)
@@ -147,9 +206,35 @@ def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell:
     if failure is not None:
         summary["error"] = str(failure)
     write_json(out / "metadata.json", summary)
+    if checkpoint.exists():  # the curve is on disk in full: nothing left to continue
+        checkpoint.unlink()
     if failure is not None:
         raise CompressionError(f"{failure} (rows up to delta={result.delta[-1]:.4f} written to {out})", None)
     return summary
+
+
+def _table(result: CompressionResult, body: Cell, cell: CellParameters) -> tuple[dict, float]:
+    """The columns of ``compression.csv`` and E_eff/E_c of the body."""
+    gamma_eff = body.effective_stiffness_ratio if not body.is_equivalent else body.youngs_moduli[0]
+    scale = cell.force_scale()
+    return {
+        "delta": result.delta,
+        "force": result.force * scale,
+        "force_per_Ec_R2": result.force,
+        "force_per_Eeff_R2": result.force / gamma_eff,
+    }, gamma_eff
+
+
+def _write_interrupted(out: Path, body: Cell, cell: CellParameters, scenario: CompressionParameters, label: str,
+                       solver: str, clock: Stopwatch, partial: CompressionResult) -> None:
+    """The rows converged before an interruption, and metadata that says the curve is incomplete and where it
+    stopped (the checkpoint beside them lets ``resume`` continue)."""
+    table, gamma_eff = _table(partial, body, cell)
+    write_table(out / "compression.csv", table)
+    summary = _metadata(partial, body, cell, scenario, label, gamma_eff, clock.elapsed, solver)
+    summary.update(complete=False, interrupted=True, interrupted_at_delta=float(partial.delta[-1]),
+                   delta_reached=float(partial.delta[-1]))
+    write_json(out / "metadata.json", summary)
 
 
 def _metadata(result: CompressionResult, body: Cell, cell: CellParameters, scenario: CompressionParameters,

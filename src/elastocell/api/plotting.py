@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from elastocell.files import save_figure
 from elastocell.scenarios.compression import hertz_force
 
 
@@ -35,5 +36,5 @@ def plot_compression(path: Path, curves: list[dict], poisson_ratio: float = 0.48
         axis.legend(fontsize=8)
     if title:
         figure.suptitle(title)
-    figure.savefig(path, dpi=130)
+    save_figure(figure, path, dpi=130)
     plt.close(figure)

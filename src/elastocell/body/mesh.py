@@ -150,11 +150,25 @@ def build_mesh(cell: CellParameters, use_cache: bool = True) -> CellMesh:
     return mesh
 
 
+def _reinstall_signal_handlers() -> None:
+    """Give the operating system back Python's handlers of SIGINT and SIGTERM (gmsh's initialize installs its
+    own at the C level, so that a stop signal would kill the process without the run writing what it has)."""
+    import signal
+
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for number in (signal.SIGINT, signal.SIGTERM):
+        handler = signal.getsignal(number)
+        if handler is not None:
+            signal.signal(number, handler)
+
+
 def _generate(nucleus: NucleusParameters, parameters: MeshParameters) -> CellMesh:
     import gmsh
 
     with _gmsh_lock:
         gmsh.initialize(interruptible=False)
+        _reinstall_signal_handlers()  # gmsh's initialize resets SIGTERM's handler to the default (kill)
         try:
             gmsh.option.setNumber("General.Terminal", 0)
             gmsh.option.setNumber("General.NumThreads", 1)

@@ -44,7 +44,7 @@ import numpy as np
 
 from elastocell.api.plotting import plt
 from elastocell.body.effective_moduli import hashin_shtrikman_upper
-from elastocell.files import replace_atomically, software_versions, write_json
+from elastocell.files import replace_atomically, save_figure, software_versions, write_json
 from elastocell.inverse.mastercurve import MasterCurve, load_master_curve
 from elastocell.inverse.mastercurve_shear import load_shear_master_curve
 from elastocell.parameters.units import ParameterError, parse_quantity
@@ -434,7 +434,7 @@ def plot_fit(path: Path, row: dict) -> None:
     bottom.set_ylabel("residual (nN)")
     for axis in (top, bottom):
         axis.grid(alpha=0.3)
-    figure.savefig(path, dpi=110)
+    save_figure(figure, path, dpi=110)
     plt.close(figure)
 
 

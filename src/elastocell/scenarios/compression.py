@@ -65,6 +65,11 @@ class CompressionError(RuntimeError):
         self.partial = partial
 
 
+class CompressionInterrupted(CompressionError):
+    """The curve was interrupted (Ctrl-C, SIGTERM) between or during load steps; ``partial`` holds every row
+    converged before, from which :func:`compress` can continue (``resume_from=``)."""
+
+
 @dataclass
 class CompressionResult:
     """A force-deformation curve (dimensionless: lengths in R, forces in E_c R^2).
@@ -415,7 +420,7 @@ def min_volume_ratio(cell: Cell, x: np.ndarray) -> float:
     """Smallest volume ratio J = det F of the cell at positions ``x``, sampled at the points of the 4-point rule in
     every quadratic element (the centroid of a linear one), whatever rule the energy uses, so that the value does
     not depend on ``quadrature_degree`` (the 25-point rule's corner points would add extrapolated values): how far
-    the material is compressed in volume somewhere. In the compressible laws of DESIGN.md section 1 the mean Cauchy
+    the material is compressed in volume somewhere. In the compressible laws of docs/theory.md, "Materials", the mean Cauchy
     stress is kappa (J - 1) (the isochoric term adds a traceless part), so its magnitude never exceeds
     kappa = E / (3 (1 - 2 nu)) (8.3 E at nu = 0.48): a thin soft layer pressed by a stiff nucleus carries the load
     by collapsing to a small J, its deviatoric stress growing like J^(-5/3). A physical cytoplasm (mostly water)
@@ -438,9 +443,16 @@ def plate_forces(problem: _Problem, x: np.ndarray) -> tuple[float, float, int, f
 
 
 def compress(cell: Cell, parameters: CompressionParameters | None = None, solver: str = "auto",
-             progress: Callable[[float], None] | None = None, precision: str = "mixed") -> CompressionResult:
+             progress: Callable[[float], None] | None = None, precision: str = "mixed",
+             resume_from: CompressionResult | None = None,
+             on_row: Callable[[CompressionResult], None] | None = None) -> CompressionResult:
     """Force-deformation curve of ``cell`` from delta = 0 to ``parameters.delta_max``. ``solver`` and
     ``precision``: the sparse solver (see :class:`elastocell.solvers.sparse.SparseSolver`).
+
+    ``resume_from``: the rows of an interrupted curve of the same cell and parameters; the curve continues from its
+    last row (the load steps are the same, so the rows equal an uninterrupted curve's up to the solver's
+    tolerance). ``on_row(result)`` is called with the curve so far after every converged row (a checkpoint).
+    An interruption (KeyboardInterrupt) raises :class:`CompressionInterrupted` holding the converged rows.
 
     OpenBLAS (NumPy's and SciPy's BLAS) runs on one thread meanwhile: its only work here is dot products and
     small matrix products, and after each one its worker threads busy-wait for more, taking a core from PARDISO's
@@ -449,11 +461,12 @@ def compress(cell: Cell, parameters: CompressionParameters | None = None, solver
     from threadpoolctl import ThreadpoolController
 
     with ThreadpoolController().select(internal_api="openblas").limit(limits=1):
-        return _compress(cell, parameters, solver, progress, precision)
+        return _compress(cell, parameters, solver, progress, precision, resume_from, on_row)
 
 
 def _compress(cell: Cell, parameters: CompressionParameters | None, solver: str,
-              progress: Callable[[float], None] | None, precision: str) -> CompressionResult:
+              progress: Callable[[float], None] | None, precision: str, resume_from: CompressionResult | None,
+              on_row: Callable[[CompressionResult], None] | None) -> CompressionResult:
     parameters = parameters or CompressionParameters()
     start = time.perf_counter()
     problem = _setup(cell)
@@ -466,9 +479,48 @@ def _compress(cell: Cell, parameters: CompressionParameters | None, solver: str,
     reference_jacobians = nodal_jacobians(cell.mesh.nodes, cell.mesh.elements)
     iterations_total, substeps, max_reaction = 0, 0, 0.0
     history: list = []
-    delta, failure = 0.0, None
+    delta, failure, interrupted = 0.0, None, False
+    if resume_from is not None:
+        if resume_from.positions.shape[1:] != cell.mesh.nodes.shape:
+            raise ValueError(f"the curve to continue has {resume_from.positions.shape[1]} nodes, the cell {cell.mesh.n_nodes}")
+        rows_delta, rows_force, rows_lower = list(resume_from.delta), list(resume_from.force), list(resume_from.force_lower)
+        rows_positions = [p.ravel().copy() for p in resume_from.positions]
+        rows_contacts, rows_unstable = list(resume_from.contact_nodes_upper), list(resume_from.unstable)
+        rows_jacobian, rows_volume_ratio = list(resume_from.min_nodal_jacobian), list(resume_from.min_volume_ratio)
+        iterations_total, substeps, max_reaction = resume_from.newton_iterations, resume_from.substeps, resume_from.max_rigid_reaction
+        history = list(resume_from.history)
+        x, delta = rows_positions[-1].copy(), float(rows_delta[-1])
+        problem.set_delta(delta)  # the plates where the interrupted curve left them
+        elapsed_before = resume_from.wall_time
+    else:
+        elapsed_before = 0.0
+
+    def result_so_far() -> CompressionResult:
+        return CompressionResult(
+            delta=np.array(rows_delta),
+            force=np.array(rows_force),
+            force_lower=np.array(rows_lower),
+            positions=np.array(rows_positions).reshape(len(rows_delta), -1, 3),
+            contact_nodes_upper=np.array(rows_contacts),
+            unstable=np.array(rows_unstable, dtype=bool),
+            min_nodal_jacobian=np.array(rows_jacobian),
+            min_volume_ratio=np.array(rows_volume_ratio),
+            newton_iterations=iterations_total,
+            factorisations=linear_solver.factorisations,
+            analyses=linear_solver.analyses,
+            substeps=substeps,
+            max_rigid_reaction=max_reaction,
+            wall_time=elapsed_before + time.perf_counter() - start,
+            solver=linear_solver.backend,
+            precision=linear_solver.precision,
+            refinements=linear_solver.refinements,
+            history=history,
+        )
+
     try:
         for target in targets[1:]:
+            if target <= delta + 1e-12:  # reached before the interruption this curve continues
+                continue
             increment = target - delta
             while delta < target - 1e-14:
                 trial_delta = min(target, delta + increment)
@@ -508,30 +560,17 @@ def _compress(cell: Cell, parameters: CompressionParameters | None, solver: str,
             rows_unstable.append(row_shift != MIN_SHIFT and is_saddle(problem, x, linear_solver, pattern))
             rows_jacobian.append(min_nodal_jacobian(cell, x, reference_jacobians))
             rows_volume_ratio.append(min_volume_ratio(cell, x))
+            if on_row is not None:
+                on_row(result_so_far())
             if progress is not None:
                 progress(delta)
+    except KeyboardInterrupt:  # the step in progress is lost, every converged row is kept
+        interrupted = True
     finally:
         linear_solver.close()
-    result = CompressionResult(
-        delta=np.array(rows_delta),
-        force=np.array(rows_force),
-        force_lower=np.array(rows_lower),
-        positions=np.array(rows_positions).reshape(len(rows_delta), -1, 3),
-        contact_nodes_upper=np.array(rows_contacts),
-        unstable=np.array(rows_unstable),
-        min_nodal_jacobian=np.array(rows_jacobian),
-        min_volume_ratio=np.array(rows_volume_ratio),
-        newton_iterations=iterations_total,
-        factorisations=linear_solver.factorisations,
-        analyses=linear_solver.analyses,
-        substeps=substeps,
-        max_rigid_reaction=max_reaction,
-        wall_time=time.perf_counter() - start,
-        solver=linear_solver.backend,
-        precision=linear_solver.precision,
-        refinements=linear_solver.refinements,
-        history=history,
-    )
+    result = result_so_far()
+    if interrupted:
+        raise CompressionInterrupted(f"interrupted at delta={delta:.4f} ({len(rows_delta)} rows converged)", result)
     if failure:
         raise CompressionError(failure, result)
     return result

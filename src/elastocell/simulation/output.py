@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from elastocell.body.mesh import CellMesh
-from elastocell.files import software_versions, write_table
+from elastocell.files import save_figure, software_versions, write_table
 from elastocell.parameters.units import ParameterError
 from elastocell.simulation.runner import FlowRun, StopCriteria
 
@@ -126,7 +126,7 @@ def save_time_series_figure(path: Path, figure, xlabel: str, title: str = "") ->
         axis.grid(alpha=0.3)
     if title:
         top.set_title(title, fontsize=9)
-    figure.savefig(path, dpi=130)
+    save_figure(figure, path, dpi=130)
     plt.close(figure)
 
 

@@ -11,7 +11,7 @@ import numpy as np
 from elastocell.body.cell import Cell
 from elastocell.parameters.cell import cell_parameters
 from elastocell.studies.base import Claim, Study
-from elastocell.studies.compression import new_figure, percent, save_figure, settings
+from elastocell.studies.compression import new_figure, percent, save_study_figure, settings
 
 MODELS = (
     ("nucleus cell (gamma 10, lambda 0.5)", {"stiffness_ratio": 10, "size_ratio": 0.5}, False),
@@ -92,7 +92,7 @@ def plot_models(frame, directory: Path, stem: str, quick: bool | None = None) ->
         axis.set_xlabel("x/R")
         axis.set_ylabel("z/R")
     figure.colorbar(collection, ax=axes[0].tolist(), label=r"stiffness ratio $E_i/E_c$", shrink=0.8)
-    return save_figure(figure, directory, stem)
+    return save_study_figure(figure, directory, stem)
 
 
 def claims_models(frame) -> list[Claim]:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from elastocell.files import save_figure as write_figure
 from elastocell.studies.base import Claim, Member, Run, Study, rows_per_delta
 
 DELTA_MIN = 0.05
@@ -204,12 +205,12 @@ def _style(equivalent: bool, colour: str) -> dict:
     return {"color": colour, "lw": 1.4} if equivalent else {"color": colour, "marker": "o", "ms": 3, "ls": "none"}
 
 
-def save_figure(figure, directory: Path, stem: str) -> list[Path]:
+def save_study_figure(figure, directory: Path, stem: str) -> list[Path]:
     import matplotlib.pyplot as plt
 
     paths = [directory / f"{stem}.png", directory / f"{stem}.pdf"]
-    figure.savefig(paths[0], dpi=140)
-    figure.savefig(paths[1])
+    write_figure(figure, paths[0], dpi=140)
+    write_figure(figure, paths[1])
     plt.close(figure)
     return paths
 
@@ -263,7 +264,7 @@ def plot_stiffness(frame, directory: Path, stem: str) -> list[Path]:
     _draw(axes[0][0], frame, pairs, 1, axes[0][1])
     axes[0][0].set_title(r"(a) force against deformation, $\lambda = 0.5$")
     axes[0][1].set_title(r"(b) $F/F_\mathrm{eq} - 1$")
-    return save_figure(figure, directory, stem)
+    return save_study_figure(figure, directory, stem)
 
 
 def claims_stiffness(frame) -> list[Claim]:
@@ -363,7 +364,7 @@ def plot_normalised(frame, directory: Path, stem: str) -> list[Path]:
     _draw(axes[0][1], frame, pairs_of(frame, "size"), 2, axes[1][1])
     axes[0][0].set_title(r"(a) $F^*$, stiffness ratios ($\lambda$ = 0.5) and random cell")
     axes[0][1].set_title(r"(b) $F^*$, size ratios ($\gamma$ = 2)")
-    return save_figure(figure, directory, stem)
+    return save_study_figure(figure, directory, stem)
 
 
 def size_peak(frame) -> tuple[dict, float]:
@@ -453,7 +454,7 @@ def plot_position_shape(frame, directory: Path, stem: str) -> list[Path]:
     axes[0][1].set_title("(b) equal-volume ellipsoidal nucleus (0.8, 0.4, 0.4) R")
     for axis in axes[1]:
         axis.set_ylabel(r"$F/F_\mathrm{ref} - 1$ (%)")
-    return save_figure(figure, directory, stem)
+    return save_study_figure(figure, directory, stem)
 
 
 def claims_position_shape(frame) -> list[Claim]:
@@ -508,7 +509,7 @@ def plot_mooney_rivlin(frame, directory: Path, stem: str) -> list[Path]:
     axes[0][1].legend(fontsize=7)
     axes[0][0].set_title(r"(a) Mooney-Rivlin, $\mu_1 = 0.25\mu$, $\mu_2 = 0.75\mu$")
     axes[0][1].set_title(r"(b) $F/F_\mathrm{eq} - 1$ (dashed: neo-Hookean)")
-    return save_figure(figure, directory, stem)
+    return save_study_figure(figure, directory, stem)
 
 
 def claims_mooney_rivlin(frame) -> list[Claim]:

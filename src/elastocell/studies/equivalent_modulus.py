@@ -26,7 +26,7 @@ from elastocell.studies.compression import (
     curves,
     new_figure,
     percent,
-    save_figure,
+    save_study_figure,
     size_members,
     stiffness_members,
     tidy,
@@ -159,7 +159,7 @@ def table(pairs, directory: Path, quick: bool = False):
 def plot(frame, directory: Path, stem: str) -> list[Path]:
     figure, axes = new_figure(1, 3)
     if frame.empty or "loading" not in frame:
-        return save_figure(figure, directory, stem)
+        return save_study_figure(figure, directory, stem)
     by_gamma, by_size, errors = axes[0]
     compression = frame[frame["loading"] == "compression"]
     first = compression["discretisation"].iloc[0] if not compression.empty else "-"
@@ -197,7 +197,7 @@ def plot(frame, directory: Path, stem: str) -> list[Path]:
     by_gamma.set_title("(a) best-fit modulus and estimates")
     by_size.set_title("(b) size-ratio sweep")
     errors.set_title("(c) which estimate to use")
-    return save_figure(figure, directory, stem)
+    return save_study_figure(figure, directory, stem)
 
 
 def recommendation(frame) -> dict:

@@ -15,7 +15,7 @@ import numpy as np
 
 from elastocell.scenarios.pipe import DEFAULT_CAPILLARY_NUMBER_WALL
 from elastocell.studies.base import FLOW_SUMMARY_KEYS, Claim, Member, Run, Study, rows_per_run
-from elastocell.studies.compression import new_figure, percent, save_figure, verdict
+from elastocell.studies.compression import new_figure, percent, save_study_figure, verdict
 
 SHEAR_CA_FULL = (0.0125, 0.025, 0.05, 0.1, 0.2, 0.3)
 SHEAR_CA_QUICK = (0.05, 0.2)  # at small Ca the stiff elements (random cell, gamma 10) need 2-6x more steps
@@ -139,7 +139,7 @@ def plot_shear_capillary(frame, directory: Path, stem: str) -> list[Path]:
     right.legend(fontsize=7)
     for axis in (left, right):
         axis.grid(alpha=0.3, which="both")
-    return save_figure(figure, directory, stem)
+    return save_study_figure(figure, directory, stem)
 
 
 def _relative(frame, cell: str, reference_cell: str | None = None, reference_equivalent: bool = True):
@@ -244,7 +244,7 @@ def plot_shear_offset(frame, directory: Path, stem: str) -> list[Path]:
     right.legend(fontsize=7)
     for axis in (left, right):
         axis.grid(alpha=0.3)
-    return save_figure(figure, directory, stem)
+    return save_study_figure(figure, directory, stem)
 
 
 def claims_shear_offset(frame) -> list[Claim]:
@@ -332,7 +332,7 @@ def plot_pipe(frame, directory: Path, stem: str) -> list[Path]:
     right.set_title("(b) strains (error bars: std over the stationary part)")
     right.legend(fontsize=7)
     right.grid(alpha=0.3)
-    return save_figure(figure, directory, stem)
+    return save_study_figure(figure, directory, stem)
 
 
 def _outline(axis, points, colour, fill: bool, label: str):

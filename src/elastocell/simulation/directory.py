@@ -1,0 +1,104 @@
+"""One run per output directory: a lock file that names its holder.
+
+``with output_directory(out):`` creates ``out`` and holds ``out/.elastocell.lock`` (the holder's process id,
+host and command) for the duration of a run. A second run into the same directory refuses with one line
+naming the holder; a lock left by a process that no longer exists on this host is taken over with a warning.
+The lock is created with ``O_CREAT | O_EXCL``, so two runs starting at the same instant cannot both win.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import socket
+import sys
+import warnings
+from pathlib import Path
+
+from elastocell.parameters.units import ParameterError
+
+LOCK_NAME = ".elastocell.lock"
+
+
+def _process_alive(pid: int) -> bool:
+    """Whether a process with this id exists on this host (signal 0 checks without sending anything)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by another user
+        return True
+    return True
+
+
+def _read_holder(path: Path) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+@contextlib.contextmanager
+def output_directory(out, parameter: str = "out"):
+    """Create ``out`` (and its parents) and hold its lock while the block runs; release it afterwards, also on
+    an exception or an interruption. Raises :class:`ParameterError` (one line, naming ``parameter``) when
+    another live run holds the directory, or when it cannot be created or written."""
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise ParameterError(parameter, f"cannot create the output directory {out}: {error.strerror or error}") from None
+    lock = out / LOCK_NAME
+    holder = {"pid": os.getpid(), "host": socket.gethostname(), "command": " ".join(sys.argv)[:500]}
+    for _ in range(2):
+        try:
+            descriptor = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        except FileExistsError:
+            other = _read_holder(lock)
+            same_host = other.get("host") == holder["host"]
+            if same_host and isinstance(other.get("pid"), int) and not _process_alive(other["pid"]):
+                warnings.warn(f"{out}: taking over the lock of process {other['pid']}, which no longer runs "
+                              f"(it was: {other.get('command', '?')})", stacklevel=3)
+                with contextlib.suppress(FileNotFoundError):
+                    lock.unlink()
+                continue
+            who = f"process {other.get('pid', '?')} on {other.get('host', '?')}" if other else "another run"
+            raise ParameterError(parameter, f"{out} is in use by {who}; wait for it, choose another directory, "
+                                            f"or delete {lock} if that run is gone") from None
+        except OSError as error:
+            raise ParameterError(parameter, f"cannot write to the output directory {out}: "
+                                            f"{error.strerror or error}") from None
+        with os.fdopen(descriptor, "w") as handle:
+            json.dump(holder, handle)
+        break
+    else:  # pragma: no cover - the stale lock reappeared between unlink and create
+        raise ParameterError(parameter, f"{out} is in use by another run that just started")
+    try:
+        yield out
+    finally:
+        if _read_holder(lock).get("pid") == holder["pid"]:
+            with contextlib.suppress(FileNotFoundError):
+                lock.unlink()
+
+
+@contextlib.contextmanager
+def interruptible():
+    """SIGTERM (a batch system's or ``kill``'s stop) raises KeyboardInterrupt in the main thread while the block
+    runs, so that a run stopped either way writes what it has (as on Ctrl-C); the previous handler is restored
+    afterwards. Outside the main thread (a Dask worker) nothing changes."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum, frame):
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
