@@ -146,3 +146,17 @@ def test_a_failed_figure_write_names_the_file_and_leaves_none(tmp_path):
         save_figure(figure, target)
     assert not target.exists()
     plt.close(figure)
+
+
+@pytest.mark.parametrize("scenario, options", [("shear", {"capillary_number": 0.1}),
+                                               ("pipe", {"capillary_number_wall": 0.2})])
+def test_flow_options_are_validated_before_any_file_and_one_run_per_directory(tmp_path, scenario, options):
+    run = getattr(elastocell, scenario)
+    out = tmp_path / "flow"
+    with pytest.raises(ParameterError, match="whole number >= 1") as error:
+        run(out=out, checkpoint_every=0, resolution=3, duration=0.1, progress=False, **options)
+    assert error.value.parameter == "checkpoint_every" and not out.exists()
+    with output_directory(out):
+        with pytest.raises(ParameterError, match="in use by process"):
+            run(out=out, resolution=3, duration=0.1, progress=False, **options)
+    assert sorted(p.name for p in out.iterdir()) == []

@@ -12,6 +12,7 @@ from elastocell.parameters.cell import describe_cell
 from elastocell.parameters.flow import flow_cell
 from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.pipe import STATIONARY_OBSERVABLES, PipeFlowParameters, PipeRun, plot_pipe
+from elastocell.simulation.directory import interruptible, output_directory
 from elastocell.simulation.output import directory_summary, run_in_directory
 from elastocell.simulation.runner import StopCriteria
 
@@ -66,34 +67,34 @@ def pipe(
         raise ParameterError("vtk_interval", f"must be > 0 (units of 1/gdot_w), got {vtk_interval}")
     cell = flow_cell(cell, cell_options, params.resolution)
     clock = Stopwatch()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    enable_compilation_cache()
-    body = Cell.from_parameters(cell)
+    if not (isinstance(checkpoint_every, int) and checkpoint_every >= 1):
+        raise ParameterError("checkpoint_every", f"must be a whole number >= 1 (records), got {checkpoint_every}")
     if capillary_number_modulus not in ("reference", "mu_c"):
-        raise ParameterError("capillary_number_modulus",
-                             f"must be 'reference' or 'mu_c', got {capillary_number_modulus!r}")
-    capillary_number_mu_c = capillary_number_wall
-    if equivalent:
-        body = body.equivalent()
-        if capillary_number_modulus == "mu_c":  # same G: Ca_w,eff = G R_ch / (2 mu_eff)
-            capillary_number_wall = capillary_number_wall / body.effective_stiffness_ratio
-            params = PipeFlowParameters(**{**params.model_dump(), "capillary_number_wall": capillary_number_wall})
-        else:
-            capillary_number_mu_c = capillary_number_wall * body.effective_stiffness_ratio
-    run = PipeRun(body, params, record_interval=record_interval)
-    resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
-                                    description=f"pipe Ca_w={capillary_number_wall:g}",
-                                    checkpoint_every=checkpoint_every, vtk_interval=vtk_interval)
-    label = "homogeneous equivalent" if equivalent else describe_cell(cell)
-    summary = {"scenario": "pipe", "label": label}
-    summary.update(run.summary())
-    summary["capillary_number_wall_mu_c"] = capillary_number_mu_c
-    summary.update(directory_summary(run, body, cell, params, clock, resumed, equivalent))
-    write_json(out / "summary.json", summary)
-    plot_pipe(out / "pipe.png", run.arrays(), summary,
-              title=f"{label}, Ca_w = {capillary_number_wall:g}, R_ch/R = {params.channel_radius_ratio:g}, "
-                    f"r0/R_ch = {params.start_offset:g}, R/dx = {params.resolution:g}")
-    if vtk is not None:
-        vtk.close(run)
+        raise ParameterError("capillary_number_modulus", f"must be 'reference' or 'mu_c', got {capillary_number_modulus!r}")
+    with output_directory(out) as out, interruptible():
+        enable_compilation_cache()
+        body = Cell.from_parameters(cell)
+        capillary_number_mu_c = capillary_number_wall
+        if equivalent:
+            body = body.equivalent()
+            if capillary_number_modulus == "mu_c":  # same G: Ca_w,eff = G R_ch / (2 mu_eff)
+                capillary_number_wall = capillary_number_wall / body.effective_stiffness_ratio
+                params = PipeFlowParameters(**{**params.model_dump(), "capillary_number_wall": capillary_number_wall})
+            else:
+                capillary_number_mu_c = capillary_number_wall * body.effective_stiffness_ratio
+        run = PipeRun(body, params, record_interval=record_interval)
+        resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
+                                        description=f"pipe Ca_w={capillary_number_wall:g}",
+                                        checkpoint_every=checkpoint_every, vtk_interval=vtk_interval)
+        label = "homogeneous equivalent" if equivalent else describe_cell(cell)
+        summary = {"scenario": "pipe", "label": label}
+        summary.update(run.summary())
+        summary["capillary_number_wall_mu_c"] = capillary_number_mu_c
+        summary.update(directory_summary(run, body, cell, params, clock, resumed, equivalent))
+        write_json(out / "summary.json", summary)
+        plot_pipe(out / "pipe.png", run.arrays(), summary,
+                  title=f"{label}, Ca_w = {capillary_number_wall:g}, R_ch/R = {params.channel_radius_ratio:g}, "
+                        f"r0/R_ch = {params.start_offset:g}, R/dx = {params.resolution:g}")
+        if vtk is not None:
+            vtk.close(run)
     return summary

@@ -17,6 +17,7 @@ from elastocell.scenarios.shear import (
     ShearRun,
     plot_taylor_deformation,
 )
+from elastocell.simulation.directory import interruptible, output_directory
 from elastocell.simulation.output import directory_summary, run_in_directory
 from elastocell.simulation.runner import StopCriteria
 
@@ -65,29 +66,30 @@ def shear(
         raise ParameterError("capillary_number_modulus", f"must be 'reference' or 'mu_c', got {capillary_number_modulus!r}")
     cell = flow_cell(cell, cell_options, params.resolution)
     clock = Stopwatch()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    enable_compilation_cache()
-    body = Cell.from_parameters(cell)
-    capillary_number_mu_c = capillary_number if capillary_number_modulus == "mu_c" else None
-    if equivalent:
-        body = body.equivalent()
-        if capillary_number_modulus == "mu_c":  # same physical shear rate: Ca_eff = eta shear_rate / mu_eff
-            capillary_number = capillary_number / body.effective_stiffness_ratio
-            params = ShearFlowParameters(**{**params.model_dump(), "capillary_number": capillary_number})
-    run = ShearRun(body, params, record_interval=record_interval)
-    resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
-                                    description=f"shear Ca={capillary_number:g}", checkpoint_every=checkpoint_every,
-                                    vtk_interval=vtk_interval)
-    label = "homogeneous equivalent" if equivalent else describe_cell(cell)
-    summary = {"scenario": "shear", "label": label}
-    summary.update(run.summary())
-    summary["capillary_number_mu_c"] = capillary_number_mu_c if capillary_number_mu_c is not None else (
-        capillary_number * body.effective_stiffness_ratio if equivalent else capillary_number)
-    summary.update(directory_summary(run, body, cell, params, clock, resumed, equivalent))
-    write_json(out / "summary.json", summary)
-    plot_taylor_deformation(out / "taylor_deformation.png", run.arrays(), summary,
-                            title=f"{label}, Ca = {capillary_number:g}, R/dx = {params.resolution:g}")
-    if vtk is not None:
-        vtk.close(run)
+    if not (isinstance(checkpoint_every, int) and checkpoint_every >= 1):
+        raise ParameterError("checkpoint_every", f"must be a whole number >= 1 (records), got {checkpoint_every}")
+    with output_directory(out) as out, interruptible():
+        enable_compilation_cache()
+        body = Cell.from_parameters(cell)
+        capillary_number_mu_c = capillary_number if capillary_number_modulus == "mu_c" else None
+        if equivalent:
+            body = body.equivalent()
+            if capillary_number_modulus == "mu_c":  # same physical shear rate: Ca_eff = eta shear_rate / mu_eff
+                capillary_number = capillary_number / body.effective_stiffness_ratio
+                params = ShearFlowParameters(**{**params.model_dump(), "capillary_number": capillary_number})
+        run = ShearRun(body, params, record_interval=record_interval)
+        resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
+                                        description=f"shear Ca={capillary_number:g}", checkpoint_every=checkpoint_every,
+                                        vtk_interval=vtk_interval)
+        label = "homogeneous equivalent" if equivalent else describe_cell(cell)
+        summary = {"scenario": "shear", "label": label}
+        summary.update(run.summary())
+        summary["capillary_number_mu_c"] = capillary_number_mu_c if capillary_number_mu_c is not None else (
+            capillary_number * body.effective_stiffness_ratio if equivalent else capillary_number)
+        summary.update(directory_summary(run, body, cell, params, clock, resumed, equivalent))
+        write_json(out / "summary.json", summary)
+        plot_taylor_deformation(out / "taylor_deformation.png", run.arrays(), summary,
+                                title=f"{label}, Ca = {capillary_number:g}, R/dx = {params.resolution:g}")
+        if vtk is not None:
+            vtk.close(run)
     return summary
