@@ -3,11 +3,11 @@ of a coupled lattice-Boltzmann + immersed-boundary step.
 
 Run::
 
-    python benchmarks/shear.py                      # everything below (about 25 min on 1 thread)
-    python benchmarks/shear.py --only split         # per-step cost split and MLUPS (about 1 min)
-    python benchmarks/shear.py --only homogeneous --capillary-numbers 0.05 0.1 0.3
-    python benchmarks/shear.py --only reference     # nucleus cell (gamma = 2, lambda = 0.5) and equivalent
-    python benchmarks/shear.py --only resolution --resolutions 4 6 8
+    python validation/shear.py                      # everything below (about 25 min on 1 thread)
+    python validation/shear.py --only split         # per-step cost split and MLUPS (about 1 min)
+    python validation/shear.py --only homogeneous --capillary-numbers 0.05 0.1 0.3
+    python validation/shear.py --only reference     # nucleus cell (gamma = 2, lambda = 0.5) and equivalent
+    python validation/shear.py --only resolution --resolutions 4 6 8
 
 Every run uses the shear defaults (``ShearFlowParameters()``: R/dx = 8, confinement 2R/H = 0.2, box 8R,
 tau = 1, particle Reynolds number 0.1, trilinear kernel) and a uniform p1 mesh with edges of 2 dx

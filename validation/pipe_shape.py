@@ -1,6 +1,6 @@
 """Where does a cell on the axis of a capillary take the paper's bullet shape (eps_x < 1 < eps_r)?
 
-    python benchmarks/pipe_shape.py [--ratios 2 3 4] [--cell-capillary 0.25 0.5] [--resolution 6]
+    python validation/pipe_shape.py [--ratios 2 3 4] [--cell-capillary 0.25 0.5] [--resolution 6]
                                     [--duration 20] [--workers 2] [--out results/bullet]
 
 A homogeneous cell (uniform p1 mesh, edges 2 dx) starts on the axis of channels of radius R_ch/R = 2, 3, 4 and

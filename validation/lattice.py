@@ -2,8 +2,8 @@
 
 Run::
 
-    python benchmarks/lattice.py                 # 64^3 and 128^3, float32 and float64, + lbmpy
-    python benchmarks/lattice.py --sizes 128 --dtypes float32 --no-lbmpy
+    python validation/lattice.py                 # 64^3 and 128^3, float32 and float64, + lbmpy
+    python validation/lattice.py --sizes 128 --dtypes float32 --no-lbmpy
 
 Everything is measured in the same run:
 

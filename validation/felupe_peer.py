@@ -31,7 +31,7 @@ translation, rotation about z and -- for a sphere -- the "rolling" rotations abo
 x and y) are removed by 5 point constraints compatible with the axisymmetric
 solution; the z-translation is left free (carried by the two contacts).
 
-Run ``python benchmarks/felupe_peer.py`` for a small mesh-convergence table.
+Run ``python validation/felupe_peer.py`` for a small mesh-convergence table.
 """
 
 from __future__ import annotations

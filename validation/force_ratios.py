@@ -1,7 +1,7 @@
 """Force of a nucleus cell over the force of its homogeneous equivalent (same mesh), at delta = 0.1, 0.3,
 0.5, 0.7, for stiffness ratios 2, 10, 20 (size ratio 0.5), with quadratic (default) and linear elements.
 
-    python benchmarks/force_ratios.py [--element p2 p1] [--quadrature-degree 2] [--steps 40]
+    python validation/force_ratios.py [--element p2 p1] [--quadrature-degree 2] [--steps 40]
         [--out results/force_ratios.csv]
 
 Without --quadrature-degree each p2 cell uses the degree of ``elastocell compress`` (5 for stiffness ratios 10

@@ -1,6 +1,6 @@
 """Speed-up of a sweep through Dask: the same pipe-flow look-up-table grid with 1 and with N local workers.
 
-    python benchmarks/dask_scaling.py [--workers 1 2] [--duration 30] [--resolution 4]
+    python validation/dask_scaling.py [--workers 1 2] [--duration 30] [--resolution 4]
 
 Workload: a 2 x 2 look-up-table grid (``--radii`` 5, 6 um x ``--moduli`` 3, 5 kPa, R_ch = 10 um,
 Q = 0.04 uL/s, eta = 15 mPa s) run for ``--duration`` units of 1/gdot_w at ``--resolution`` R/dx with no

@@ -1,6 +1,6 @@
 """Does a full compression curve reach delta_max = 0.75 for every cell the compression issue names?
 
-    python benchmarks/compression_reach.py [--element p2] [--quadrature-degree 2] [--only NAME ...]
+    python validation/compression_reach.py [--element p2] [--quadrature-degree 2] [--only NAME ...]
         [--out results/reach.csv]
 
 Without --quadrature-degree each p2 cell uses the degree of ``elastocell compress`` (5 for a neo-Hookean nucleus

@@ -4,11 +4,11 @@ step against pure lattice Boltzmann in the same channel.
 
 Run::
 
-    python benchmarks/pipe.py                          # everything below
-    python benchmarks/pipe.py --only poiseuille        # Poiseuille error against R_ch/dx and its order (~1 min)
-    python benchmarks/pipe.py --only mlups             # MLUPS with the cell against pure LB (~1 min)
-    python benchmarks/pipe.py --only reference         # nucleus cell (gamma = 2, lambda = 0.5) and equivalent
-    python benchmarks/pipe.py --only migration         # off-axis start, time to halve the offset
+    python validation/pipe.py                          # everything below
+    python validation/pipe.py --only poiseuille        # Poiseuille error against R_ch/dx and its order (~1 min)
+    python validation/pipe.py --only mlups             # MLUPS with the cell against pure LB (~1 min)
+    python validation/pipe.py --only reference         # nucleus cell (gamma = 2, lambda = 0.5) and equivalent
+    python validation/pipe.py --only migration         # off-axis start, time to halve the offset
 
 Defaults (``PipeFlowParameters``): R/dx = 8, R_ch/R = 2, box 8R, tau = 1, particle Reynolds number 0.1 (with
 the wall shear rate), trilinear kernel, uniform p1 mesh with edges of 2 dx; Ca_w = 0.2

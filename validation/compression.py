@@ -1,7 +1,7 @@
 """Compression benchmark: accuracy and cost of a full curve against mesh size and element order, and the
 same problem solved by FElupe (a peer FE code, if installed) in the same run.
 
-    python benchmarks/compression.py [--cell homogeneous|reference] [--quick] [--no-peer]
+    python validation/compression.py [--cell homogeneous|reference] [--quick] [--no-peer]
         [--meshes p2:0.3:0.06:0.15 ...] [--reference-forces F0.1 F0.3 F0.5 F0.7] [--peer-one-blas-thread]
 
 For each mesh: nodes, wall time of a full curve (0 -> 0.75, 40 steps; meshes and compiled code cached, i.e.

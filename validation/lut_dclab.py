@@ -1,6 +1,6 @@
 """elastocell's look-up-table points against an independent reference: dclab's LE-2D-FEM-19 table.
 
-    python benchmarks/lut_dclab.py [--radii 5] [--moduli 2,3,5] [--workers 2] [--out results/lut-dclab]
+    python validation/lut_dclab.py [--radii 5] [--moduli 2,3,5] [--workers 2] [--out results/lut-dclab]
 
 LE-2D-FEM-19 (Mokbel et al. 2017, ACS Biomater. Sci. Eng. 3, 2962; shipped with dclab) holds stationary shapes of
 a linear-elastic sphere in the cylinder that stands for a 20 um square channel (R_ch = 1.094 x 10 um), at

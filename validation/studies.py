@@ -1,9 +1,9 @@
 """Wall time of the studies: `elastocell reproduce --quick` with 1 and 2 workers, and an estimate of the full
 reproduction from a sample of full-size runs.
 
-    python benchmarks/studies.py --quick-dir paper-quick          # summarise an existing reproduction
-    python benchmarks/studies.py --run --workers 1 2 --out /tmp/b  # run reproduce --quick per worker count
-    python benchmarks/studies.py --full-dir paper                  # estimate the full reproduction
+    python validation/studies.py --quick-dir paper-quick          # summarise an existing reproduction
+    python validation/studies.py --run --workers 1 2 --out /tmp/b  # run reproduce --quick per worker count
+    python validation/studies.py --full-dir paper                  # estimate the full reproduction
 
 Prints one table: invocations (studies, workers, wall time, runs, summed run time, parallel efficiency) and,
 for a directory, the summed run time per scenario. The full estimate multiplies the mean measured run time of

@@ -1,8 +1,8 @@
 """Compute the shipped master curves into src/elastocell/data/.
 
-    python benchmarks/mastercurves.py [NU ...]          compression (nu = 0.45, 0.48, 0.49 by default;
+    python validation/mastercurves.py [NU ...]          compression (nu = 0.45, 0.48, 0.49 by default;
                                                         ELASTOCELL_MASTERCURVE_STEPS=N: load steps, default 60)
-    python benchmarks/mastercurves.py shear [NU ...]    shear flow (nu = 0.48 by default)
+    python validation/mastercurves.py shear [NU ...]    shear flow (nu = 0.48 by default)
 
 Compression, each curve: the default p2 mesh and the fine one (mastercurve.MESHES), 60 steps to delta = 0.75
 (nu = 0.49: 50 steps -- with 60 the default mesh stops converging at delta = 0.597).
@@ -28,7 +28,7 @@ def compression(values):
         steps = int(os.environ.get("ELASTOCELL_MASTERCURVE_STEPS", 60))
         curve = compute_master_curve(nu, "neo-hookean", use_cache=False, steps=steps)
         prefix = f"ELASTOCELL_MASTERCURVE_STEPS={steps} " if steps != 60 else ""
-        curve.metadata["command"] = (f"{prefix}python benchmarks/mastercurves.py {nu:g}  (== elastocell mastercurve "
+        curve.metadata["command"] = (f"{prefix}python validation/mastercurves.py {nu:g}  (== elastocell mastercurve "
                                      f"compression --poisson-ratio {nu:g} --material neo-hookean, {steps} steps)")
         curve.to_csv(DATA / shipped_name(nu), force_default_mesh=curve.force_default_mesh)
         print(f"nu={nu}: {time.perf_counter() - start:.1f} s, meshes {curve.metadata['meshes']}", flush=True)
@@ -51,7 +51,7 @@ def shear(values):
                   flush=True)
 
         curve = compute_shear_master_curve(nu, "neo-hookean", progress=report)
-        curve.metadata["command"] = (f"python benchmarks/mastercurves.py shear {nu:g}  (== elastocell mastercurve "
+        curve.metadata["command"] = (f"python validation/mastercurves.py shear {nu:g}  (== elastocell mastercurve "
                                      f"shear --poisson-ratio {nu:g} --material neo-hookean)")
         curve.metadata["total_wall_time_s"] = round(time.perf_counter() - start, 1)
         curve.to_csv(DATA / shipped_name(nu))

@@ -1,6 +1,6 @@
 """Fit accuracy, Hertz's bias against the fitted delta range, CI coverage, and timings.
 
-    python benchmarks/fit.py [--nu 0.48] [--curves 1000] [--coverage 50] [--out DIR]
+    python validation/fit.py [--nu 0.48] [--curves 1000] [--coverage 50] [--out DIR]
 
 Synthetic curves come from the shipped master curve: E = 1 kPa, R = 8 um, contact at 5 um after a 5 um
 baseline, Gaussian force noise (a fraction of the largest force), 600 points.
@@ -30,7 +30,7 @@ def synthetic(curve, delta_max, noise_fraction, seed, n=600):
 
 
 def felupe_check(curve, nu, mesh_size, pole_size, delta_max=0.7):
-    """Independent data: FElupe's curve of the same sphere (benchmarks/felupe_peer.py), in physical units with
+    """Independent data: FElupe's curve of the same sphere (validation/felupe_peer.py), in physical units with
     0.5 % noise, fitted by the shipped master curve and by Hertz."""
     import sys
 
