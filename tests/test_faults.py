@@ -160,3 +160,24 @@ def test_flow_options_are_validated_before_any_file_and_one_run_per_directory(tm
         with pytest.raises(ParameterError, match="in use by process"):
             run(out=out, resolution=3, duration=0.1, progress=False, **options)
     assert sorted(p.name for p in out.iterdir()) == []
+
+
+@pytest.mark.parametrize("options, refused", [
+    (dict(random=True, stiffness_ratio=5), "random"),
+    (dict(random=True, size_ratio=0.3), "random"),
+    (dict(random=True, nucleus="ellipsoid"), "random"),
+    (dict(nucleus="none", stiffness_ratio=5), "stiffness_ratio"),
+    (dict(nucleus="ellipsoid", size_ratio=0.3), "size_ratio"),
+    (dict(nucleus="sphere", semi_axes=(0.5, 0.3, 0.3)), "semi_axes"),
+    (dict(offset_axis="y"), "offset_axis"),
+])
+def test_options_that_cannot_apply_together_are_refused(options, refused):
+    with pytest.raises(ParameterError) as error:
+        elastocell.cell_parameters(**options)
+    assert error.value.parameter == refused
+
+
+def test_compare_and_equivalent_together_are_refused(tmp_path):
+    with pytest.raises(ParameterError, match="--compare already runs the equivalent"):
+        elastocell.compress(out=tmp_path / "x", compare=True, equivalent=True, **COARSE)
+    assert not (tmp_path / "x").exists()

@@ -204,13 +204,13 @@ class MeshParameters(ParameterModel):
 
     @classmethod
     def default_for(cls, element: str) -> MeshParameters:
-        """Default sizes per element order, chosen by ``benchmarks/compression.py`` (errors against a 24,389-node p2
+        """Default sizes per element order, chosen by ``validation/compression.py`` (errors against a 24,389-node p2
         mesh of the reference cell, README):
 
         - p2: bulk 0.35, poles 0.08 graded over 1.4 R, nucleus surface 0.15 (4,656 nodes for the reference
           cell): F within 0.81/0.41/0.31/0.24 % at delta = 0.1/0.3/0.5/0.7. The refined nucleus surface is what
           lets a stiffness-ratio-10 nucleus reach delta = 0.75 (the soft layer between nucleus and plate).
-        - p1: 3,861 nodes; linear tetrahedra need a finer mesh and still lock (see the benchmarks).
+        - p1: 3,861 nodes; linear tetrahedra need a finer mesh and still lock (see docs/validation/compression.md).
         """
         return cls(**DEFAULT_MESH_SIZES.get(element, {}), element=element)
 
@@ -316,6 +316,9 @@ def cell_parameters(
     """
     radius_value, radius_physical = parse_quantity(radius, "m", "radius")
     modulus_value, modulus_physical = parse_quantity(youngs_modulus, "Pa", "youngs_modulus")
+    _refuse_conflicts(nucleus, random, {"stiffness_ratio": stiffness_ratio, "size_ratio": size_ratio,
+                                        "offset": offset, "offset_axis": offset_axis,
+                                        "semi_axes": tuple(semi_axes), "nucleus_axis": nucleus_axis})
     if random:
         nucleus = "none"
     defaults = MeshParameters.default_for(element) if element in ("p1", "p2") else MeshParameters()
@@ -340,6 +343,37 @@ def cell_parameters(
         radius_is_physical=radius_physical,
         youngs_modulus_is_physical=modulus_physical,
     )
+
+
+NUCLEUS_OPTION_DEFAULTS = {"stiffness_ratio": 2.0, "size_ratio": 0.5, "offset": 0.0, "offset_axis": "x",
+                           "semi_axes": (0.8, 0.4, 0.4), "nucleus_axis": "x"}
+"""Defaults of the nucleus options of :func:`cell_parameters`; an option set away from its default must apply."""
+
+NUCLEUS_OPTIONS_USED = {
+    "sphere": {"stiffness_ratio", "size_ratio", "offset", "offset_axis"},
+    "ellipsoid": {"stiffness_ratio", "semi_axes", "nucleus_axis", "offset", "offset_axis"},
+    "none": set(),
+}
+"""The nucleus options each nucleus shape reads; a random cell reads none of them."""
+
+
+def _refuse_conflicts(nucleus: str, random: bool, options: dict) -> None:
+    """Options that cannot apply together are refused in one line, not silently ignored: nucleus options with
+    ``random`` (the random cell has no nucleus) or with a shape that does not read them (``size_ratio`` of an
+    ellipsoid, ``semi_axes`` of a sphere, anything of ``nucleus="none"``), and an offset axis without an offset."""
+    given = [name for name, value in options.items() if value != NUCLEUS_OPTION_DEFAULTS[name]]
+    if random:
+        if nucleus != "sphere" or given:
+            shown = [name for name in given] + (["nucleus"] if nucleus != "sphere" else [])
+            raise ParameterError("random", "the random cell has no nucleus; do not combine it with "
+                                           + ", ".join(sorted(shown)))
+        return
+    unused = [name for name in given if name not in NUCLEUS_OPTIONS_USED.get(nucleus, set())]
+    if unused:
+        raise ParameterError(unused[0], f"does not apply to nucleus {nucleus!r} (it reads "
+                                        f"{', '.join(sorted(NUCLEUS_OPTIONS_USED.get(nucleus, ()))) or 'none'})")
+    if options["offset_axis"] != NUCLEUS_OPTION_DEFAULTS["offset_axis"] and options["offset"] == 0:
+        raise ParameterError("offset_axis", "needs an offset (--offset > 0) to apply")
 
 
 def describe_cell(cell: CellParameters) -> str:
