@@ -2,7 +2,7 @@
 
 References: Hertz's two-contact limit F/(E R^2) = 4/(3(1-nu^2)) delta^(3/2); equilibrium (equal and opposite
 plate forces); force-free rigid-mode pins; mesh refinement. Tolerances are the discretisation errors measured
-on these coarse test meshes (see the comments), not the accuracy of the default mesh (benchmarks/)."""
+on these coarse test meshes (see the comments), not the accuracy of the default mesh (validation/)."""
 
 import numpy as np
 import pytest

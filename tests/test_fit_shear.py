@@ -1,7 +1,7 @@
 """Shear-flow fits: the shipped shear master curve, D -> Ca -> mu, E with intervals, the CLI.
 
 No flow is simulated here: every test uses the shipped nu = 0.48 curve (src/elastocell/data/
-mastercurve_shear_neo-hookean_nu0.4800.csv, computed by ``python benchmarks/mastercurves.py shear``).
+mastercurve_shear_neo-hookean_nu0.4800.csv, computed by ``python validation/mastercurves.py shear``).
 """
 
 import json

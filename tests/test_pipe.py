@@ -1,7 +1,7 @@
 """Pipe (capillary) flow: the empty channel against Poiseuille, and a cell carried through it.
 
 Tiny lattices (R = 4 dx, R_ch = 10 dx, 24 x 22 x 22 nodes) and a coarse p1 mesh (49 nodes) keep every
-coupled run to a few seconds; the physics figures at the default resolution are in benchmarks/pipe.py.
+coupled run to a few seconds; the physics figures at the default resolution are in validation/pipe.py.
 """
 
 from __future__ import annotations
@@ -67,7 +67,7 @@ def test_channel_mask_is_a_closed_cylinder():
     ],
 )
 def test_poiseuille_profile_and_flow_rate(radius, flow_rate_tol, profile_tol):
-    """Staircase half-way bounce-back: first-order, non-monotone error (benchmarks/pipe.py has the table)."""
+    """Staircase half-way bounce-back: first-order, non-monotone error (validation/pipe.py has the table)."""
     error = poiseuille_error(radius)
     assert abs(error["flow_rate_error"]) < flow_rate_tol
     assert error["profile_l2_error"] < profile_tol

@@ -3,7 +3,7 @@
 Physics references: exact moments of affinely mapped meshes; rigid rotation; Taylor's small-deformation
 limit of an elastic sphere in Stokes shear flow, D -> (5/4) Ca, tank-treading angular frequency ->
 shear_rate/2 (docs/theory.md, "Shear flow"). Tolerances of the flow test come from the resolution study
-quoted beside it (benchmarks/shear.py reproduces it).
+quoted beside it (validation/shear.py reproduces it).
 """
 
 from __future__ import annotations
@@ -154,7 +154,7 @@ def test_homogeneous_cell_at_small_ca_taylor_limit_tank_treading_and_volume(coar
     # tank-treading angular frequency -> shear_rate/2 as Ca -> 0 (viscosity ratio 1 leaves D unchanged at
     # first order but lowers the inclination below 45 deg and the frequency below 1/2 at first order in Ca).
     # Resolution study (Ca = 0.05, p1 mesh with 2 dx edges, confinement 2R/H = 0.2, box 8R, trilinear kernel,
-    # tau = 1, Re = 0.1, strain 3, mean over strain >= 1.5; R/dx = 8 also from benchmarks/shear.py, strain 4):
+    # tau = 1, Re = 0.1, strain 3, mean over strain >= 1.5; R/dx = 8 also from validation/shear.py, strain 4):
     #   R/dx = 4: D/Ca = 1.639, 6: 1.460, 8: 1.365, 10: 1.324 -- the excess over 5/4 (0.389, 0.210, 0.115,
     #   0.074) falls like (dx/R)^2 from R/dx = 6 on (local order 1.5, 2.0, 1.97), and Richardson extrapolation
     #   with order 2 gives D/Ca = 1.243 (R/dx 6, 8) and 1.251 (8, 10): Taylor's 5/4 within 1 %.

@@ -173,7 +173,7 @@ def poiseuille_error(radius: float, relaxation_time: float = 1.0, body_force: fl
 
 # =========================================================================== scenario parameters
 DEFAULT_CAPILLARY_NUMBER_WALL = 0.2
-"""Ca_w of the reference runs (benchmarks/pipe.py): the local Ca at the cell's edge, Ca_w R/R_ch = 0.1 at the
+"""Ca_w of the reference runs (validation/pipe.py): the local Ca at the cell's edge, Ca_w R/R_ch = 0.1 at the
 default confinement, is in the range of the shear-flow studies (0.05 - 0.3)."""
 
 DEFAULT_CHANNEL_RADIUS_RATIO = 2.0

@@ -1,5 +1,5 @@
 """Throughput of the lattice-Boltzmann engine against this machine's memory roofline (``elastocell bench
-lattice``; ``benchmarks/lattice.py`` prints the full table with peers).
+lattice``; ``validation/lattice.py`` prints the full table with peers).
 
 Everything is measured in the same process:
 

@@ -6,7 +6,7 @@ is not. PARDISO's sparse Cholesky factorisation (real symmetric positive definit
 answers both: it succeeds exactly when every pivot is positive, i.e. when the matrix is positive definite
 (Sylvester's law of inertia), and otherwise stops with PARDISO's "zero or negative pivot" error (-4). On these
 systems it is 1.6x faster than the symmetric-indefinite LDL^T factorisation (13.0 against 20.5 ms for 4,776
-dofs, `benchmarks/compression.py`'s default mesh, same process), which would also count the negative
+dofs, `validation/compression.py`'s default mesh, same process), which would also count the negative
 eigenvalues, a number the solver never needed. The sparsity pattern never changes during a curve
 (constrained degrees of freedom are replaced by identity rows and columns instead of being removed), so the
 symbolic analysis (ordering) runs once per pattern and every Newton iteration pays only the numerical

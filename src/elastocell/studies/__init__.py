@@ -70,7 +70,7 @@ def run_studies(names, out, quick: bool = False, scheduler: str | None = None, w
 
 
 def _log_timing(out: Path, names, quick: bool, scheduler, workers, wall_time: float, pairs, executed) -> None:
-    """Append this invocation to ``out/timings.jsonl`` (read by ``benchmarks/studies.py``): the runs it
+    """Append this invocation to ``out/timings.jsonl`` (read by ``validation/studies.py``): the runs it
     executed and their summed run time (runs read back from earlier invocations are counted apart)."""
 
     records = {record["run_id"]: record for _, record in pairs}
