@@ -181,3 +181,29 @@ def test_compare_and_equivalent_together_are_refused(tmp_path):
     with pytest.raises(ParameterError, match="--compare already runs the equivalent"):
         elastocell.compress(out=tmp_path / "x", compare=True, equivalent=True, **COARSE)
     assert not (tmp_path / "x").exists()
+
+
+def test_stationarity_verdict_tells_a_drift_from_noise():
+    # Reference: a linear rise drifts by sqrt(3 n) standard errors of the half means (here n = 40: ~11, far
+    # above the bound of 3); white noise by about one (bound 3: false alarms at the 0.3 % level of a normal).
+    from elastocell.simulation.runner import stationarity
+
+    rng = np.random.default_rng(3)
+    time_ = np.linspace(0.0, 1.0, 40)
+    assert not stationarity(1.0 + 3e-3 * time_ + 2e-4 * rng.standard_normal(40))["stationary"]
+    assert stationarity(1.0 + 2e-4 * rng.standard_normal(40))["stationary"]
+    assert stationarity(np.full(40, 0.3))["stationary"]  # exactly constant
+    assert stationarity(1.0 + 1e-5 * time_)["stationary"]  # rises by less than the 1e-3 tolerance
+    assert not stationarity([1.0, 1.0, 1.0])["stationary"]  # too few records to judge
+
+
+def test_a_short_pipe_run_is_flagged_not_stationary_with_a_warning(tmp_path):
+    """The drifting series of a run far shorter than its relaxation is not called stationary (summary field and
+    a warning); the stationary-looking mean +- std alone hid that."""
+    with pytest.warns(UserWarning, match="not stationary"):
+        summary = elastocell.pipe(out=tmp_path, capillary_number_wall=0.2, resolution=3, duration=1.0,
+                                  start_offset=0.0, progress=False, vtk_interval=None)
+    assert summary["stationary"] is False
+    assert not summary["stationary_observables"]["strain_axial"]["stationary"]
+    saved = json.loads((tmp_path / "summary.json").read_text())
+    assert saved["stationary"] is False

@@ -13,7 +13,7 @@ from elastocell.parameters.flow import flow_cell
 from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.pipe import STATIONARY_OBSERVABLES, PipeFlowParameters, PipeRun, plot_pipe
 from elastocell.simulation.directory import interruptible, output_directory
-from elastocell.simulation.output import directory_summary, run_in_directory
+from elastocell.simulation.output import directory_summary, run_in_directory, warn_if_not_stationary
 from elastocell.simulation.runner import StopCriteria
 
 
@@ -92,6 +92,7 @@ def pipe(
         summary["capillary_number_wall_mu_c"] = capillary_number_mu_c
         summary.update(directory_summary(run, body, cell, params, clock, resumed, equivalent))
         write_json(out / "summary.json", summary)
+        warn_if_not_stationary(summary, out)
         plot_pipe(out / "pipe.png", run.arrays(), summary,
                   title=f"{label}, Ca_w = {capillary_number_wall:g}, R_ch/R = {params.channel_radius_ratio:g}, "
                         f"r0/R_ch = {params.start_offset:g}, R/dx = {params.resolution:g}")

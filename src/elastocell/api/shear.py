@@ -18,7 +18,7 @@ from elastocell.scenarios.shear import (
     plot_taylor_deformation,
 )
 from elastocell.simulation.directory import interruptible, output_directory
-from elastocell.simulation.output import directory_summary, run_in_directory
+from elastocell.simulation.output import directory_summary, run_in_directory, warn_if_not_stationary
 from elastocell.simulation.runner import StopCriteria
 
 
@@ -88,6 +88,7 @@ def shear(
             capillary_number * body.effective_stiffness_ratio if equivalent else capillary_number)
         summary.update(directory_summary(run, body, cell, params, clock, resumed, equivalent))
         write_json(out / "summary.json", summary)
+        warn_if_not_stationary(summary, out)
         plot_taylor_deformation(out / "taylor_deformation.png", run.arrays(), summary,
                                 title=f"{label}, Ca = {capillary_number:g}, R/dx = {params.resolution:g}")
         if vtk is not None:

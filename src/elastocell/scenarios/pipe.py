@@ -52,7 +52,7 @@ from elastocell.lattice import Lattice, LatticeParams
 from elastocell.parameters.flow import FlowLatticeParameters
 from elastocell.parameters.units import ParameterError
 from elastocell.simulation.output import save_time_series_figure, time_series_figure
-from elastocell.simulation.runner import FlowRun, StopCriteria
+from elastocell.simulation.runner import FlowRun, StopCriteria, window_verdict
 
 # =========================================================================== empty channel
 
@@ -411,6 +411,10 @@ volume_change V/V0 - 1; axial_position (R, distance travelled); centre_y, centre
 nucleus_radial_position (R_ch) and nucleus_axial_offset (R, ahead of the cell centroid; NaN without a
 nucleus); max_speed (largest marker speed in the last step, dx/dt)."""
 
+WINDOW_OBSERVABLES = ("strain_axial", "deformation", "projected_area")
+"""Observables whose averaging window the summary judges (``stationary`` in ``summary.json``): the shape RT-DC
+reads."""
+
 STATIONARY_OBSERVABLES = ("strain_axial", "deformation")
 """Observables the stationary stop criterion of :func:`pipe` may follow."""
 
@@ -512,6 +516,7 @@ class PipeRun(FlowRun):
             values = s[name][keep]
             out[f"{name}_mean"] = float(values.mean()) if values.size else float("nan")
             out[f"{name}_std"] = float(values.std()) if values.size else float("nan")
+        out.update(window_verdict(s, keep, WINDOW_OBSERVABLES))
         out["radial_position_initial"] = float(s["radial_position"][0])
         out["deformation_initial"] = float(s["deformation"][0])  # the polygonal hull's own at rest
         out["projected_area_initial"] = float(s["projected_area"][0])

@@ -29,7 +29,7 @@ from elastocell.parameters.cell import cell_parameters
 from elastocell.parameters.flow import FlowLatticeParameters
 from elastocell.parameters.units import ParameterError
 from elastocell.simulation.output import save_time_series_figure, time_series_figure
-from elastocell.simulation.runner import FlowRun, StopCriteria, stationary_summary
+from elastocell.simulation.runner import FlowRun, StopCriteria, stationary_summary, window_verdict
 
 
 def compile_kernels(dtypes=("float32",)) -> None:
@@ -286,6 +286,9 @@ def run_shear(
     summary["wall_time_s"] = time.perf_counter() - start
     return ShearResult(series=run.arrays(), summary=summary, units=run.units, tracker=run.tracker)
 
+STATIONARY_OBSERVABLES = ("taylor_deformation", "inclination_deg")
+"""Observables whose averaging window the summary judges (``stationary`` in ``summary.json``)."""
+
 SERIES_COLUMNS = (
     "strain", "taylor_deformation", "inclination_deg", "volume_change", "centre_x", "centre_y", "centre_z",
     "nucleus_centre_x", "nucleus_centre_y", "nucleus_centre_z", "semi_axis_a", "semi_axis_b", "semi_axis_c",
@@ -385,6 +388,7 @@ class ShearRun(FlowRun):
         transient = 0.5 * end if transient is None else float(transient)
         out = {"capillary_number": self.params.capillary_number, "equivalent": bool(self.cell.is_equivalent)}
         out.update(stationary_summary(series, transient))
+        out.update(window_verdict(series, np.asarray(series["strain"]) >= transient, STATIONARY_OBSERVABLES))
         out["tank_treading_frequency"] = -self.tracker.angular_velocity(start=transient)
         out["duration_strain"] = end
         out.update(self.run_summary())

@@ -4,6 +4,7 @@ VTK snapshots (``vtk/``, cell and fluid slice) for ParaView, time-series figures
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 
@@ -222,3 +223,14 @@ def directory_summary(run: FlowRun, body, cell, params, clock, resumed: bool, eq
         "mesh": {**body.mesh.counts(), "element_order": body.mesh.order},
         "software": software_versions(),
     }
+
+
+def warn_if_not_stationary(summary: dict, out: Path) -> None:
+    """One warning when the summary's averaging window is not stationary (its means describe a transient),
+    naming the observables that drift and by how much against their bound."""
+    if summary.get("stationary", True):
+        return
+    drifting = [f"{name} drifts by {v['drift']:.3g} (bound {v['drift_limit']:.3g})"
+                for name, v in summary.get("stationary_observables", {}).items() if not v["stationary"]]
+    warnings.warn(f"{out / 'summary.json'}: the averaged window is not stationary ({'; '.join(drifting)}); its "
+                  "means describe a transient: run longer (duration)", stacklevel=3)

@@ -39,6 +39,38 @@ from elastocell.coupling.immersed import ImmersedCell
 from elastocell.coupling.markers import FlowError
 from elastocell.parameters.units import ParameterError
 
+STATIONARY_DRIFT_TOLERANCE = 1e-3
+"""Relative drift of a window's mean below which it counts as stationary however few records it has; the
+default ``stationary_tolerance`` of the runners' stop criterion is the same fraction."""
+
+
+def stationarity(values, tolerance: float = STATIONARY_DRIFT_TOLERANCE) -> dict:
+    """Is the averaging window stationary? The drift is the difference between the means of its second and first
+    halves. It is compared with the noise of those means, 3 sqrt(s1^2/n1 + s2^2/n2) (a series that only
+    fluctuates drifts by about one such standard error), and with ``tolerance`` |mean| (a drift that small does not
+    matter): the window is stationary when the drift is below the larger of the two. A series still rising
+    linearly over the window drifts by sqrt(3 n) standard errors (n records), so it is not called stationary
+    from 4 records on unless its rise stays below ``tolerance``.
+
+    Returns ``{"stationary": bool, "drift": second-half mean - first-half mean, "drift_limit": the bound}``;
+    fewer than 4 records give ``stationary: False`` (nothing to judge)."""
+    values = np.asarray(values, dtype=float)
+    values = values[np.isfinite(values)]
+    if values.size < 4:
+        return {"stationary": False, "drift": float("nan"), "drift_limit": float("nan")}
+    first, second = np.array_split(values, 2)
+    drift = float(second.mean() - first.mean())
+    noise = 3.0 * math.sqrt(first.var(ddof=1) / first.size + second.var(ddof=1) / second.size)
+    limit = max(noise, tolerance * abs(float(values.mean())))
+    return {"stationary": bool(abs(drift) <= limit), "drift": drift, "drift_limit": float(limit)}
+
+
+def window_verdict(series: dict, keep, observables) -> dict:
+    """The stationarity of each named observable over the records ``keep``, and ``stationary``: all of them.
+    Keys: ``stationary``, ``stationary_observables`` (name -> {stationary, drift, drift_limit})."""
+    verdicts = {name: stationarity(np.asarray(series[name])[keep]) for name in observables}
+    return {"stationary": all(v["stationary"] for v in verdicts.values()), "stationary_observables": verdicts}
+
 
 def stationary_summary(series: dict, transient: float) -> dict:
     """Mean and standard deviation of the observables over strain >= transient."""
