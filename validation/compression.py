@@ -7,7 +7,8 @@ same problem solved by FElupe (a peer FE code, if installed) in the same run.
 For each mesh: nodes, wall time of a full curve (0 -> 0.75, 40 steps; meshes and compiled code cached, i.e.
 a warm-up run first), Newton iterations, factorisations, and F at delta = 0.1, 0.3, 0.5, 0.7 with its error
 against the finest p2 mesh (the mesh-converged reference; its own error is estimated from the next-finest).
-Prints a table; timings are measurements of this machine, never asserted. ``--meshes`` runs only the given
+Prints a table and writes it into docs/validation/compression.md (``validation/page.py``); timings are
+measurements of this machine, never asserted. ``--meshes`` runs only the given
 meshes (``element:mesh_size:pole_size[:interface_size[:pole_radius]]``, ``-`` for no interface refinement and
 for the default pole grading; the interface size applies to the reference cell's nucleus surface) and ``--reference-forces`` takes the converged F at the four deltas from
 an earlier full run instead of the finest mesh of this one (then every p2 mesh also runs on the peer).
@@ -20,6 +21,7 @@ import contextlib
 import time
 
 import numpy as np
+from page import Page
 from threadpoolctl import ThreadpoolController
 
 from elastocell.body.cell import Cell
@@ -112,6 +114,15 @@ def main() -> None:
         meshes = [_mesh_spec(m) for m in args.meshes]
     if not args.reference_forces and sum(m[0] == "p2" for m in meshes) < 2:
         parser.error("need two p2 meshes (the finest is the reference) or --reference-forces")
+    page = Page("compression", "compression.py", intro=(
+        f"F/(E R^2) of the {args.cell} cell (nu = 0.48, neo-Hookean) between rigid frictionless plates, one full "
+        f"curve to delta = 0.75 in {args.steps} load steps per mesh, against mesh size and element order. Errors "
+        "are against the finest p2 mesh of the same run (or the forces given by `--reference-forces`) and, where "
+        "the three finest p2 meshes show an asymptotic order, against their Richardson limit. The independent "
+        "reference is FElupe, a peer finite-element code solving the same problem in the same run (same "
+        "energy, quadratic tetrahedra on its own gmsh mesh from the same size parameters, penalty contact, "
+        "PARDISO; `validation/felupe_peer.py`), with the time each code needs for equal accuracy. Times are "
+        "per curve after a warm-up (compiled code and meshes cached)."), versions=("felupe", "pypardiso"))
     rows = []
     for element, mesh_size, pole_size, interface_size, pole_radius in meshes:
         row = run(element, mesh_size, pole_size, interface_size, pole_radius, args.cell, args.steps)
@@ -119,45 +130,43 @@ def main() -> None:
         print(f"  done {element} h={mesh_size} hp={pole_size} hi={row['interface_size']}: {row['nodes']} nodes, "
               f"{row['seconds']:.1f} s", flush=True)
     quadratic = [r for r in rows if r["element"] == "p2"]
-    print(f"\nCompression benchmark, {args.cell} cell, {args.steps} steps to delta 0.75")
+    page.heading(f"Compression, {args.cell} cell, {args.steps} steps to delta 0.75")
     if args.reference_forces:
         reference = {"force": np.array(args.reference_forces), "nodes": None}
-        print("reference: F = " + ", ".join(f"{f:g}" for f in reference["force"]) + " (given)")
+        page.print("reference: F = " + ", ".join(f"{f:g}" for f in reference["force"]) + " (given)")
     else:
         reference = max(quadratic, key=lambda r: r["nodes"])
         second = sorted(quadratic, key=lambda r: r["nodes"])[-2]
         ref_error = np.abs(second["force"] / reference["force"] - 1)
-        print(f"reference: p2 {reference['nodes']} nodes; its next-finest differs by "
-              + ", ".join(f"{e:.2%}" for e in ref_error) + " at delta " + ", ".join(f"{d:g}" for d in DELTAS))
+        page.print(f"reference: p2 {reference['nodes']} nodes, F = " + ", ".join(f"{f:.6g}" for f in reference["force"])
+                   + "; its next-finest differs by " + ", ".join(f"{e:.2%}" for e in ref_error) + " at delta "
+                   + ", ".join(f"{d:g}" for d in DELTAS))
         finest = sorted(quadratic, key=lambda r: r["nodes"])[-3:]
         if len(finest) == 3:
             order, limit = richardson([r["nodes"] ** (-1 / 3) for r in finest], [r["force"] for r in finest])
             # h ~ nodes^(-1/3) assumes similar gradings; where no asymptotic order shows, "n/a"
-            print("Richardson extrapolation of the three finest p2 meshes (h ~ nodes^(-1/3)): order "
-                  + ", ".join(f"{p:.2f}" for p in order) + "; finest mesh against the limit "
-                  + ", ".join("n/a" if np.isnan(p) else f"{e:+.2%}"
-                              for p, e in zip(order, reference["force"] / limit - 1, strict=True)))
-            print("errors against the extrapolated limit: "
-                  + "; ".join(f"{r['element']} {r['nodes']} nodes " + " ".join(f"{e:+.2%}" for e in r["force"] / limit - 1)
-                              for r in rows))
-    header = f"{'element':>7} {'h':>5} {'h_pole':>6} {'h_int':>5} {'nodes':>6} {'time_s':>7} {'newton':>6} {'factor':>6} " + " ".join(
-        f"err@{d:<4g}" for d in DELTAS)
-    print(header)
-    for r in rows:
-        errors = r["force"] / reference["force"] - 1
-        print(f"{r['element']:>7} {r['mesh_size']:>5g} {r['pole_size']:>6g} {r['interface_size']:>5g} {r['nodes']:>6} {r['seconds']:>7.1f} "
-              f"{r['newton']:>6} {r['factorisations']:>6} " + " ".join(f"{e:>+8.2%}" for e in errors))
+            page.print("Richardson extrapolation of the three finest p2 meshes (h ~ nodes^(-1/3)): order "
+                       + ", ".join(f"{p:.2f}" for p in order) + "; finest mesh against the limit "
+                       + ", ".join("n/a" if np.isnan(p) else f"{e:+.2%}"
+                                   for p, e in zip(order, reference["force"] / limit - 1, strict=True)))
+            page.print("errors against the extrapolated limit: "
+                       + "; ".join(f"{r['element']} {r['nodes']} nodes " + " ".join(f"{e:+.2%}" for e in r["force"] / limit - 1)
+                                   for r in rows))
+    error_columns = [f"err@{d:g}" for d in DELTAS]
+    page.table([{"element": r["element"], "h": r["mesh_size"], "h_pole": r["pole_size"], "h_int": r["interface_size"],
+                 "nodes": r["nodes"], "time_s": r["seconds"], "newton": r["newton"], "factor": r["factorisations"],
+                 **dict(zip(error_columns, r["force"] / reference["force"] - 1, strict=True))} for r in rows],
+               formats={"time_s": ".1f", **{c: "+.2%" for c in error_columns}})
     if args.no_peer or args.cell != "homogeneous":
+        page.write()
         return
     try:
         from felupe_peer import felupe_compression_curve
     except Exception as error:  # pragma: no cover - optional peer
-        print(f"FElupe peer skipped: {error}")
+        page.print(f"FElupe peer skipped: {error}")
+        page.write()
         return
-    print("\nFElupe (same problem: full ball, quadratic tets, rigid-plate contact, PARDISO"
-          + ("; OpenBLAS on one thread)" if args.peer_one_blas_thread else ")"))
-    print(f"{'h':>5} {'h_pole':>6} {'nodes':>6} {'time_s':>7} " + " ".join(f"err@{d:<4g}" for d in DELTAS))
-    peer_rows = []
+    peer_rows, peer_table = [], []
     peer_meshes = [m for m in meshes if m[0] == "p2"]
     for _, mesh_size, pole_size, _, _ in (peer_meshes if args.reference_forces else peer_meshes[:-1]):
         try:
@@ -165,21 +174,29 @@ def main() -> None:
                   if args.peer_one_blas_thread else contextlib.nullcontext()):
                 peer = felupe_compression_curve(mesh_size, pole_size, delta_max=0.75, n_steps=args.steps)
         except Exception as error:  # pragma: no cover
-            print(f"{mesh_size:>5g} {pole_size:>6g} failed: {error}")
+            peer_table.append({"h": mesh_size, "h_pole": pole_size, "nodes": f"failed: {error}"})
             continue
         force = np.interp(DELTAS, peer["delta"], peer["force_per_E_R2"], right=np.nan)
         errors = force / reference["force"] - 1
         peer_rows.append((peer["wall_time_s"], np.max(np.abs(np.nan_to_num(errors, nan=np.inf)))))  # early stop: no match
-        print(f"{mesh_size:>5g} {pole_size:>6g} {peer['n_nodes']:>6} {peer['wall_time_s']:>7.1f} "
-              + " ".join(f"{e:>+8.2%}" for e in errors), flush=True)
+        peer_table.append({"h": mesh_size, "h_pole": pole_size, "nodes": peer["n_nodes"], "time_s": peer["wall_time_s"],
+                           **dict(zip(error_columns, errors, strict=True))})
+        print(f"  done FElupe h={mesh_size} hp={pole_size}: {peer['n_nodes']} nodes, {peer['wall_time_s']:.1f} s",
+              flush=True)
+    page.table(peer_table, "FElupe (same problem: full ball, quadratic tets, rigid-plate contact, PARDISO"
+               + ("; OpenBLAS on one thread)" if args.peer_one_blas_thread else ")"),
+               formats={"time_s": ".1f", **{c: "+.2%" for c in error_columns}})
     ours = [(r["seconds"], np.max(np.abs(r["force"] / reference["force"] - 1))) for r in quadratic if r is not reference]
     if peer_rows and ours:
-        print("\nTime at equal accuracy (max error over the four deltas), elastocell vs FElupe:")
+        equal = []
         for target in (0.03, 0.02, 0.01, 0.005):
             t_ours = min((t for t, e in ours if e <= target), default=np.nan)
             t_peer = min((t for t, e in peer_rows if e <= target), default=np.nan)
-            print(f"  error <= {target:.1%}: elastocell {t_ours:.1f} s, FElupe {t_peer:.1f} s, ratio {t_peer / t_ours:.2f}")
-
+            equal.append({"max error <=": f"{target:.1%}", "elastocell_s": t_ours, "FElupe_s": t_peer,
+                          "FElupe / elastocell": t_peer / t_ours})
+        page.table(equal, "Time at equal accuracy (largest error over the four deltas; nan: no mesh of this run "
+                   "reaches it)", formats={"elastocell_s": ".1f", "FElupe_s": ".1f", "FElupe / elastocell": ".2f"})
+    page.write()
 
 if __name__ == "__main__":
     main()

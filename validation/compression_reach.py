@@ -8,7 +8,8 @@ at least 7 times stiffer, the rule with the nodes; 2 otherwise).
 
 One row per cell: the delta reached, F/(E_c R^2) there, the rows whose equilibrium is a saddle of the discrete
 energy (the symmetric branch lost stability), Newton iterations, substeps and wall time. A curve that stops
-early is a measurement too: the row says where and why.
+early is a measurement too: the row says where and why. The table goes into docs/validation/compression.md
+(``validation/page.py``).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import argparse
 import time
 
 import numpy as np
+from page import Page
 
 from elastocell.body.cell import Cell
 from elastocell.parameters.cell import cell_parameters
@@ -47,6 +49,13 @@ def main() -> None:
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
     names = args.only or list(CELLS)
+    page = Page("compression", "compression_reach.py", intro=(
+        "Robustness rather than accuracy: does one full compression curve reach delta_max = 0.75 for every cell "
+        "the compression studies name (nucleus stiffness and size ratios, offsets, ellipsoids, the random cell, "
+        "Mooney-Rivlin)? Each row: the delta reached and F/(E_c R^2) there, the rows whose equilibrium is a saddle "
+        "of the discrete energy (the symmetric branch lost stability) and the first of them, Newton iterations, "
+        "substeps, wall time and the smallest volume ratio J; a curve that stops early says where and why. The "
+        "reference is the target itself, delta = 0.75."))
     rows = []
     print(f"{'cell':>18} {'nodes':>6} {'delta':>7} {'F/EcR2':>8} {'saddles':>7} {'first':>6} {'newton':>6} "
           f"{'subst':>5} {'s':>6} {'min J':>6}  note")
@@ -72,11 +81,14 @@ def main() -> None:
         print(f"{name:>18} {row['nodes']:>6} {row['delta_reached']:>7.4f} {row['force_per_Ec_R2']:>8.4f} {saddles:>7} "
               f"{first:>6.3f} {row['newton_iterations']:>6} {row['substeps']:>5} {seconds:>6.1f} "
               f"{row['min_volume_ratio']:>6.3f}  {note}", flush=True)
+    page.table(rows, f"{args.element} elements", echo=False, formats={
+        "delta_reached": ".4f", "force_per_Ec_R2": ".4f", "first_saddle_delta": ".3f", "seconds": ".1f",
+        "min_volume_ratio": ".3f"})
     if args.out:
         import pandas as pd
 
         pd.DataFrame(rows).to_csv(args.out, index=False)
-
+    page.write()
 
 if __name__ == "__main__":
     main()

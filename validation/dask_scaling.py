@@ -12,7 +12,8 @@ the other on one core. Printed: first, the same points one after the other in th
 threads (the alternative to Dask on one machine); then, per worker count, the wall time of the whole grid
 (cluster start included), the sum of the per-point run times, the speed-up against the first worker count and
 the parallel efficiency. Run it on an otherwise idle machine: another job on the same cores makes the figures
-meaningless.
+meaningless. The tables go into docs/validation/studies.md
+(``validation/page.py``).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import time
 from pathlib import Path
 
 import numba
+from page import Page
 
 from elastocell.inverse.lut import compute_lut, plan, run_point
 
@@ -36,7 +38,16 @@ def main(argv=None) -> None:
     parser.add_argument("--radii", default="5,6", help="um, comma-separated")
     parser.add_argument("--moduli", default="3,5", help="kPa, comma-separated")
     args = parser.parse_args(argv)
-    print(f"cores available: {len(os.sched_getaffinity(0))}, load average before: {os.getloadavg()[0]:.2f}")
+    page = Page("studies", "dask_scaling.py", intro=(
+        "What Dask buys on this machine: the same pipe-flow look-up-table grid (radii x moduli, R_ch = 10 um, "
+        "Q = 0.04 uL/s, eta = 15 mPa s) run for a fixed duration at a fixed R/dx with no stationarity stop, so "
+        "every worker count does the same work. The reference is the same points one after the other in this "
+        "process with all its Numba threads; per worker count, the wall time of the whole grid (cluster start "
+        "included), the sum of the per-point run times, the speed-up against the first worker count and the "
+        "parallel efficiency. Every worker is a single-threaded process. Other jobs on the same cores make the "
+        "figures meaningless: the load average in the footer says how idle the machine was."),
+        versions=("numba", "dask", "distributed"))
+    page.print(f"cores available: {len(os.sched_getaffinity(0))}, load average before: {os.getloadavg()[0]:.2f}")
     points, _ = plan("10um", "0.04uL/s", "15mPa*s", radii=args.radii, moduli=args.moduli, quick=True,
                      duration=args.duration, resolution=args.resolution)
     with tempfile.TemporaryDirectory() as folder:
@@ -46,8 +57,8 @@ def main(argv=None) -> None:
         for point in points:
             run_point((point, folder))
         loop = time.perf_counter() - start
-    print(f"in this process, one point after the other, {numba.get_num_threads()} Numba threads: {loop:.1f} s")
-    print("workers | points | wall_s | summed_point_s | speed-up | efficiency")
+    page.print(f"in this process, one point after the other, {numba.get_num_threads()} Numba threads: {loop:.1f} s")
+    rows = []
     first = None
     for workers in args.workers:
         with tempfile.TemporaryDirectory() as folder:
@@ -58,15 +69,17 @@ def main(argv=None) -> None:
             wall = time.perf_counter() - start
             summed = sum(record["wall_time_s"] for record in result["records"])
         for failure in result["failures"]:
-            print(f"failed {failure['key']}: {failure['error']}")
+            page.print(f"failed {failure['key']}: {failure['error']}")
         if result["failures"]:
-            print("some points failed: the worker counts did different work; no speed-up printed")
-            return
+            page.print("some points failed: the worker counts did different work; no speed-up printed")
+            break
         first = first or wall
         speedup = first / wall
-        print(f"{workers} | {len(result['records'])} | {wall:.1f} | {summed:.1f} | {speedup:.2f} | "
-              f"{speedup / workers * args.workers[0]:.2f}")
-
+        rows.append({"workers": workers, "points": len(result["records"]), "wall_s": wall, "summed_point_s": summed,
+                     "speed-up": speedup, "efficiency": speedup / workers * args.workers[0]})
+    page.table(rows, "Dask local cluster", formats={"wall_s": ".1f", "summed_point_s": ".1f", "speed-up": ".2f",
+                                                     "efficiency": ".2f"})
+    page.write()
 
 if __name__ == "__main__":
     main()

@@ -31,7 +31,8 @@ translation, rotation about z and -- for a sphere -- the "rolling" rotations abo
 x and y) are removed by 5 point constraints compatible with the axisymmetric
 solution; the z-translation is left free (carried by the two contacts).
 
-Run ``python validation/felupe_peer.py`` for a small mesh-convergence table.
+Run ``python validation/felupe_peer.py`` for a small mesh-convergence table (also written into
+docs/validation/compression.md by ``validation/page.py``).
 """
 
 from __future__ import annotations
@@ -455,33 +456,28 @@ def interpolate_force(delta, d, f):
     return g**1.5
 
 
-def _print_table(results, nu=0.48):
+def _print_table(results, nu=0.48, page=None):
     probe = [0.1, 0.3, 0.5, 0.7]
     hertz_probe = [0.02, 0.03, 0.04, 0.05]
-    head = (
-        f"{'mesh:pole':>10} {'nodes':>6} {'tets':>6} {'mesh_s':>6} {'solve_s':>7}"
-        f" {'Newton':>6}"
-        + "".join(f" {'F@' + str(d):>7}" for d in probe)
-        + "".join(f" {'H@' + str(d):>6}" for d in hertz_probe)
-        + f" {'conv':>5} {'rigid':>7}"
-    )
-    print(head)
+    rows = []
     for label, r in results:
         d, f = r["delta"], r["force_per_E_R2"]
         vals = interpolate_force(probe, d, f)
         ratio = interpolate_force(hertz_probe, d, f) / hertz_force(hertz_probe, nu)
-        print(
-            f"{label:>10} {r['n_nodes']:>6d} {r['n_elements']:>6d}"
-            f" {r['mesh_time_s']:>6.2f} {r['wall_time_s']:>7.1f}"
-            f" {r['newton_iterations']:>6d}"
-            + "".join(f" {v:>7.4f}" for v in vals)
-            + "".join(f" {v:>6.3f}" for v in ratio)
-            + f" {str(r['converged']):>5} {r['max_rigid_reaction']:>7.1e}"
-        )
+        rows.append({"mesh:pole": label, "nodes": r["n_nodes"], "tets": r["n_elements"], "mesh_s": r["mesh_time_s"],
+                     "solve_s": r["wall_time_s"], "Newton": r["newton_iterations"],
+                     **{f"F@{p}": v for p, v in zip(probe, vals, strict=True)},
+                     **{f"H@{p}": v for p, v in zip(hertz_probe, ratio, strict=True)},
+                     "conv": r["converged"], "rigid": r["max_rigid_reaction"]})
+    formats = {"mesh_s": ".2f", "solve_s": ".1f", "rigid": ".1e", **{f"F@{p}": ".4f" for p in probe},
+               **{f"H@{p}": ".3f" for p in hertz_probe}}
+    page.table(rows, formats=formats)
 
 
 if __name__ == "__main__":
     import argparse
+
+    from page import Page
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--delta-max", type=float, default=0.75)
@@ -500,14 +496,14 @@ if __name__ == "__main__":
 
     import felupe as fem
 
-    print(f"FElupe {fem.__version__}, solver {_get_solver(args.solver)[1]}")
-    print(f"material check (NeoHooke vs W, rel. err.): {check_material(args.nu):.1e}")
-    print(
-        f"Hertz: F/(E R^2) = {4 / (3 * (1 - args.nu**2)):.4f} delta^1.5;"
-        " F@d = F/(E R^2) at delta d, H@d = F_FE / F_Hertz at delta d"
-        " (interpolated linearly in F^(2/3));"
-        " rigid = max reaction at the rigid-mode supports / F"
-    )
+    page = Page("compression", "felupe_peer.py", intro=(
+        "The peer alone: FElupe's curve of the homogeneous neo-Hookean ball between rigid frictionless plates (the "
+        "problem of `validation/compression.py`, solved without elastocell) against Hertz's closed form "
+        "F/(E R^2) = 4/(3 (1 - nu^2)) delta^1.5, which holds as delta -> 0: H@d = F_FElupe/F_Hertz at small "
+        "delta d should tend to 1 as the mesh is refined. F@d is F/(E R^2) at delta d (interpolated linearly in "
+        "F^(2/3)); rigid is the largest reaction at the supports that remove the rigid-body modes, over F."), versions=("felupe", "pypardiso"))
+    page.print(f"FElupe {fem.__version__}, solver {_get_solver(args.solver)[1]}")
+    page.print(f"material check (NeoHooke vs W, rel. err.): {check_material(args.nu):.1e}")
 
     results = []
     for spec in args.meshes.split(","):
@@ -525,16 +521,15 @@ if __name__ == "__main__":
         )
         label = f"{ms}" + (f":{ps}" if ps else "")
         results.append((label, r))
-        print(
+        page.print(
             f"  [{label}] nodes={r['n_nodes']} solve={r['wall_time_s']:.1f}s"
             f" increments={r['n_increments']} Newton={r['newton_iterations']}"
             f" converged={r['converged']} failed_at={r['failed_at_delta']}"
             f" cut back at delta={[round(x, 4) for x in r['cutback_at_delta']]}"
             f" F_top-F_bottom={np.abs(r['force_per_E_R2'] - r['force_bottom_per_E_R2']).max():.1e}",
-            flush=True,
         )
         if args.curve:
             for d, f in zip(r["delta"], r["force_per_E_R2"], strict=True):
-                print(f"    {d:.5f} {f:.6f}")
-    print()
-    _print_table(results, args.nu)
+                page.print(f"    {d:.5f} {f:.6f}")
+    _print_table(results, args.nu, page)
+    page.write()

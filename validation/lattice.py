@@ -21,7 +21,8 @@ Everything is measured in the same run:
   imports; otherwise a note is printed.
 
 The measurements live in :mod:`elastocell.simulation.throughput` (also behind ``elastocell bench lattice``); this
-script adds the table over sizes and precisions and the peer (lbmpy) in the same run.
+script adds the table over sizes and precisions and the peer (lbmpy) in the same run, and writes them into
+docs/validation/lattice.md (``validation/page.py``).
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ try:
     import elastocell  # noqa: F401
 except ImportError:  # running from a source checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
+
+from page import Page
 
 from elastocell.simulation.throughput import (
     TRIAD_ELEMENTS,
@@ -108,39 +111,50 @@ def main(argv=None) -> int:
                         help="numba (CPU kernels) and/or jax (JAX's default device, its own triad roofline)")
     args = parser.parse_args(argv)
 
+    page = Page("lattice", "lattice.py", intro=(
+        "Million lattice-node updates per second (MLUPS) of elastocell's fused D3Q19 lattice-Boltzmann step "
+        "against the machine's memory roofline, both measured in this run: a D3Q19 update must load and store 19 "
+        "populations (152 B in float32, 304 B in float64), so the roofline is the STREAM-triad bandwidth over "
+        "those bytes. With an immersed cell, the same lattice carries a coupled cell (its markers, the elastic "
+        "forces, spreading and interpolation). The independent peer is lbmpy's generated D3Q19 TRT kernel "
+        "(C + OpenMP, two lattices) at 128^3 in float32, timed alone, where lbmpy is installed. The MLUPS are the "
+        "best of several repeats; a CPU use below the thread count means other processes held part of the cores "
+        "(a lower bound then)."), versions=("numba", "lbmpy", "pystencils"))
     THREADS_SETTING["threads"] = args.threads
     threads = _set_threads()
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     bandwidth = stream_triad_bandwidth()
-    print(f"threads: {threads}   load average (1 min) before the run: {load:.2f} on {os.cpu_count()} CPUs")
-    print(f"STREAM triad (numba, parallel, 3 x {TRIAD_ELEMENTS * 8 / 2**20:.0f} MiB): {bandwidth:.1f} GB/s")
-    print(
-        f"{'backend':>7} {'size':>6} {'dtype':>8} {'MLUPS':>8} {'B/update':>9} {'roof MLUPS':>11} {'of roof':>8} {'CPU use':>8} "
-        f"{'+cell MLUPS':>11} {'markers':>7} {'slowdown':>8}"
-    )
-    results = {}
+    page.print(f"threads: {threads}   load average (1 min) before the run: {load:.2f} on {os.cpu_count()} CPUs")
+    page.print(f"STREAM triad (numba, parallel, 3 x {TRIAD_ELEMENTS * 8 / 2**20:.0f} MiB): {bandwidth:.1f} GB/s")
+    results, rows = {}, []
     for backend, size, dtype in ((b, s, d) for b in args.backends for s in args.sizes for d in args.dtypes):
         r = run_benchmark(size, dtype, with_cell=not args.no_cell, threads=threads, backend=backend)
         if backend == "numba":
             results[(size, r["dtype"])] = r
-        cell = (f"{r['mlups_with_cell']:11.1f} {r['markers']:7d} {r['with_cell_slowdown']:7.2f}x"
-                if r["mlups_with_cell"] is not None else "")
-        print(
-            f"{backend:>7} {size:>5}^3 {r['dtype']:>8} {r['mlups']:8.1f} {r['bytes_per_update']:9d} "
-            f"{r['roofline_mlups']:11.1f} {100 * r['roofline_fraction']:7.1f}% {r['cpu_utilisation']:7.2f}x {cell}"
-        )
+        with_cell = r["mlups_with_cell"] is not None
+        rows.append({"backend": backend, "size": f"{size}^3", "dtype": r["dtype"], "MLUPS": r["mlups"],
+                     "B/update": r["bytes_per_update"], "roof MLUPS": r["roofline_mlups"],
+                     "of roof": r["roofline_fraction"], "CPU use": r["cpu_utilisation"],
+                     "+cell MLUPS": r["mlups_with_cell"] if with_cell else None,
+                     "markers": r["markers"] if with_cell else None,
+                     "slowdown": r["with_cell_slowdown"] if with_cell else None})
+        print(f"  done {backend} {size}^3 {r['dtype']}: {r['mlups']:.1f} MLUPS", flush=True)
+    page.table(rows, "D3Q19 step against the roofline", formats={
+        "MLUPS": ".1f", "roof MLUPS": ".1f", "of roof": ".1%", "CPU use": ".2f", "+cell MLUPS": ".1f",
+        "slowdown": ".2f"})
     if args.no_lbmpy:
-        print("lbmpy: skipped (--no-lbmpy)")
+        page.print("lbmpy: skipped (--no-lbmpy)")
     else:
         mlups, note = time_lbmpy(128, "float32")
         if mlups is None:
-            print(f"lbmpy: skipped -- {note}")
+            page.print(f"lbmpy: skipped -- {note}")
         else:
             ours = results.get((128, "float32")) or run_benchmark(128, "float32", with_cell=False, threads=threads)
-            print(
-                f"lbmpy  128^3  float32 {mlups:8.1f} MLUPS ({note}); "
-                f"elastocell / lbmpy = {ours['mlups'] / mlups:.2f}"
-            )
+            page.table([{"code": "lbmpy", "size": "128^3", "dtype": "float32", "MLUPS": mlups, "note": note},
+                        {"code": "elastocell", "size": "128^3", "dtype": "float32", "MLUPS": ours["mlups"],
+                         "note": f"elastocell / lbmpy = {ours['mlups'] / mlups:.2f}"}],
+                       "Peer: lbmpy", formats={"MLUPS": ".1f"})
+    page.write()
     return 0
 
 

@@ -10,7 +10,8 @@ which Young's modulus LE-2D-FEM-19 gives for each (area_um, deform) elastocell m
 E_dclab/E_elastocell is 1 where both models agree; differences come from the material (neo-Hookean, nu = 0.48,
 against linear elastic, nu = 0.5), from the discretisations and from elastocell's cell being filled with fluid of
 the medium's viscosity (irrelevant at a stationary shape). Points that reached the duration cap before a stationary
-shape are marked: their deformation is still growing.
+shape are marked: their deformation is still growing. The table goes into docs/validation/lut.md
+(``validation/page.py``).
 """
 
 from __future__ import annotations
@@ -39,7 +40,17 @@ def main(argv=None) -> None:
     parser.add_argument("--out", type=Path, default=Path("results/lut-dclab"))
     args = parser.parse_args(argv)
     from dclab.features import emodulus
+    from page import Page
 
+    page = Page("lut", "lut_dclab.py", intro=(
+        "Stationary shapes of a cell in the channel that stands for a 20 um square channel (R_ch = 1.094 x 10 um) "
+        "at Q = 0.04 uL/s and eta = 15 mPa s, run by `elastocell lut --channel-width 20um` (neo-Hookean, "
+        "nu = 0.48, lattice Boltzmann + immersed boundary). The independent reference is dclab's LE-2D-FEM-19 "
+        "table (Mokbel et al. 2017, axisymmetric FEM of a linear-elastic sphere, nu = 0.5), shipped with dclab: "
+        "dclab is asked which Young's modulus its table gives for each (area_um, deform) elastocell measured. "
+        "The ratio E_dclab/E_elastocell is 1 where both models agree; differences come from the material, the "
+        "discretisations and elastocell's interior fluid (irrelevant at a stationary shape). A point that reached "
+        "the duration cap before a stationary shape is marked `no (cap)`: its deformation was still growing."), versions=("dclab", "numba"))
     args.out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     result = compute_lut(args.out / "lut.txt", None, "0.04uL/s", "15mPa*s", radii=args.radii, moduli=args.moduli,
@@ -52,17 +63,18 @@ def main(argv=None) -> None:
         warnings.simplefilter("ignore")  # points outside the table come back as NaN
         e_dclab = emodulus.get_emodulus(area_um=area, deform=deform, medium=15.0, channel_width=20.0,
                                         flow_rate=0.04, px_um=0, temperature=None, lut_data="LE-2D-FEM-19")
-    print(f"elastocell lut --channel-width 20um --flow-rate 0.04uL/s --viscosity 15mPa*s: {len(records)} points, "
-          f"{time.perf_counter() - start:.0f} s (finished points read back)")
-    print("R [um] | E [kPa] | area_um | deform | deform_std | stationary | t_end | E_dclab LE-2D-FEM-19 [kPa] | ratio")
-    for record, e in zip(records, e_dclab, strict=True):
-        print(f"{record['radius_um']:g} | {record['emodulus_kpa']:g} | {record['area_um']:.2f} | "
-              f"{record['deform']:.4f} | {_number(record.get('deform_std')):.4f} | "
-              f"{'yes' if record.get('stationary') else 'no (cap)'} | {_number(record.get('duration')):.2f} | "
-              f"{e:.3f} | {e / record['emodulus_kpa']:.3f}")
+    page.print(f"elastocell lut --channel-width 20um --flow-rate 0.04uL/s --viscosity 15mPa*s: {len(records)} points, "
+               f"{time.perf_counter() - start:.0f} s (finished points read back from {args.out})")
+    page.table([{"R [um]": record["radius_um"], "E [kPa]": record["emodulus_kpa"], "area_um": record["area_um"],
+                 "deform": record["deform"], "deform_std": _number(record.get("deform_std")),
+                 "stationary": "yes" if record.get("stationary") else "no (cap)",
+                 "t_end": _number(record.get("duration")), "E_dclab LE-2D-FEM-19 [kPa]": e,
+                 "ratio": e / record["emodulus_kpa"]} for record, e in zip(records, e_dclab, strict=True)],
+               formats={"R [um]": "g", "E [kPa]": "g", "area_um": ".2f", "deform": ".4f", "deform_std": ".4f",
+                        "t_end": ".2f", "E_dclab LE-2D-FEM-19 [kPa]": ".3f", "ratio": ".3f"})
     for failure in result["failures"]:
-        print(f"failed {failure['key']}: {failure['error']}")
-
+        page.print(f"failed {failure['key']}: {failure['error']}")
+    page.write()
 
 if __name__ == "__main__":
     main()

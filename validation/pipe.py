@@ -15,7 +15,8 @@ the wall shear rate), trilinear kernel, uniform p1 mesh with edges of 2 dx; Ca_w
 (``pipe_flow.DEFAULT_CAPILLARY_NUMBER_WALL``). Time is in units of the inverse wall shear rate 1/gdot_w.
 Stationary values are means over the second half of each run. The equivalent runs at the same pressure
 gradient G and E_c (the paper's "same flow conditions"), i.e. at Ca_w(mu_eff) = Ca_w/gamma_eff.
-MLUPS = all lattice nodes (fluid and solid) x steps / second; the fluid fraction is printed beside it.
+MLUPS = all lattice nodes (fluid and solid) x steps / second; the fluid fraction is printed beside it. The
+tables go into docs/validation/pipe.md (``validation/page.py``).
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ except ImportError:  # a source checkout without installing
     import elastocell
 
 import numba
+from page import Page
 
 from elastocell.body.cell import Cell
 from elastocell.parameters.flow import shear_mesh_size
@@ -47,19 +49,11 @@ def make_cell(resolution: float, nucleus: str = "sphere") -> Cell:
                                                            element="p1", mesh_size=size, pole_size=size))
 
 
-def print_table(rows: list[dict], title: str) -> None:
-    print(f"\n{title}")
-    if not rows:
-        return
-    names = list(rows[0])
-    print(" | ".join(names))
-    for row in rows:
-        cells = []
-        for name in names:
-            value = row[name]
-            cells.append(f"{value:.5g}" if isinstance(value, float) else str(value))
-        print(" | ".join(cells))
-    sys.stdout.flush()
+PAGE: list[Page] = []  # the page of this run (set by main)
+
+
+def print_table(rows: list[dict], title: str, formats: dict | None = None) -> None:
+    PAGE[0].table(rows, title, formats=formats or {"wall_s": ".1f"})
 
 
 def poiseuille(radii) -> list[dict]:
@@ -75,7 +69,7 @@ def poiseuille(radii) -> list[dict]:
     for name in ("Q_err", "L2_err", "max_err/u_max"):
         err = np.abs([row[name] for row in rows])
         slope = np.polyfit(np.log(r), np.log(err), 1)[0]
-        print(f"least-squares order of |{name}| over R_ch/dx = {r.min():g}..{r.max():g}: {-slope:.2f}")
+        PAGE[0].print(f"least-squares order of |{name}| over R_ch/dx = {r.min():g}..{r.max():g}: {-slope:.2f}")
     return rows
 
 
@@ -106,7 +100,7 @@ def reference(resolution: float, duration: float, ca: float) -> list[dict]:
     cell = make_cell(resolution)
     equivalent = cell.equivalent()
     rows = [run_case(cell, ca, duration, resolution=resolution)]
-    print_table([{k: v for k, v in rows[-1].items() if not k.startswith("_")}], "reference nucleus cell")
+    print(f"  done reference nucleus cell: {rows[-1]['wall_s']:.0f} s", flush=True)
     rows.append(run_case(equivalent, ca / cell.effective_stiffness_ratio, duration, resolution=resolution))
     print_table([{k: v for k, v in row.items() if not k.startswith("_")} for row in rows],
                 f"Centred cell, gamma = 2, lambda = 0.5, and its equivalent at the same G (Ca_w = {ca:g} with mu_c)")
@@ -123,7 +117,7 @@ def migration(resolution: float, duration: float, ca: float, offset: float) -> l
     r = np.asarray(row["_series"]["radial_position"])
     for mark in np.linspace(0, t[-1], 9):
         i = int(np.argmin(abs(t - mark)))
-        print(f"  t = {t[i]:7.2f}/gdot_w  r/R_ch = {r[i]:.4f}")
+        PAGE[0].print(f"  t = {t[i]:7.2f}/gdot_w  r/R_ch = {r[i]:.4f}")
     return rows
 
 
@@ -175,7 +169,16 @@ def main(argv=None) -> None:
     parser.add_argument("--json", type=Path, help="write every figure to this file")
     args = parser.parse_args(argv)
     only = set(args.only or ("poiseuille", "mlups", "reference", "migration"))
-    print(f"elastocell {elastocell.__version__}, numba threads {numba.get_num_threads()}")
+    PAGE[:] = [Page("pipe", "pipe.py", intro=(
+        "Pressure-driven flow through a cylinder on the lattice (D3Q19, half-way bounce-back on the staircase "
+        "wall, tau = 1). The empty channel is measured against the closed form, Poiseuille's profile "
+        "u(r) = G (R_ch^2 - r^2)/(4 eta) and its flow rate, over R_ch/dx, with the least-squares order of the "
+        "error. With the reference cell (nucleus gamma = 2, lambda = 0.5; R/dx = 8, R_ch/R = 2, uniform p1 mesh with "
+        "edges of 2 dx) and its homogeneous equivalent at the same pressure gradient: the stationary strains, "
+        "deformation and speed, means over the second half of each run (time in 1/gdot_w). The cost table "
+        "times coupled steps against pure lattice Boltzmann in the same channel, interleaved; MLUPS counts all "
+        "lattice nodes (solid ones are skipped by the kernel)."), versions=("numba",))]
+    PAGE[0].print(f"elastocell {elastocell.__version__}, numba threads {numba.get_num_threads()}")
     results = {}
     if "poiseuille" in only:
         results["poiseuille"] = poiseuille(args.radii)
@@ -188,6 +191,7 @@ def main(argv=None) -> None:
                                          args.capillary_number_wall, args.start_offset)
     if args.json:
         args.json.write_text(json.dumps(results, indent=1, default=float))
+    PAGE[0].write()
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ is driven at the same cell-scale capillary number Ca_R = G R/(2 mu) = Ca_w R/R_c
 equator), so that only the confinement changes along a row. Each run goes to ``--duration`` units of 1/gdot_w
 (stationary means over the second half). One row per run: eps_x, eps_r (means and standard deviations),
 the DC deformation, the volume change, steps and wall time. The paper's Fig. 6 caption states eps_x < 1 < eps_r.
+The table goes into docs/validation/pipe.md (``validation/page.py``).
 """
 
 from __future__ import annotations
@@ -56,10 +57,19 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     from concurrent.futures import ProcessPoolExecutor
 
+    from page import Page
+
+    page = Page("pipe", "pipe_shape.py", intro=(
+        "A homogeneous cell (uniform p1 mesh, edges 2 dx) on the axis of capillaries of radius R_ch/R, driven at "
+        "the same cell-scale capillary number Ca_R = G R/(2 mu) = Ca_w R/R_ch, so that along a row only the "
+        "confinement changes. eps_x and eps_r are the cell's axial and radial extents over its diameter, means "
+        "(standard deviations) over the second half of each run. The reference is the paper's statement in its "
+        "Fig. 6 caption, eps_x < 1 < eps_r (the bullet shape); `bullet` says whether the run shows it. Runs go "
+        f"in parallel on {args.workers} single-threaded workers; `wall s` is each run's own time."))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     jobs = list(itertools.product(args.ratios, args.cell_capillary))
-    rows = []
+    rows, table = [], []
     print("R_ch/R  Ca_R  Ca_w   eps_x (std)          eps_r (std)          DC      bullet  wall s", flush=True)
     with ProcessPoolExecutor(args.workers) as pool:
         futures = [pool.submit(one_run, r, c, args.resolution, args.duration) for r, c in jobs]
@@ -71,7 +81,15 @@ def main(argv=None) -> None:
                   f"   {row['strain_radial_mean']:.4f} ({row['strain_radial_std']:.1e})   "
                   f"{row['deformation_mean']:.4f}  {str(row['bullet']):6s} {row['wall_time_s']:6.0f}", flush=True)
             (out / "pipe_shape.json").write_text(json.dumps(rows, indent=1))
-
+            table.append({"R_ch/R": row["channel_radius_ratio"], "Ca_R": row["cell_capillary_number"],
+                          "Ca_w": row["capillary_number_wall"], "R/dx": row["resolution"], "t_end": row["duration"],
+                          "nodes": row["nodes"], "lattice": row["lattice"],
+                          "eps_x (std)": f"{row['strain_axial_mean']:.4f} ({row['strain_axial_std']:.1e})",
+                          "eps_r (std)": f"{row['strain_radial_mean']:.4f} ({row['strain_radial_std']:.1e})",
+                          "DC": row["deformation_mean"], "max|dV/V|": row["volume_change_max_abs"],
+                          "bullet": row["bullet"], "wall s": row["wall_time_s"]})
+    page.table(table, formats={"DC": ".4f", "max|dV/V|": ".2e", "wall s": ".0f"}, echo=False)
+    page.write()
 
 if __name__ == "__main__":
     main()

@@ -17,7 +17,8 @@ same window, in units of the shear rate. Reference (docs/theory.md): D -> (5/4) 
 
 The cost split times each part of the coupled step alone, in the same compiled kernels the coupled step
 calls (the LB sweep with the force field, the compiled elastic forces, spreading + interpolation), over
-many steps; MLUPS = lattice nodes x steps / second.
+many steps; MLUPS = lattice nodes x steps / second. The tables go into docs/validation/shear.md
+(``validation/page.py``).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ except ImportError:  # a source checkout without installing
     import elastocell
 
 import numba
+from page import Page
 
 from elastocell.body.cell import Cell
 from elastocell.coupling import ibm
@@ -70,23 +72,6 @@ def run(cell: Cell, ca: float, resolution: float, duration: float, **overrides) 
         "limit": result.units.limiting,
         "wall_s": time.perf_counter() - start,
     }
-
-
-def print_table(rows: list[dict], title: str) -> None:
-    print(f"\n{title}")
-    if not rows:
-        return
-    names = list(rows[0])
-    print(" | ".join(names))
-    for row in rows:
-        cells = []
-        for name in names:
-            value = row[name]
-            if isinstance(value, float):
-                cells.append(f"{value:.4g}" if name not in ("wall_s",) else f"{value:.1f}")
-            else:
-                cells.append(str(value))
-        print(" | ".join(cells), flush=True)
 
 
 def cost_split(resolution: float, steps: int = 200) -> list[dict]:
@@ -153,19 +138,31 @@ def main(argv=None) -> None:
     if args.threads:
         numba.set_num_threads(max(1, min(args.threads, numba.config.NUMBA_NUM_THREADS)))
     parts = args.only or ["split", "homogeneous", "reference"]
+    page = Page("shear", "shear.py", intro=(
+        "A cell in plane Couette flow (lattice Boltzmann + immersed boundary, uniform p1 mesh with edges of 2 dx, "
+        "confinement 2R/H = 0.2, tau = 1, particle Reynolds number 0.1): the stationary Taylor deformation D, the "
+        "inclination and the tank-treading frequency (in units of the shear rate), means over strain >= "
+        "duration/2. The independent reference is the closed-form small-deformation limit for an unbounded elastic "
+        "sphere in Stokes flow (docs/theory.md): D/Ca -> 5/4, inclination -> 45 deg and tank-treading frequency "
+        "-> 1/2 as Ca -> 0; the resolution table shows the discretisation's share of the difference at the "
+        "smallest Ca. The cost table times each part of the coupled step alone, in the kernels the "
+        "coupled step calls; MLUPS = lattice nodes x steps / second."), versions=("numba",))
     tables = {}
-    print(f"threads: {numba.get_num_threads()}, R/dx = {args.resolution:g}, duration {args.duration:g} strain")
+    page.print(f"threads: {numba.get_num_threads()}, R/dx = {args.resolution:g}, duration {args.duration:g} strain")
+    shear_formats = {"wall_s": ".1f"}
     if "split" in parts:
         tables["split"] = cost_split(args.resolution)
-        print_table(tables["split"], "cost per coupled step")
+        page.table(tables["split"], f"Cost per coupled step, R/dx = {args.resolution:g}",
+                   formats={"ms_per_step": ".3g", "MLUPS": ".3g"})
     if "homogeneous" in parts:
         cell = make_cell(args.resolution)
         rows = []
         for ca in args.capillary_numbers:
             rows.append(run(cell, ca, args.resolution, args.duration))
-            print_table(rows[-1:], f"homogeneous cell, Ca = {ca:g}")
+            print(f"  done homogeneous Ca = {ca:g}: D/Ca = {rows[-1]['D/Ca']:.4g}, {rows[-1]['wall_s']:.0f} s", flush=True)
         tables["homogeneous"] = rows
-        print_table(rows, "homogeneous cell (reference: D/Ca -> 1.25, 45 deg, 0.5 as Ca -> 0)")
+        page.table(rows, f"Homogeneous cell, R/dx = {args.resolution:g} (reference: D/Ca -> 1.25, 45 deg, 0.5 as "
+                   "Ca -> 0)", formats=shear_formats)
     if "reference" in parts:
         cell = make_cell(args.resolution, nucleus="sphere")
         rows = []
@@ -173,17 +170,20 @@ def main(argv=None) -> None:
             row = {"cell": label, "gamma_eff": body.effective_stiffness_ratio}
             row.update(run(body, 0.1, args.resolution, args.duration))
             rows.append(row)
-            print_table(rows[-1:], label)
+            print(f"  done {label}: D = {row['D']:.4g}, {row['wall_s']:.0f} s", flush=True)
         tables["reference"] = rows
-        print_table(rows, "reference cell and its equivalent at Ca = 0.1 (Ca with mu_c for the nucleus cell, "
-                          "mu_eff for the equivalent)")
+        page.table(rows, "Reference cell and its equivalent at Ca = 0.1 (Ca with mu_c for the nucleus cell, "
+                         "mu_eff for the equivalent)", formats=shear_formats)
     if "resolution" in parts:
         rows = []
         for resolution in args.resolutions:
             rows.append(run(make_cell(resolution), args.capillary_numbers[0], resolution, args.duration))
-            print_table(rows[-1:], f"R/dx = {resolution:g}")
+            print(f"  done R/dx = {resolution:g}: D/Ca = {rows[-1]['D/Ca']:.4g}, {rows[-1]['wall_s']:.0f} s",
+                  flush=True)
         tables["resolution"] = rows
-        print_table(rows, f"resolution study, Ca = {args.capillary_numbers[0]:g}")
+        page.table(rows, f"Resolution study, homogeneous cell, Ca = {args.capillary_numbers[0]:g}",
+                   formats=shear_formats)
+    page.write()
     if args.json:
         print(json.dumps(tables))
 

@@ -7,7 +7,8 @@ reproduction from a sample of full-size runs.
 
 Prints one table: invocations (studies, workers, wall time, runs, summed run time, parallel efficiency) and,
 for a directory, the summed run time per scenario. The full estimate multiplies the mean measured run time of
-each scenario in --full-dir by the number of runs the full studies declare (stated as an estimate).
+each scenario in --full-dir by the number of runs the full studies declare (stated as an estimate). The tables
+go into docs/validation/studies.md (``validation/page.py``).
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ import sys
 import time
 from collections import defaultdict
 from pathlib import Path
+
+from page import Page
 
 
 def invocations(directory: Path) -> list[dict]:
@@ -35,20 +38,22 @@ def run_times(directory: Path) -> dict[str, list[float]]:
     return times
 
 
-def summarise(directory: Path) -> None:
-    print(f"\n{directory}")
-    print(f"{'studies':>10} {'workers':>7} {'wall (s)':>9} {'runs':>5} {'sum of runs (s)':>16} {'efficiency':>10}")
+def summarise(directory: Path, page) -> None:
+    rows = []
     for entry in invocations(directory):
         workers = entry.get("workers") or 1
         efficiency = entry["run_time_sum_s"] / (workers * entry["wall_time_s"]) if entry["wall_time_s"] else 0
-        print(f"{len(entry['studies']):>10} {workers:>7} {entry['wall_time_s']:>9.0f} {entry['runs']:>5} "
-              f"{entry['run_time_sum_s']:>16.0f} {efficiency:>10.2f}")
-    for scenario, times in run_times(directory).items():
-        print(f"  {scenario:8s} {len(times):4d} runs, {sum(times):8.0f} s in all, mean {sum(times) / len(times):7.1f} s,"
-              f" max {max(times):7.1f} s")
+        rows.append({"studies": len(entry["studies"]), "workers": workers, "wall (s)": entry["wall_time_s"],
+                     "runs": entry["runs"], "sum of runs (s)": entry["run_time_sum_s"], "efficiency": efficiency})
+    page.table(rows, f"Invocations recorded in {directory}/timings.jsonl",
+               formats={"wall (s)": ".0f", "sum of runs (s)": ".0f", "efficiency": ".2f"})
+    page.table([{"scenario": scenario, "runs": len(times), "sum (s)": sum(times), "mean (s)": sum(times) / len(times),
+                 "max (s)": max(times)} for scenario, times in run_times(directory).items()],
+               f"Run time per scenario in {directory}/runs",
+               formats={"sum (s)": ".0f", "mean (s)": ".1f", "max (s)": ".1f"})
 
 
-def estimate_full(directory: Path, workers: int) -> None:
+def estimate_full(directory: Path, workers: int, page) -> None:
     from elastocell.studies import STUDIES
 
     runs = {m.run for study in STUDIES.values() for m in study.members(False)}
@@ -57,16 +62,21 @@ def estimate_full(directory: Path, workers: int) -> None:
         counts[run.scenario] += 1
     measured = run_times(directory)
     total = 0.0
-    print(f"\nfull reproduction (estimate from the runs measured in {directory}):")
+    rows = []
     for scenario, count in counts.items():
         sample = measured.get(scenario)
         if not sample:
-            print(f"  {scenario:8s} {count:4d} runs: no measured sample")
+            rows.append({"scenario": scenario, "runs declared": count, "note": "no measured sample"})
             continue
         mean = sum(sample) / len(sample)
         total += count * mean
-        print(f"  {scenario:8s} {count:4d} runs x {mean:7.1f} s (mean of {len(sample)}) = {count * mean / 3600:6.2f} h")
-    print(f"  sum {total / 3600:.2f} h of run time; on {workers} workers at least {total / workers / 3600:.2f} h")
+        rows.append({"scenario": scenario, "runs declared": count, "mean run (s)": mean, "sample": len(sample),
+                     "estimate (h)": count * mean / 3600})
+    page.table(rows, f"Full reproduction, an estimate from the runs measured in {directory}",
+               columns=["scenario", "runs declared", "mean run (s)", "sample", "estimate (h)", "note"],
+               formats={"mean run (s)": ".1f", "estimate (h)": ".2f"})
+    page.print(f"sum {total / 3600:.2f} h of run time; on {workers} workers at least {total / workers / 3600:.2f} h "
+               "(an estimate)")
 
 
 def main() -> None:
@@ -77,6 +87,12 @@ def main() -> None:
     parser.add_argument("--workers", type=int, nargs="+", default=[2])
     parser.add_argument("--out", type=Path, default=Path("/tmp/elastocell-bench-studies"))
     args = parser.parse_args()
+    page = Page("studies", "studies.py", intro=(
+        "A cost measurement, not a comparison with a reference: the wall time of `elastocell reproduce` (the "
+        "paper's studies as Dask tasks), the number of runs and their summed run time, and the parallel "
+        "efficiency = summed run time / (workers x wall time), which is 1 for perfect use of the workers. With "
+        "`--full-dir`, the full reproduction is estimated from the mean measured run time of each scenario times "
+        "the number of runs the studies declare (an estimate, stated as one)."), versions=("dask", "distributed"))
     directories = list(args.quick_dir)
     if args.run:
         for workers in args.workers:
@@ -84,14 +100,14 @@ def main() -> None:
             start = time.perf_counter()
             subprocess.run([sys.executable, "-m", "elastocell", "reproduce", "--quick", "--quiet", "--workers",
                             str(workers), "--out", str(directory)], check=False)
-            print(f"reproduce --quick, {workers} workers: {time.perf_counter() - start:.0f} s")
+            page.print(f"reproduce --quick, {workers} workers: {time.perf_counter() - start:.0f} s")
             directories.append(directory)
     for directory in directories:
-        summarise(directory)
+        summarise(directory, page)
     if args.full_dir:
-        summarise(args.full_dir)
-        estimate_full(args.full_dir, max(args.workers))
-
+        summarise(args.full_dir, page)
+        estimate_full(args.full_dir, max(args.workers), page)
+    page.write()
 
 if __name__ == "__main__":
     main()

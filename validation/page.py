@@ -1,0 +1,309 @@
+"""The validation pages: every script in ``validation/`` prints its tables and writes them into its section of a
+page under ``docs/validation/``, with a footer the script writes itself: the exact command, the machine (CPU,
+cores, memory and the memory bandwidth measured in the same run), the software versions, the date and the wall
+time. ``docs/validation/index.md`` is rewritten at the same time from what the pages hold.
+
+A script uses it as::
+
+    page = Page("shear", "shear.py", intro="What is measured, against which independent reference.")
+    page.print("a line of the printed output")        # printed, and kept as preformatted text
+    page.table(rows, "homogeneous cell")               # printed with | separators, kept as a Markdown table
+    page.write()                                       # the section, its footer, and the index
+
+A page holds one section per script (``PAGES``); each script replaces only its own section, between the
+``<!-- section NAME -->`` and ``<!-- end NAME -->`` markers, so that a page whose scripts ran at different times
+keeps every section with its own footer. ``python validation/page.py`` writes the pages and the index without
+running anything: sections not generated yet name their command and say so.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import re
+import shlex
+import sys
+import time
+from datetime import datetime, timezone
+from importlib import metadata
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs" / "validation"
+
+# page -> (title, {script: (section heading, command that regenerates the section)})
+PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
+    "compression": ("Compression between plates", {
+        "compression.py": ("Mesh convergence, and FElupe on the same problem",
+                           "python validation/compression.py --meshes p1:0.2:0.05 p2:0.5:0.12 p2:0.35:0.08 "
+                           "p2:0.2:0.05"),
+        "felupe_peer.py": ("FElupe alone against Hertz", "python validation/felupe_peer.py --meshes 0.5:0.15,0.35:0.1"),
+        "force_ratios.py": ("Nucleus cell over its homogeneous equivalent",
+                            "python validation/force_ratios.py --element p2 --stiffness-ratio 2 10"),
+        "compression_reach.py": ("Reach of a full curve for every cell", "python validation/compression_reach.py"),
+    }),
+    "lattice": ("Lattice Boltzmann throughput", {
+        "lattice.py": ("D3Q19 kernel against the memory roofline, and lbmpy", "python validation/lattice.py"),
+    }),
+    "shear": ("Cell in shear flow", {
+        "shear.py": ("Small-deformation theory, resolution, and the cost of a coupled step",
+                     "python validation/shear.py --only split homogeneous resolution --resolution 6 "
+                     "--resolutions 4 6 --capillary-numbers 0.05 0.1 --duration 3"),
+    }),
+    "pipe": ("Cell in pipe flow", {
+        "pipe.py": ("Poiseuille flow, the centred cell, and the cost of a coupled step",
+                    "python validation/pipe.py --only poiseuille --only mlups --only reference --duration 4"),
+        "pipe_shape.py": ("Where the cell takes the bullet shape",
+                          "python validation/pipe_shape.py --ratios 2 3 --cell-capillary 0.5 --duration 8"),
+    }),
+    "lut": ("RT-DC look-up table against dclab", {
+        "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",
+                         "python validation/lut_dclab.py --radii 6 --moduli 2,5 --duration 8"),
+    }),
+    "fit": ("Fits of AFM curves and master curves", {
+        "fit.py": ("Accuracy, Hertz's bias, interval coverage and cost of the AFM fit",
+                   "python validation/fit.py --curves 200 --coverage 50"),
+        "mastercurves.py": ("The shipped master curves", "python validation/mastercurves.py"),
+    }),
+    "studies": ("Studies on Dask", {
+        "studies.py": ("Wall time of the studies", "python validation/studies.py --run --workers 2"),
+        "dask_scaling.py": ("Speed-up of a sweep through Dask", "python validation/dask_scaling.py --duration 10"),
+    }),
+}
+
+NOT_GENERATED = "not generated on this machine yet"
+_SECTION = re.compile(r"<!-- section (?P<name>\S+) -->\n(?P<body>.*?)<!-- end (?P=name) -->\n", re.S)
+_RUN = re.compile(r"<!-- run (?P<json>\{.*?\}) -->")
+
+
+def page_of(script: str) -> str:
+    for name, (_, scripts) in PAGES.items():
+        if script in scripts:
+            return name
+    raise KeyError(f"{script} belongs to no page of validation/page.py's PAGES")
+
+
+def command_line(argv: list[str] | None = None) -> str:
+    """``python <script relative to the repository> <arguments>``, quoted as a shell would need it."""
+    argv = list(sys.argv if argv is None else argv)
+    script = Path(argv[0]).resolve()
+    try:
+        argv[0] = str(script.relative_to(ROOT))
+    except ValueError:
+        pass
+    return "python " + shlex.join(argv)
+
+
+def machine(bandwidth: float | None = None) -> dict:
+    """CPU model, cores (and those this process may use), memory, and the STREAM-triad bandwidth (GB/s)."""
+    model = platform.processor() or platform.machine()
+    memory = None
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemTotal"):
+                memory = int(line.split()[1]) * 1024
+                break
+    except OSError:
+        pass
+    available = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return {"cpu": model, "cores": os.cpu_count(), "cores_available": available, "memory_bytes": memory,
+            "bandwidth_gb_s": bandwidth}
+
+
+def versions(extra: tuple[str, ...] = ()) -> dict:
+    """``elastocell.files.software_versions()`` and the installed version of each distribution in ``extra``
+    (peers, dclab, dask); "not installed" where it is not."""
+    from elastocell.files import software_versions
+
+    found = software_versions()
+    for name in extra:
+        try:
+            found[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            found[name] = "not installed"
+    return found
+
+
+def _cell(value, spec: str | None) -> str:
+    if value is None:
+        return ""
+    if spec is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return format(value, spec)
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def markdown_table(rows: list[dict], columns: list[str] | None = None, formats: dict | None = None) -> str:
+    columns = columns or list(rows[0])
+    formats = formats or {}
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    for row in rows:
+        lines.append("| " + " | ".join(_cell(row.get(c), formats.get(c)).replace("|", "\\|") for c in columns) + " |")
+    return "\n".join(lines)
+
+
+class Page:
+    """One script's section of a validation page: what it prints, kept for the page, and the footer."""
+
+    def __init__(self, page: str | None = None, script: str | None = None, intro: str = "",
+                 versions: tuple[str, ...] = ()):
+        self.start = time.perf_counter()
+        self.date = datetime.now(timezone.utc)
+        self.load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+        self.script = script or Path(sys.argv[0]).name
+        self.page = page or page_of(self.script)
+        self.intro = intro
+        self.extra_versions = versions
+        self.blocks: list[tuple[str, object]] = []  # ("text", [lines]) | ("markdown", str) | ("heading", str)
+
+    def print(self, *parts, end: str = "\n") -> None:
+        """``print`` that also keeps the text for the page (preformatted, as printed)."""
+        text = " ".join(str(p) for p in parts) + end
+        print(text, end="", flush=True)
+        if self.blocks and self.blocks[-1][0] == "text":
+            self.blocks[-1][1].append(text)
+        else:
+            self.blocks.append(("text", [text]))
+
+    def heading(self, text: str) -> None:
+        print(f"\n{text}", flush=True)
+        self.blocks.append(("heading", text))
+
+    def table(self, rows: list[dict], heading: str | None = None, columns: list[str] | None = None,
+              formats: dict | None = None, echo: bool = True) -> None:
+        """Print ``rows`` (dicts) with ``|`` separators (unless ``echo`` is false: the script printed them its
+        own way) and keep them as a Markdown table under ``heading``; columns named ``_...`` are left out."""
+        if heading and echo:
+            self.heading(heading)
+        elif heading:
+            self.blocks.append(("heading", heading))
+        if not rows:
+            return
+        columns = columns or [c for c in rows[0] if not str(c).startswith("_")]
+        formats = formats or {}
+        if echo:
+            print(" | ".join(columns))
+            for row in rows:
+                print(" | ".join(_cell(row.get(c), formats.get(c)) for c in columns))
+            sys.stdout.flush()
+        self.blocks.append(("markdown", markdown_table(rows, columns, formats)))
+
+    def _body(self) -> str:
+        parts = []
+        for kind, content in self.blocks:
+            if kind == "heading":
+                parts.append(f"**{content.strip().rstrip(':')}**")
+            elif kind == "markdown":
+                parts.append(content.strip("\n"))
+            else:
+                text = "".join(content).strip("\n")
+                if text.strip():
+                    parts.append("```text\n" + text + "\n```")
+        return "\n\n".join(parts)
+
+    def write(self) -> Path:
+        """Write this section (and the footer) into its page, and rewrite the index; returns the page's path."""
+        wall = time.perf_counter() - self.start
+        from elastocell.simulation.throughput import TRIAD_ELEMENTS, stream_triad_bandwidth
+
+        bandwidth = stream_triad_bandwidth()  # cached if the script measured it already
+        host = machine(bandwidth)
+        software = versions(self.extra_versions)
+        command = command_line()
+        record = {"command": command, "wall_s": round(wall, 1), "date": self.date.strftime("%Y-%m-%d %H:%M UTC")}
+        memory = f"{host['memory_bytes'] / 2**30:.1f} GiB memory" if host["memory_bytes"] else "memory unknown"
+        cores = f"{host['cores']} cores" + (f" ({host['cores_available']} available to the run)"
+                                            if host["cores_available"] != host["cores"] else "")
+        load = (f"; load average (1 min) {self.load:.2f} at the start, {os.getloadavg()[0]:.2f} at the end"
+                if self.load is not None else "")
+        footer = "\n".join([
+            f"- Generated by `{command}` on {record['date']}, wall time {wall:.0f} s.",
+            f"- Machine: {host['cpu']}, {cores}, {memory}; memory bandwidth {bandwidth:.1f} GB/s (STREAM triad, "
+            f"3 x {TRIAD_ELEMENTS * 8 // 2**20} MiB, measured in this run){load}.",
+            "- Software: " + ", ".join(f"{k} {v}" for k, v in software.items()) + ".",
+        ])
+        heading = PAGES[self.page][1].get(self.script, (self.script, ""))[0]
+        section = (f"## {heading}\n\n<!-- run {json.dumps(record)} -->\n\n"
+                   + (self.intro.strip() + "\n\n" if self.intro else "")
+                   + self._body() + "\n\n" + footer + "\n")
+        path = write_section(self.page, self.script, section)
+        write_index()
+        print(f"\nwrote {path.relative_to(ROOT)} and {(DOCS / 'index.md').relative_to(ROOT)}", flush=True)
+        return path
+
+
+def _placeholder(page: str, script: str) -> str:
+    heading, command = PAGES[page][1][script]
+    return (f"## {heading}\n\n*{NOT_GENERATED.capitalize()}.* `validation/{script}` writes this section; "
+            f"for example:\n\n    {command}\n")
+
+
+def read_sections(page: str) -> dict[str, str]:
+    path = DOCS / f"{page}.md"
+    text = path.read_text() if path.exists() else ""
+    return {m["name"]: m["body"] for m in _SECTION.finditer(text)}
+
+
+def write_section(page: str, script: str | None = None, section: str | None = None) -> Path:
+    """Rewrite ``docs/validation/<page>.md`` with ``section`` as the section of ``script`` (the others kept;
+    those never generated as placeholders)."""
+    from elastocell.files import replace_atomically
+
+    title, scripts = PAGES[page]
+    sections = read_sections(page)
+    if script is not None:
+        sections[script] = section
+    names = list(scripts) + [name for name in sections if name not in scripts]
+    text = f"# {title}\n\n" + "\n".join(
+        f"<!-- section {name} -->\n{sections.get(name) or _placeholder(page, name)}<!-- end {name} -->\n"
+        for name in names)
+    DOCS.mkdir(parents=True, exist_ok=True)
+    path = DOCS / f"{page}.md"
+    replace_atomically(path, lambda temporary: temporary.write_text(text))
+    return path
+
+
+def write_index() -> Path:
+    """``docs/validation/index.md``: every page and section, the command that regenerates it (the one recorded
+    on the page where it was generated) and its wall time on this machine."""
+    from elastocell.files import replace_atomically
+
+    lines = ["# Validation", "",
+             "Each page compares elastocell against an independent reference (a closed form, a peer code, dclab's "
+             "table) or measures its cost, and each section is written by the script in `validation/` named "
+             "beside it, with the command, the machine, the software and the wall time in its footer. A command "
+             "with fewer or smaller cases than the script's defaults is a reduced run; its section says so by "
+             "its command. Run the scripts one at a time: the timings are of the whole machine.", "",
+             "| page | section | command | wall time on this machine |", "|---|---|---|---|"]
+    for page, (title, scripts) in PAGES.items():
+        sections = read_sections(page)
+        for script, (heading, command) in scripts.items():
+            run = _RUN.search(sections.get(script, ""))
+            if run:
+                record = json.loads(run["json"])
+                command, when = record["command"], f"{record['wall_s']:.0f} s ({record['date'][:10]})"
+            else:
+                when = NOT_GENERATED
+            lines.append(f"| [{title}]({page}.md) | {heading} | `{command}` | {when} |")
+    path = DOCS / "index.md"
+    DOCS.mkdir(parents=True, exist_ok=True)
+    replace_atomically(path, lambda temporary: temporary.write_text("\n".join(lines) + "\n"))
+    return path
+
+
+def main() -> None:
+    """Write every page (keeping the generated sections, placeholders for the others) and the index."""
+    for page in PAGES:
+        write_section(page)
+    write_index()
+    print(f"wrote {len(PAGES)} pages and the index under {DOCS.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
