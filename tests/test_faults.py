@@ -207,3 +207,22 @@ def test_a_short_pipe_run_is_flagged_not_stationary_with_a_warning(tmp_path):
     assert not summary["stationary_observables"]["strain_axial"]["stationary"]
     saved = json.loads((tmp_path / "summary.json").read_text())
     assert saved["stationary"] is False
+
+
+def test_a_run_that_would_need_years_is_refused_before_any_file(tmp_path):
+    out = tmp_path / "years"
+    with pytest.raises(ParameterError, match="years") as error:
+        elastocell.shear(out=out, capillary_number=0.1, resolution=12, duration=1e7, progress=False)
+    assert error.value.parameter == "duration" and not out.exists()
+
+
+def test_implausible_capillary_numbers_are_refused_or_warned():
+    from elastocell.scenarios.pipe import PipeFlowParameters
+    from elastocell.scenarios.shear import ShearFlowParameters
+
+    with pytest.raises(ValueError, match="5/4 Ca"):
+        ShearFlowParameters(capillary_number=1000)
+    with pytest.warns(UserWarning, match="beyond the validated range"):
+        ShearFlowParameters(capillary_number=3)
+    with pytest.raises(ValueError, match="capillary_number_wall"):
+        PipeFlowParameters(capillary_number_wall=1000)

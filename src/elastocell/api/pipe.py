@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from elastocell.body.cell import Cell, enable_compilation_cache
 from elastocell.files import Stopwatch, write_json
 from elastocell.parameters.cell import describe_cell
@@ -14,7 +16,7 @@ from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.pipe import STATIONARY_OBSERVABLES, PipeFlowParameters, PipeRun, plot_pipe
 from elastocell.simulation.directory import interruptible, output_directory
 from elastocell.simulation.output import directory_summary, run_in_directory, warn_if_not_stationary
-from elastocell.simulation.runner import StopCriteria
+from elastocell.simulation.runner import StopCriteria, check_run_cost
 
 
 def pipe(
@@ -71,18 +73,19 @@ def pipe(
         raise ParameterError("checkpoint_every", f"must be a whole number >= 1 (records), got {checkpoint_every}")
     if capillary_number_modulus not in ("reference", "mu_c"):
         raise ParameterError("capillary_number_modulus", f"must be 'reference' or 'mu_c', got {capillary_number_modulus!r}")
+    enable_compilation_cache()
+    body = Cell.from_parameters(cell)
+    capillary_number_mu_c = capillary_number_wall
+    if equivalent:
+        body = body.equivalent()
+        if capillary_number_modulus == "mu_c":  # same G: Ca_w,eff = G R_ch / (2 mu_eff)
+            capillary_number_wall = capillary_number_wall / body.effective_stiffness_ratio
+            params = PipeFlowParameters(**{**params.model_dump(), "capillary_number_wall": capillary_number_wall})
+        else:
+            capillary_number_mu_c = capillary_number_wall * body.effective_stiffness_ratio
+    run = PipeRun(body, params, record_interval=record_interval)
+    check_run_cost(stop.duration * run.units.steps_per_time * float(np.prod(run.units.shape)))
     with output_directory(out) as out, interruptible():
-        enable_compilation_cache()
-        body = Cell.from_parameters(cell)
-        capillary_number_mu_c = capillary_number_wall
-        if equivalent:
-            body = body.equivalent()
-            if capillary_number_modulus == "mu_c":  # same G: Ca_w,eff = G R_ch / (2 mu_eff)
-                capillary_number_wall = capillary_number_wall / body.effective_stiffness_ratio
-                params = PipeFlowParameters(**{**params.model_dump(), "capillary_number_wall": capillary_number_wall})
-            else:
-                capillary_number_mu_c = capillary_number_wall * body.effective_stiffness_ratio
-        run = PipeRun(body, params, record_interval=record_interval)
         resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
                                         description=f"pipe Ca_w={capillary_number_wall:g}",
                                         checkpoint_every=checkpoint_every, vtk_interval=vtk_interval)

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from elastocell.body.cell import Cell, enable_compilation_cache
 from elastocell.files import Stopwatch, write_json
 from elastocell.parameters.cell import describe_cell
@@ -19,7 +21,7 @@ from elastocell.scenarios.shear import (
 )
 from elastocell.simulation.directory import interruptible, output_directory
 from elastocell.simulation.output import directory_summary, run_in_directory, warn_if_not_stationary
-from elastocell.simulation.runner import StopCriteria
+from elastocell.simulation.runner import StopCriteria, check_run_cost
 
 
 # =========================================================================== API
@@ -68,16 +70,17 @@ def shear(
     clock = Stopwatch()
     if not (isinstance(checkpoint_every, int) and checkpoint_every >= 1):
         raise ParameterError("checkpoint_every", f"must be a whole number >= 1 (records), got {checkpoint_every}")
+    enable_compilation_cache()
+    body = Cell.from_parameters(cell)
+    capillary_number_mu_c = capillary_number if capillary_number_modulus == "mu_c" else None
+    if equivalent:
+        body = body.equivalent()
+        if capillary_number_modulus == "mu_c":  # same physical shear rate: Ca_eff = eta shear_rate / mu_eff
+            capillary_number = capillary_number / body.effective_stiffness_ratio
+            params = ShearFlowParameters(**{**params.model_dump(), "capillary_number": capillary_number})
+    run = ShearRun(body, params, record_interval=record_interval)
+    check_run_cost(stop.duration * run.units.steps_per_strain * float(np.prod(run.units.shape)))
     with output_directory(out) as out, interruptible():
-        enable_compilation_cache()
-        body = Cell.from_parameters(cell)
-        capillary_number_mu_c = capillary_number if capillary_number_modulus == "mu_c" else None
-        if equivalent:
-            body = body.equivalent()
-            if capillary_number_modulus == "mu_c":  # same physical shear rate: Ca_eff = eta shear_rate / mu_eff
-                capillary_number = capillary_number / body.effective_stiffness_ratio
-                params = ShearFlowParameters(**{**params.model_dump(), "capillary_number": capillary_number})
-        run = ShearRun(body, params, record_interval=record_interval)
         resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
                                         description=f"shear Ca={capillary_number:g}", checkpoint_every=checkpoint_every,
                                         vtk_interval=vtk_interval)

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -221,6 +222,13 @@ class PipeFlowParameters(FlowLatticeParameters):
 
         ca = self.capillary_number_wall
         require(math.isfinite(ca) and ca > 0, "capillary_number_wall", f"must be > 0, got {ca}")
+        require(ca <= MAX_CAPILLARY_NUMBER_WALL, "capillary_number_wall",
+                f"must be <= {MAX_CAPILLARY_NUMBER_WALL:g}, got {ca:g}: near the wall the local capillary number "
+                "would stretch the cell beyond what its mesh can follow")
+        if ca > VALIDATED_CAPILLARY_NUMBER_WALL:
+            warnings.warn(f"capillary_number_wall {ca:g} is beyond the validated range "
+                          f"(<= {VALIDATED_CAPILLARY_NUMBER_WALL:g}, the RT-DC conditions of the look-up tables): "
+                          "expect large strains and possibly inverted elements", stacklevel=2)
         ratio = self.channel_radius_ratio
         require(math.isfinite(ratio) and 1 < ratio <= 20, "channel_radius_ratio",
                 f"R_ch/R must be in (1, 20] (the cell must fit in the channel), got {ratio}")
@@ -410,6 +418,12 @@ strain_transverse l_z/(2R); projected_area (R^2, side view along z); deformation
 volume_change V/V0 - 1; axial_position (R, distance travelled); centre_y, centre_z (R_ch, from the axis);
 nucleus_radial_position (R_ch) and nucleus_axial_offset (R, ahead of the cell centroid; NaN without a
 nucleus); max_speed (largest marker speed in the last step, dx/dt)."""
+
+MAX_CAPILLARY_NUMBER_WALL = 50.0
+"""Largest wall capillary number accepted (the RT-DC tables reach about 5)."""
+
+VALIDATED_CAPILLARY_NUMBER_WALL = 10.0
+"""Above this wall capillary number a run is warned about: beyond the RT-DC conditions the tables cover."""
 
 WINDOW_OBSERVABLES = ("strain_axial", "deformation", "projected_area")
 """Observables whose averaging window the summary judges (``stationary`` in ``summary.json``): the shape RT-DC

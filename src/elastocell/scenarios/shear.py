@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -90,6 +91,13 @@ class ShearFlowParameters(FlowLatticeParameters):
 
         ca = self.capillary_number
         require(math.isfinite(ca) and ca > 0, "capillary_number", f"must be > 0, got {ca}")
+        require(ca <= MAX_CAPILLARY_NUMBER, "capillary_number",
+                f"must be <= {MAX_CAPILLARY_NUMBER:g}, got {ca:g}: the small-deformation estimate D = 5/4 Ca = "
+                f"{1.25 * ca:.3g} is far beyond any shape the cell's mesh can follow")
+        if ca > VALIDATED_CAPILLARY_NUMBER:
+            warnings.warn(f"capillary_number {ca:g} is beyond the validated range (<= {VALIDATED_CAPILLARY_NUMBER:g}, "
+                          f"Taylor deformation D ~ 0.5 and more): expect large strains and possibly inverted elements",
+                          stacklevel=2)
         require(math.isfinite(self.confinement) and 0 < self.confinement < 1, "confinement",
                 f"2R/H must be in (0, 1), got {self.confinement}")
         if self.lattice_shear_rate is not None:
@@ -285,6 +293,12 @@ def run_shear(
     summary = run.summary(0.5 * duration if transient is None else transient)
     summary["wall_time_s"] = time.perf_counter() - start
     return ShearResult(series=run.arrays(), summary=summary, units=run.units, tracker=run.tracker)
+
+MAX_CAPILLARY_NUMBER = 10.0
+"""Largest shear capillary number accepted: 5/4 Ca = 12.5, a deformation no tetrahedral cell survives."""
+
+VALIDATED_CAPILLARY_NUMBER = 1.0
+"""Above this capillary number a run is warned about: beyond the range the shear validation covers."""
 
 STATIONARY_OBSERVABLES = ("taylor_deformation", "inclination_deg")
 """Observables whose averaging window the summary judges (``stationary`` in ``summary.json``)."""

@@ -230,7 +230,8 @@ def warn_if_not_stationary(summary: dict, out: Path) -> None:
     naming the observables that drift and by how much against their bound."""
     if summary.get("stationary", True):
         return
-    drifting = [f"{name} drifts by {v['drift']:.3g} (bound {v['drift_limit']:.3g})"
+    drifting = [f"{name} drifts by {v['drift']:.3g} (bound {v['drift_limit']:.3g})" if np.isfinite(v["drift"])
+                else f"{name}: fewer than 4 records to judge"
                 for name, v in summary.get("stationary_observables", {}).items() if not v["stationary"]]
     warnings.warn(f"{out / 'summary.json'}: the averaged window is not stationary ({'; '.join(drifting)}); its "
                   "means describe a transient: run longer (duration)", stacklevel=3)

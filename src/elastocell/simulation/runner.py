@@ -28,6 +28,7 @@ import json
 import math
 import os
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +39,29 @@ import numpy as np
 from elastocell.coupling.immersed import ImmersedCell
 from elastocell.coupling.markers import FlowError
 from elastocell.parameters.units import ParameterError
+
+TYPICAL_UPDATE_RATE = 2.5e7
+"""Lattice updates per second of the fused CPU kernels on a 2-core machine (the order ``validation/lattice.py``
+measures), for the cost estimate a run is warned about."""
+
+FASTEST_UPDATE_RATE = 3e9
+"""Lattice updates per second of a large GPU (JAX backend), the most optimistic rate: a run that would need more
+than a year even there is refused."""
+
+
+def check_run_cost(lattice_updates: float, parameter: str = "duration") -> float:
+    """Refuse a run that would take more than a year even at :data:`FASTEST_UPDATE_RATE`, warn about one that
+    takes more than a day at :data:`TYPICAL_UPDATE_RATE`; returns the typical estimate (s)."""
+    typical = lattice_updates / TYPICAL_UPDATE_RATE
+    if lattice_updates / FASTEST_UPDATE_RATE > 365 * 86400:
+        raise ParameterError(parameter, f"the run needs {lattice_updates:.2g} lattice updates: about "
+                                        f"{typical / (365 * 86400):.3g} years on a CPU and more than a year on "
+                                        "any GPU; shorten it or lower the resolution")
+    if typical > 86400:
+        warnings.warn(f"the run needs {lattice_updates:.2g} lattice updates: about {typical / 86400:.3g} days at "
+                      f"{TYPICAL_UPDATE_RATE:.2g} updates/s (a 2-core CPU)", stacklevel=3)
+    return typical
+
 
 STATIONARY_DRIFT_TOLERANCE = 1e-3
 """Relative drift of a window's mean below which it counts as stationary however few records it has; the
