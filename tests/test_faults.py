@@ -226,3 +226,18 @@ def test_implausible_capillary_numbers_are_refused_or_warned():
         ShearFlowParameters(capillary_number=3)
     with pytest.raises(ValueError, match="capillary_number_wall"):
         PipeFlowParameters(capillary_number_wall=1000)
+
+
+def test_a_damaged_flow_checkpoint_is_one_line_naming_resume(tmp_path):
+    options = dict(capillary_number=0.1, resolution=3, progress=False, vtk_interval=None)
+    elastocell.shear(out=tmp_path, duration=0.2, **options)
+    checkpoint = tmp_path / "checkpoint.npz"
+    good = checkpoint.read_bytes()
+    for damage in (good[: len(good) // 3], b"", b"garbage" * 100,
+                   good[:200] + bytes(b ^ 0x5A for b in good[200:400]) + good[400:]):
+        checkpoint.write_bytes(damage)
+        with pytest.raises(ParameterError) as error:
+            elastocell.shear(out=tmp_path, duration=0.4, resume=True, **options)
+        message = str(error.value)
+        assert error.value.parameter == "resume" and str(checkpoint) in message
+        assert "allow_pickle" not in message and "pickle" not in message

@@ -385,7 +385,19 @@ class FlowRun:
         os.replace(temporary, path)
 
     def load(self, path: str | Path) -> None:
-        """Restore the state saved by :meth:`save` (same cell, parameters and record interval)."""
+        """Restore the state saved by :meth:`save` (same cell, parameters and record interval). A damaged file
+        (truncated, garbled, not a checkpoint, pickled objects) or a foreign one is a ParameterError naming
+        ``resume`` and the file; nothing pickled is ever loaded."""
+        try:
+            self._load(path)
+        except ParameterError:
+            raise
+        except Exception as error:  # BadZipFile, EOFError, a missing array, wrong shapes, pickled objects
+            raise ParameterError("resume", f"cannot continue from {path}: the file is damaged or not a checkpoint of "
+                                           f"this run ({type(error).__name__}); delete it, or rerun without --resume "
+                                           "to start again") from None
+
+    def _load(self, path: str | Path) -> None:
         with np.load(path, allow_pickle=False) as data:
             if int(data["version"]) != CHECKPOINT_VERSION:
                 raise ParameterError("resume", f"{path} was written by another elastocell version: rerun without "
