@@ -241,3 +241,26 @@ def test_a_damaged_flow_checkpoint_is_one_line_naming_resume(tmp_path):
         message = str(error.value)
         assert error.value.parameter == "resume" and str(checkpoint) in message
         assert "allow_pickle" not in message and "pickle" not in message
+
+
+@pytest.mark.parametrize("failing", ["metadata.json", "compression.png"])
+def test_a_full_disk_names_the_file_and_leaves_nothing_that_looks_complete(tmp_path, monkeypatch, failing):
+    """A write that fails (here ENOSPC, as a full disk gives; root ignores read-only permissions, so the error is
+    injected) removes the result's other files and names the one that failed."""
+    import errno
+
+    import elastocell.files as files
+
+    original = files.replace_atomically
+
+    def replace_atomically(path, write):
+        if path.name == failing:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return original(path, write)
+
+    monkeypatch.setattr(files, "replace_atomically", replace_atomically)
+    with pytest.raises(OSError, match=failing) as error:
+        elastocell.compress(out=tmp_path, **COARSE)
+    assert error.value.errno == errno.ENOSPC
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert "compression.csv" not in left and "metadata.json" not in left and "compression.png" not in left

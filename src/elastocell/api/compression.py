@@ -32,7 +32,7 @@ from elastocell.scenarios.compression import (
     compression_parameters_for,
 )
 from elastocell.scenarios.compression import compress as compress_cell
-from elastocell.simulation.directory import interruptible, output_directory
+from elastocell.simulation.directory import OutputSet, interruptible, output_directory
 from elastocell.simulation.output import von_mises, vtk_enabled, write_vtk_series
 
 
@@ -187,9 +187,11 @@ def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell:
                 raise
             result, failure = error.partial, error
     table, gamma_eff = _table(result, body, cell)
-    write_table(out / "compression.csv", table)
+    outputs = OutputSet()  # all or nothing: a failed write removes the others and names its file
+    outputs.write(out / "compression.csv", write_table, table)
 
-    plot_compression(out / "compression.png", [{"label": label, **table}], cell.material.poisson_ratio, title=label)
+    outputs.write(out / "compression.png", plot_compression, [{"label": label, **table}], cell.material.poisson_ratio,
+                  title=label)
     if vtk and vtk_enabled():
         stresses = [body.element_cauchy_stress(x) for x in result.positions]
         cell_data = [{
@@ -199,13 +201,14 @@ def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell:
             "cauchy_stress": s.reshape(-1, 9) * cell.youngs_modulus,
             "von_mises_stress": von_mises(s) * cell.youngs_modulus,
         } for s in stresses]
-        write_vtk_series(out / "vtk", "compression", body.mesh, result.positions * cell.radius, result.delta, cell_data)
+        outputs.write(out / "vtk", write_vtk_series, "compression", body.mesh, result.positions * cell.radius,
+                      result.delta, cell_data)
     summary = _metadata(result, body, cell, scenario, label, gamma_eff, clock.elapsed, solver)
     summary["complete"] = failure is None
     summary["delta_reached"] = float(result.delta[-1])
     if failure is not None:
         summary["error"] = str(failure)
-    write_json(out / "metadata.json", summary)
+    outputs.write(out / "metadata.json", write_json, summary)
     if checkpoint.exists():  # the curve is on disk in full: nothing left to continue
         checkpoint.unlink()
     if failure is not None:

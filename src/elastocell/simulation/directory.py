@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import shutil
 import socket
 import sys
 import warnings
@@ -102,3 +103,31 @@ def interruptible():
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+class OutputSet:
+    """The files one result consists of, written all or nothing: ``write(path, writer, ...)`` calls
+    ``writer(path, ...)``; when a write fails (a full disk, a read-only directory) the files this set already
+    wrote are removed and the error names the file that failed, so nothing is left that looks complete."""
+
+    def __init__(self):
+        self.written: list[Path] = []
+
+    def write(self, path, writer, *args, **kwargs):
+        path = Path(path)
+        try:
+            result = writer(path, *args, **kwargs)
+        except OSError as error:
+            self.discard()
+            raise OSError(error.errno, f"cannot write {path}: {error.strerror or error}", str(path)) from None
+        self.written.append(path)
+        return result
+
+    def discard(self) -> None:
+        for path in self.written:
+            with contextlib.suppress(OSError):
+                if path.is_dir():
+                    shutil.rmtree(path)
+                else:
+                    path.unlink()
+        self.written.clear()
