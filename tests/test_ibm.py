@@ -28,7 +28,7 @@ def coarse_cells():
             for nucleus in ("none", "sphere"):
                 params = elastocell.cell_parameters(nucleus=nucleus, element=element, material=law,
                                                     mesh_size=0.5, pole_size=0.5, interface_size=0.5,
-                                                    stiffness_ratio=3.0)
+                                                    **({"stiffness_ratio": 3.0} if nucleus == "sphere" else {}))
                 cells[element, law, nucleus] = Cell.from_parameters(params)
     return cells
 

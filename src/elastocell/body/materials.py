@@ -7,7 +7,15 @@
 
 with shear modulus ``mu = E/(2(1+nu))`` (``mu = mu1 + mu2``) and bulk modulus ``kappa = E/(3(1-2nu))``.
 Each law is one function of the deformation gradient; stresses and stiffness follow by automatic
-differentiation (JAX, float64). A new law is one new function plus its entry in ``LAWS``.
+differentiation (JAX, float64). A new law is one new function plus its entry in ``LAWS``
+(:func:`register_law`); it then runs in every scenario, compression and flow alike.
+
+The flow's fast CPU path (:mod:`elastocell.coupling.elastic_forces`, Numba) has the first Piola stress of one
+family written out by hand, the decoupled Mooney-Rivlin family
+``W = mu1/2 (J^(-2/3) I1 - 3) + mu2/2 (J^(-4/3) I2 - 3) + kappa/2 (J - 1)^2``. A law of that family says so in
+its entry (``Law.compiled_parameters``: its parameters as (mu1, mu2, kappa)); the tests hold every such law's
+compiled forces to its JAX gradient. A flow with any other law runs on the JAX backend
+(:mod:`elastocell.coupling.immersed_jax`), whose forces are the autodiff of the law itself.
 
 Layout: a deformation gradient is an array ``F[i, j, *batch]``, the matrix in the first two axes and the
 quadrature points after them (one point: shape (3, 3)). Every elementary operation of a law then runs over a
@@ -25,6 +33,9 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+from elastocell.parameters import cell as parameters_cell
+from elastocell.parameters.units import ParameterError
 
 
 def float64():
@@ -82,8 +93,8 @@ def determinant(matrix):
             + m[0, 2] * (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]))
 
 
-def _invariants(deformation_gradient):
-    """(J, I1, I2) of ``F[i, j, *batch]``."""
+def invariants(deformation_gradient):
+    """(J, I1, I2) of ``F[i, j, *batch]``: J = det F, I1 = tr C, I2 = ((tr C)^2 - tr C^2)/2 with C = F^T F."""
     right_cauchy_green = jnp.einsum("ki...,kj...->ij...", deformation_gradient, deformation_gradient)
     volume_ratio = determinant(deformation_gradient)
     first = jnp.sum(deformation_gradient * deformation_gradient, axis=(0, 1))
@@ -93,13 +104,13 @@ def _invariants(deformation_gradient):
 
 def neo_hookean(deformation_gradient, shear, bulk):
     """W = mu/2 (J^(-2/3) I1 - 3) + kappa/2 (J - 1)^2 (per reference volume, units of E)."""
-    volume_ratio, first, _ = _invariants(deformation_gradient)
+    volume_ratio, first, _ = invariants(deformation_gradient)
     return 0.5 * shear * (volume_ratio ** (-2.0 / 3.0) * first - 3.0) + 0.5 * bulk * (volume_ratio - 1.0) ** 2
 
 
 def mooney_rivlin(deformation_gradient, shear_1, shear_2, bulk):
     """W = mu1/2 (J^(-2/3) I1 - 3) + mu2/2 (J^(-4/3) I2 - 3) + kappa/2 (J - 1)^2."""
-    volume_ratio, first, second = _invariants(deformation_gradient)
+    volume_ratio, first, second = invariants(deformation_gradient)
     return (
         0.5 * shear_1 * (volume_ratio ** (-2.0 / 3.0) * first - 3.0)
         + 0.5 * shear_2 * (volume_ratio ** (-4.0 / 3.0) * second - 3.0)
@@ -109,20 +120,40 @@ def mooney_rivlin(deformation_gradient, shear_1, shear_2, bulk):
 
 @dataclass(frozen=True)
 class Law:
-    """A strain-energy law and how its parameters follow from (E, nu)."""
+    """A strain-energy law and how its parameters follow from (E, nu).
+
+    energy: ``W(F, *params)`` in JAX for ``F[i, j, *batch]`` (one argument per law parameter).
+    parameters: ``(E array (n,), nu, options) -> (n, n_params)`` array, the law's parameters per element
+        (options: ``{"mooney_rivlin_mu1_fraction": ...}`` from the cell's material parameters).
+    compiled_parameters: for a law of the decoupled Mooney-Rivlin family (module docstring), its parameters
+        ``(n, n_params) -> (n, 3)`` as (mu1, mu2, kappa): the flow then computes its forces with the compiled
+        kernel of :mod:`elastocell.coupling.elastic_forces`. None: no compiled kernel; the flow runs on the JAX
+        backend.
+    """
 
     name: str
     energy: Callable
     parameters: Callable  # (E array, nu, options) -> (n, n_params) array
+    compiled_parameters: Callable | None = None  # (n, n_params) -> (n, 3) (mu1, mu2, kappa), or None
 
     def __call__(self, deformation_gradient, params):
         """W(F) for ``F[i, j, *batch]``, with the law's parameters along the first axis of ``params``
         (``params[k, *batch]``, broadcast against the batch)."""
         return self.energy(deformation_gradient, *[params[k] for k in range(params.shape[0])])
 
+    @property
+    def has_compiled_kernel(self) -> bool:
+        """Whether the flow's compiled (Numba) force kernel computes this law."""
+        return self.compiled_parameters is not None
+
 
 def _neo_hookean_parameters(youngs_modulus, poisson_ratio, options):
     return np.column_stack([shear_modulus(youngs_modulus, poisson_ratio), bulk_modulus(youngs_modulus, poisson_ratio)])
+
+
+def _neo_hookean_as_mooney_rivlin(params):
+    """(mu, kappa) -> (mu1, mu2, kappa) = (mu, 0, kappa)."""
+    return np.column_stack([params[:, 0], np.zeros(len(params)), params[:, 1]])
 
 
 def _mooney_rivlin_parameters(youngs_modulus, poisson_ratio, options):
@@ -131,17 +162,50 @@ def _mooney_rivlin_parameters(youngs_modulus, poisson_ratio, options):
     return np.column_stack([fraction * mu, (1 - fraction) * mu, bulk_modulus(youngs_modulus, poisson_ratio)])
 
 
-LAWS = {
-    "neo-hookean": Law("neo-hookean", neo_hookean, _neo_hookean_parameters),
-    "mooney-rivlin": Law("mooney-rivlin", mooney_rivlin, _mooney_rivlin_parameters),
-}
+def _mooney_rivlin_as_mooney_rivlin(params):
+    """(mu1, mu2, kappa) as they are."""
+    return params[:, :3]
+
+
+LAWS: dict[str, Law] = parameters_cell.LAWS
+"""The strain-energy laws by name (a cell's ``material.law``); add one with :func:`register_law`. The dict is
+:data:`elastocell.parameters.cell.LAWS`, where the cell's parameters check the name."""
+
+
+def register_law(name: str, energy: Callable, parameters: Callable, compiled_parameters: Callable | None = None,
+                 replace: bool = False) -> Law:
+    """Add a law to :data:`LAWS` (arguments as :class:`Law`) and return it; a cell with ``material.law = name``
+    then uses it in compression and in flow. A name already registered is refused unless ``replace``.
+
+    Example (a Yeoh law, shear modulus mu = 2 c1 at small strain)::
+
+        def yeoh(F, c1, c2, kappa):
+            J, I1, _ = invariants(F)
+            s = J ** (-2 / 3) * I1 - 3
+            return c1 * s + c2 * s**2 + 0.5 * kappa * (J - 1) ** 2
+
+        register_law("yeoh", yeoh, lambda E, nu, options: np.column_stack(
+            [shear_modulus(E, nu) / 2, shear_modulus(E, nu) / 20, bulk_modulus(E, nu)]))
+    """
+    if not isinstance(name, str) or not name:
+        raise ParameterError("material", f"a law's name must be a non-empty string, got {name!r}")
+    if name in LAWS and not replace:
+        raise ParameterError("material", f"a law named {name!r} is already registered (replace=True to replace it)")
+    entry = Law(name, energy, parameters, compiled_parameters)
+    LAWS[name] = entry
+    return entry
+
+
+register_law("neo-hookean", neo_hookean, _neo_hookean_parameters, _neo_hookean_as_mooney_rivlin)
+register_law("mooney-rivlin", mooney_rivlin, _mooney_rivlin_parameters, _mooney_rivlin_as_mooney_rivlin)
 
 
 def law(name: str) -> Law:
     try:
         return LAWS[name]
     except KeyError:
-        raise ValueError(f"material: must be one of {', '.join(LAWS)}, got {name!r}") from None
+        raise ParameterError("material", f"must be one of {', '.join(LAWS)} (or a law added with "
+                             f"elastocell.body.materials.register_law), got {name!r}") from None
 
 
 @computes_in_float64

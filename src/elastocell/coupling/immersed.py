@@ -13,6 +13,7 @@ compiled chunk runs many):
 from __future__ import annotations
 
 import math
+import warnings
 
 # =========================================================================== shear flow
 import numpy as np
@@ -94,7 +95,12 @@ def _coupled_steps(
 def immersed_cell(backend: str, lattice_params: LatticeParams, velocity, cell, units, kernel: str):
     """The coupled system on a backend ("numba" or "jax"): a lattice at the equilibrium of ``velocity``
     (3, nx, ny, nz) and the cell at ``units.centre`` with radius ``units.radius`` (dx) and modulus
-    ``units.youngs_modulus`` (lattice units)."""
+    ``units.youngs_modulus`` (lattice units). A law without a compiled force kernel
+    (``Law.has_compiled_kernel`` false) runs on "jax", whose forces are the autodiff of the law, with a warning."""
+    if backend == "numba" and not cell.law.has_compiled_kernel:
+        warnings.warn(f"the law {cell.law.name!r} has no compiled (Numba) force kernel: the flow runs on the JAX "
+                      "backend, forces by autodiff of the law (on a CPU 10-16 times slower per step)", stacklevel=2)
+        backend = "jax"
     if backend == "jax":
         from elastocell.coupling.immersed_jax import (  # lazy: JAX (about 1 s) only for backend='jax'
             JaxImmersedCell,

@@ -136,23 +136,32 @@ class RandomParameters(ParameterModel):
         return self
 
 
+LAWS: dict = {}
+"""The strain-energy laws by name, ``elastocell.body.materials.LAWS`` (the same dict): that module fills it when
+imported (its built-in laws) and with every ``register_law``. It lives here, below the laws, so that a cell's
+``material.law`` is checked against it; before that module is imported it is empty and a name is checked when
+the cell is built."""
+
+
 class MaterialParameters(ParameterModel):
     """Hyperelastic law and Poisson ratio.
 
-    law: ``neo-hookean`` or ``mooney-rivlin``; for Mooney-Rivlin ``mu1 = mooney_rivlin_mu1_fraction * mu``,
+    law: ``neo-hookean``, ``mooney-rivlin`` or a law added with ``elastocell.body.materials.register_law``
+    (a name in :data:`LAWS`); for Mooney-Rivlin ``mu1 = mooney_rivlin_mu1_fraction * mu``,
     ``mu2 = (1 - fraction) * mu`` (the paper's appendix: 0.25).
     poisson_ratio: nu in (-1, 0.5) (default 0.48, the paper's value).
     """
 
-    law: Literal["neo-hookean", "mooney-rivlin"] = "neo-hookean"
+    law: str = "neo-hookean"
     poisson_ratio: float = 0.48
     mooney_rivlin_mu1_fraction: float = 0.25
 
     @field_validator("law", mode="before")
     @classmethod
     def _law(cls, value):
-        if value not in ("neo-hookean", "mooney-rivlin"):
-            raise ParameterError("material", f"must be neo-hookean or mooney-rivlin, got {value!r}")
+        if not isinstance(value, str) or not value or (LAWS and value not in LAWS):
+            raise ParameterError("material", f"must be one of {', '.join(LAWS) or 'the laws'} (or a law added "
+                                 f"with elastocell.body.materials.register_law), got {value!r}")
         return value
 
     @model_validator(mode="after")
