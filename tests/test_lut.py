@@ -44,7 +44,7 @@ def test_flow_rate_to_capillary_number_by_hand():
 
 
 def test_plan_units_and_grid():
-    points, settings = plan("10um", "0.04uL/s", "15mPa*s", radii="5, 6um", moduli="1,2kPa", quick=True)
+    points, settings = plan("10um", "0.04uL/s", "15mPa*s", radii="5, 6um", moduli="1kPa, 2kPa", quick=True)
     assert len(points) == 4
     assert settings["channel_radius_um"] == pytest.approx(10)
     assert settings["flow_rate_ul_s"] == pytest.approx(0.04)
@@ -54,15 +54,15 @@ def test_plan_units_and_grid():
     assert first["options"]["channel_radius_ratio"] == pytest.approx(2.0)
     assert first["options"]["start_offset"] == 0.0 and first["options"]["nucleus"] == "none"
     assert first["options"]["capillary_number_wall"] == pytest.approx(2.2613, rel=1e-4)
-    # plain numbers read in um, uL/s, mPa s; keys change with the inputs
-    same, _ = plan(10, 0.04, 15, radii=[5, 6], moduli=[1, 2], quick=True)
+    # bare numbers read in um, uL/s, mPa s, Pa; keys change with the inputs
+    same, _ = plan(10, 0.04, 15, radii=[5, 6], moduli=[1000, 2000], quick=True)
     assert [p["key"] for p in same] == [p["key"] for p in points]
-    other, _ = plan(10, 0.08, 15, radii=[5, 6], moduli=[1, 2], quick=True)
+    other, _ = plan(10, 0.08, 15, radii=[5, 6], moduli=[1000, 2000], quick=True)
     assert other[0]["key"] != points[0]["key"]
     full, settings = plan("10um", "0.04uL/s", "15mPa*s")
     assert len(full) == 42 and settings["resolution"] == 8
     # a square channel of width W stands for the cylinder R_ch = 1.094 W/2 (Mietke et al. 2015; dclab LE-2D-FEM-19)
-    square, settings = plan(None, 0.04, 15, radii=[5], moduli=[1], quick=True, channel_width="20um")
+    square, settings = plan(None, 0.04, 15, radii=[5], moduli=[1000], quick=True, channel_width="20um")
     assert settings["channel_radius_um"] == pytest.approx(10.94)
     assert square[0]["options"]["channel_radius_ratio"] == pytest.approx(10.94 / 5)
     assert lut_metadata(settings, "x")["channel_width"] == pytest.approx(20.0)
@@ -169,7 +169,7 @@ def test_quick_grid_end_to_end(tmp_path, monkeypatch):
 
     monkeypatch.setattr(distributed, "as_completed", lambda futures: list(futures))
     out = tmp_path / "lut.txt"
-    kwargs = dict(radii="5", moduli="1,2", quick=True, duration=0.3, client=_Client())
+    kwargs = dict(radii="5", moduli="1kPa,2kPa", quick=True, duration=0.3, client=_Client())
     result = compute_lut(out, "10um", "0.04uL/s", "15mPa*s", **kwargs)
     assert not result["failures"], result["failures"]
     data, meta, header = read_lut(out)

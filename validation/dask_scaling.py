@@ -36,7 +36,8 @@ def main(argv=None) -> None:
     parser.add_argument("--duration", type=float, default=30.0)
     parser.add_argument("--resolution", type=float, default=4.0)
     parser.add_argument("--radii", default="5,6", help="um, comma-separated")
-    parser.add_argument("--moduli", default="3,5", help="kPa, comma-separated")
+    parser.add_argument("--moduli", default="3,5", help="kPa, comma-separated",
+                        type=lambda text: [f"{m.strip()}kPa" for m in text.split(",")])
     args = parser.parse_args(argv)
     page = Page("studies", "dask_scaling.py", intro=(
         "What Dask buys on this machine: the same pipe-flow look-up-table grid (radii x moduli, R_ch = 10 um, "

@@ -33,7 +33,8 @@ def _number(value) -> float:
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--radii", default="5", help="cell radii (um), comma-separated")
-    parser.add_argument("--moduli", default="2,3,5", help="Young's moduli (kPa), comma-separated")
+    parser.add_argument("--moduli", default="2,3,5", help="Young's moduli (kPa), comma-separated",
+                        type=lambda text: [f"{m.strip()}kPa" for m in text.split(",")])
     parser.add_argument("--resolution", type=float, default=None, help="R/dx (default: the full grid's 8)")
     parser.add_argument("--duration", type=float, default=None, help="cap per point, 1/gdot_w (default 20)")
     parser.add_argument("--workers", type=int, default=None)

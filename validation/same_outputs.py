@@ -12,7 +12,7 @@ of the flow kernels when the package was just installed or moved):
 - ``shear``: the reference cell in shear flow, Ca 0.1, R/dx 4, strain 1 (Numba backend);
 - ``pipe``: the reference cell in pipe flow, Ca_w 0.2, R/dx 4, started off-axis (r0 = 0.2 R_ch), 1/gdot_w
   (Numba backend), and ``pipe_jax``: the same for 0.3/gdot_w on the JAX backend (CPU);
-- ``lut``: one look-up-table point (``elastocell lut --quick --radii 5 --moduli 1 --duration 0.5``, one worker);
+- ``lut``: one look-up-table point (``elastocell lut --quick --radii 5 --moduli 1kPa --duration 0.5``, one worker);
 - ``fit_afm``: ``elastocell fit afm`` of a synthetic curve that this script writes (deterministic: a fixed
   analytic force law plus noise from NumPy's frozen legacy ``RandomState(7)``), with a 20-replica bootstrap and
   the nucleus conversion;
@@ -273,7 +273,7 @@ def run_pipe_jax(work: Path, into: dict, resolution: dict) -> None:
 def run_lut(work: Path, into: dict, resolution: dict) -> None:
     out = work / "lut"
     _cli(["lut", "--channel-radius", "10um", "--flow-rate", "0.04uL/s", "--viscosity", "15mPa*s", "--quick",
-          "--radii", "5", "--moduli", "1", "--duration", "0.5", "--workers", "1", "--quiet",
+          "--radii", "5", "--moduli", "1kPa", "--duration", "0.5", "--workers", "1", "--quiet",
           "--out", str(out / "lut.txt")], work)
     read_lut(out / "lut.txt", "lut/lut.txt", into, resolution, str(work))
     read_lut(out / "lut_isoelastics.txt", "lut/lut_isoelastics.txt", into, resolution, str(work))

@@ -104,7 +104,7 @@ class FitSettings:
 
 
 def parse_length(value, parameter: str) -> float:
-    """A length in metres: '8um', '8e-6 m' or a plain number (read as metres)."""
+    """A length in metres from '8um', '8e-6 m' or a bare number (in um, the bare-number unit of a length)."""
     magnitude, _ = parse_quantity(value, "m", parameter)
     return magnitude
 
@@ -828,7 +828,7 @@ SHEAR_TABLE_COLUMNS = {"deformation": "deformation", "shear_stress": "shear_stre
 def read_shear_table(path) -> list[dict]:
     """Rows of a CSV of cells: columns ``deformation``, ``shear_stress`` (Pa), optional ``deformation_error``,
     ``shear_stress_error``, ``tank_treading_frequency`` (rad/s), ``tank_treading_frequency_error``,
-    ``shear_rate`` (1/s), ``radius`` (m), ``cell`` (a name; default: the row number from 1)."""
+    ``shear_rate`` (1/s), ``radius`` (um), ``cell`` (a name; default: the row number from 1)."""
     import pandas as pd
 
     path = Path(path)

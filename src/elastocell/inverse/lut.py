@@ -99,24 +99,23 @@ def wall_shear_rate(flow_rate: float, channel_radius: float, viscosity: float) -
 
 
 # =========================================================================== inputs
-def _positive(value, unit: str, display_unit: str, name: str) -> float:
-    """A positive quantity in SI ``unit``; a plain number is read in ``display_unit``."""
-    magnitude, physical = parse_quantity(value, unit, name)
-    if not physical:
-        magnitude, _ = parse_quantity(f"{magnitude!r} {display_unit}", unit, name)
+def _positive(value, unit: str, name: str) -> float:
+    """A positive quantity in SI ``unit``; a bare number is in its documented unit (parse_quantity: um, uL/s,
+    mPa*s, Pa)."""
+    magnitude, _ = parse_quantity(value, unit, name)
     if not (math.isfinite(magnitude) and magnitude > 0):
         raise ParameterError(name, f"must be > 0, got {value}")
     return magnitude
 
 
-def _list(values, unit: str, display_unit: str, name: str) -> list[float]:
-    """Comma-separated values (or a sequence), each a number in ``display_unit`` or a quantity."""
+def _list(values, unit: str, name: str) -> list[float]:
+    """Comma-separated values (or a sequence), each a quantity or a bare number in its documented unit."""
     if isinstance(values, str):
         values = [v for v in values.replace(";", ",").split(",") if v.strip()]
     values = list(values)
     if not values:
         raise ParameterError(name, "give at least one value")
-    out = sorted({_positive(v, unit, display_unit, name) for v in values})
+    out = sorted({_positive(v, unit, name) for v in values})
     return out
 
 
@@ -133,8 +132,8 @@ def channel_radius_from(channel_radius=None, channel_width=None) -> float:
         raise ParameterError("channel_radius", "give either the channel radius or the width of a square channel "
                              "(--channel-width), not both and not neither")
     if channel_width is not None:
-        return SQUARE_CHANNEL_RADIUS_FACTOR * _positive(channel_width, "m", "um", "channel_width") / 2.0
-    return _positive(channel_radius, "m", "um", "channel_radius")
+        return SQUARE_CHANNEL_RADIUS_FACTOR * _positive(channel_width, "m", "channel_width") / 2.0
+    return _positive(channel_radius, "m", "channel_radius")
 
 
 def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: bool = False,
@@ -148,14 +147,13 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
 
 
     r_ch = channel_radius_from(channel_radius, channel_width)
-    q = _positive(flow_rate, "m^3/s", "uL/s", "flow_rate")
-    eta = _positive(viscosity, "Pa*s", "mPa*s", "viscosity")
+    q = _positive(flow_rate, "m^3/s", "flow_rate")
+    eta = _positive(viscosity, "Pa*s", "viscosity")
     defaults = QUICK if quick else FULL
     radii_m = _list(radii if radii is not None else
-                    [f"{r}um" for r in (QUICK_RADII_UM if quick else FULL_RADII_UM)], "m", "um", "radii")
+                    [f"{r}um" for r in (QUICK_RADII_UM if quick else FULL_RADII_UM)], "m", "radii")
     moduli_pa = _list(moduli if moduli is not None else
-                      [f"{e}kPa" for e in (QUICK_MODULI_KPA if quick else FULL_MODULI_KPA)], "Pa", "kPa",
-                      "moduli")
+                      [f"{e}kPa" for e in (QUICK_MODULI_KPA if quick else FULL_MODULI_KPA)], "Pa", "moduli")
     if not (math.isfinite(poisson_ratio) and -1 < poisson_ratio < 0.5):
         raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {poisson_ratio}")
     resolution = defaults["resolution"] if resolution is None else float(resolution)
@@ -393,7 +391,7 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
 
     channel_radius, flow_rate, viscosity: quantities ("10um", "0.04uL/s", "15mPa*s") or numbers in um, uL/s,
     mPa s; or ``channel_radius=None`` and ``channel_width`` the width W of a square RT-DC channel (R_ch =
-    1.094 W/2). radii, moduli: comma-separated lists or sequences (numbers in um and kPa); default the full grid
+    1.094 W/2). radii, moduli: comma-separated lists or sequences (bare numbers in um and Pa); default the full grid
     (:data:`FULL_RADII_UM` x :data:`FULL_MODULI_KPA`) or, with ``quick``, the 2 x 2 test grid. Returns a
     summary: paths, the finished records, the failed points (key and one-line error; left out of the table and
     rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion

@@ -15,7 +15,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, field_validator, model_validator
 
-from elastocell.parameters.units import ParameterError, parse_quantity
+from elastocell.parameters.units import MODULUS_SCALE, RADIUS_SCALE, ParameterError, parse_quantity
 
 Axis = Literal["x", "y", "z"]
 AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
@@ -321,10 +321,11 @@ def cell_parameters(
     """Validated :class:`CellParameters` from the flat CELL OPTIONS shared by every scenario.
 
     With no arguments: the paper's reference cell (spherical nucleus, stiffness ratio 2, size ratio 0.5,
-    centred, nu = 0.48, neo-Hookean). ``radius``/``youngs_modulus`` accept physical units ("8um", "1kPa").
+    centred, nu = 0.48, neo-Hookean). ``radius``/``youngs_modulus`` accept physical units ("8um", "1kPa"); a bare
+    number is dimensionless (units of R, of E_c), the one exception to the bare-number rule of parse_quantity.
     """
-    radius_value, radius_physical = parse_quantity(radius, "m", "radius")
-    modulus_value, modulus_physical = parse_quantity(youngs_modulus, "Pa", "youngs_modulus")
+    radius_value, radius_physical = parse_quantity(radius, "m", "radius", scale=RADIUS_SCALE)
+    modulus_value, modulus_physical = parse_quantity(youngs_modulus, "Pa", "youngs_modulus", scale=MODULUS_SCALE)
     _refuse_conflicts(nucleus, random, {"stiffness_ratio": stiffness_ratio, "size_ratio": size_ratio,
                                         "offset": offset, "offset_axis": offset_axis,
                                         "semi_axes": tuple(semi_axes), "nucleus_axis": nucleus_axis})
