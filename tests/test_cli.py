@@ -3,12 +3,20 @@
 import json
 import subprocess
 import sys
+import time
+from enum import Enum
 
 import numpy as np
 import pytest
+import typer
 from typer.testing import CliRunner
 
+import elastocell.cli.options as options
+import elastocell.inverse.lut as lut_module
 from elastocell.cli.app import app
+from elastocell.cli.options import OPTION_NAMES, OPTIONS
+from elastocell.parameters.units import parse_quantity
+from elastocell.version import __version__
 
 runner = CliRunner()
 
@@ -142,3 +150,228 @@ def test_folded_elements_and_collapsed_volume_are_warned_in_one_line_each(capsys
     assert len(lines) == 1 and "warning (equivalent)" in lines[0] and "0.525" in lines[0] and "0.09" in lines[0]
     _warn_curves({"solver": {"first_folded_delta": None, "first_half_volume_delta": None}})
     assert capsys.readouterr().err == ""
+
+
+# ---------------------------------------------------------------- the options: one declaration, one contract
+
+# Every command's options, in --help order: name=default (name! when required). A contract: scripts use these.
+EXPECTED_OPTIONS = {
+    'bench lattice': '--size=128 --dtype=float32 --no-cell=False --threads=None --backend=numba --json=False',
+    'compress': '--out! --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 --offset-axis=x '
+                '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 --mesh-size=None --pole-size=None '
+                '--interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 --material=neo-hookean '
+                '--element=p2 --quadrature-degree=None --delta-max=0.75 --steps=40 --equivalent=False '
+                '--compare=False --quiet=False',
+    'equivalent': '--nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 --offset-axis=x '
+                  '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 --mesh-size=None '
+                  '--pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 '
+                  '--material=neo-hookean --element=p2 --json=False',
+    'fit afm': 'files! --radius! --geometry=parallel-plates --poisson-ratio=0.48 --material=neo-hookean '
+               '--model=both --delta-max=0.75 --contact-point=auto --bootstrap=0 --seed=0 '
+               '--nucleus-size-ratio=None --stiffness-ratio=None --baseline-fraction=0.2 --threshold=5.0 '
+               '--baseline-tilt=False --out=fits --no-plots=False --scheduler=None --workers=None --quiet=False',
+    'fit shear': '--deformation=None --shear-stress=None --deformation-error=0.0 --shear-stress-error=0 '
+                 '--tank-treading-frequency=None --tank-treading-frequency-error=0 --shear-rate=None --radius=None '
+                 '--table=None --poisson-ratio=0.48 --material=neo-hookean --confidence=0.95 --out=fits '
+                 '--quiet=False',
+    'lut': '--channel-radius=None --channel-width=None --flow-rate! --viscosity! --out! --radii=None --moduli=None '
+           '--quick=False --poisson-ratio=0.48 --material=neo-hookean --resolution=None --duration=None '
+           '--stationary-tolerance=None --identifier=None --scheduler=None --workers=None --quiet=False',
+    'mastercurve compression': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False '
+                               '--quiet=False',
+    'mastercurve shear': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False --quiet=False',
+    'pipe': '--out! --capillary-number-wall=None --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 '
+            '--offset=0.0 --offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 '
+            '--mesh-size=None --pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 '
+            '--radius=1 --material=neo-hookean --element=p1 --equivalent=False --channel-radius-ratio=2.0 '
+            '--start-offset=0.0 --resolution=8.0 --duration=10.0 --pressure-gradient=None --wall-clock=None '
+            '--stationary-tolerance=None --stationary-observable=strain_axial --record-interval=0.1 '
+            '--checkpoint-every=20 --vtk-interval=1.0 --resume=False --backend=numba --quiet=False',
+    'reproduce': '--quick=False --scheduler=None --workers=None --out! --quiet=False',
+    'shear': '--out! --capillary-number=None --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 '
+             '--offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 --mesh-size=None '
+             '--pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 '
+             '--material=neo-hookean --element=p1 --equivalent=False --resolution=8.0 --duration=6.0 '
+             '--confinement=0.2 --viscosity=None --shear-rate=None --wall-clock=None --stationary-tolerance=None '
+             '--record-interval=0.05 --checkpoint-every=20 --vtk-interval=1.0 --resume=False --backend=numba '
+             '--quiet=False',
+    'study list': '',
+    'study plot': 'name! directory!',
+    'study run': 'name! --quick=False --scheduler=None --workers=None --out! --quiet=False',
+}
+
+
+def _commands():
+    """(command path, click command) of every leaf command."""
+    found = []
+
+    def walk(command, path):
+        for name, sub in sorted(getattr(command, "commands", {}).items()):
+            walk(sub, [*path, name])
+        if path and not hasattr(command, "commands"):
+            found.append((" ".join(path), command))
+
+    walk(typer.main.get_command(app), [])
+    return found
+
+
+def _listing(command) -> str:
+    words = []
+    for param in command.params:
+        default = param.default.value if isinstance(param.default, Enum) else param.default
+        if isinstance(default, tuple | list):
+            default = ",".join(map(str, default))
+        words.append(f"{param.opts[0]}{'!' if param.required else '=' + str(default)}")
+    return " ".join(words)
+
+
+def test_every_command_keeps_its_options_and_defaults():
+    assert {path: _listing(command) for path, command in _commands()} == EXPECTED_OPTIONS
+
+
+def test_option_names_for_errors_come_from_the_one_declaration():
+    assert OPTION_NAMES == {name: option.option for name, option in OPTIONS.items()}
+    for path, command in _commands():
+        for param in command.params:
+            assert OPTION_NAMES[param.name] in (param.opts[0], param.name.upper()), (path, param.name)
+
+
+def test_version():
+    result = runner.invoke(app, ["--version"])
+    assert result.exit_code == 0 and result.output.strip() == f"elastocell {__version__}"
+    completed = subprocess.run([sys.executable, "-m", "elastocell", "--version"], capture_output=True, text=True)
+    assert completed.returncode == 0 and completed.stdout.strip() == f"elastocell {__version__}"
+
+
+def test_top_level_help_says_what_the_tool_does():
+    text = " ".join(runner.invoke(app, ["--help"], env={"COLUMNS": "300"}).output.split())
+    for group in ("compress:", "equivalent:", "shear, pipe:", "fit afm, fit shear:", "lut:", "study, reproduce:",
+                  "mastercurve:", "bench:", "--version", "A bare number is in the option's documented unit"):
+        assert group in text
+
+
+def test_every_option_help_shows_its_default_and_units():
+    """A default (literal, or described in parentheses where it is None or an off flag) or [required], and
+    units for every number: 'Units: ...' or, for a quantity, what a bare number is in."""
+    for path, command in _commands():
+        for param in command.params:
+            where = f"{path} {param.opts[0]}"
+            assert param.required or param.show_default is True or isinstance(param.show_default, str), where
+            if param.show_default is True and not param.required:
+                assert param.default is not None and param.default is not False, where
+            annotation = param.type_descriptor.annotation
+            quantity = OPTIONS[param.name].quantity is not None
+            if annotation is float or annotation == tuple[float, float, float] or quantity:
+                assert "Units: " in param.help or "a bare number is" in param.help, where
+    shown = " ".join(runner.invoke(app, ["shear", "--help"], env={"COLUMNS": "300"}).output.split())
+    for text in ("[default: 0.48]", "[default: (off)]", "[default: (2 dx, uniform)]",
+                 "A quantity like 15mPa*s; a bare number is in mPa*s.", "a bare number is dimensionless, in units of R",
+                 "Units: strain, shear_rate*t. [default: 6.0]"):
+        assert text in shown, text
+
+
+# ---------------------------------------------------------------- hostile quantities: one line, exit code 2
+
+HOSTILE = ["9**9**9um", "1e999999um", "nan", "inf kPa", '__import__("os")', "9" * 10_000, "8 furlongs",
+           "wrong dimension"]
+
+LUT = ["lut", "--channel-radius", "10um", "--flow-rate", "0.04uL/s", "--viscosity", "15mPa*s", "--quick"]
+# (command, option, arguments before the hostile option) for every option that takes a quantity
+QUANTITY_OPTIONS = [
+    *[(command, option, [*command.split(), "--out", "{out}"] if command != "equivalent" else ["equivalent"])
+      for command in ("compress", "equivalent", "shear", "pipe") for option in ("--radius", "--youngs-modulus")],
+    ("shear", "--viscosity", ["shear", "--out", "{out}", "--shear-rate", "100/s", "--youngs-modulus", "1kPa"]),
+    ("shear", "--shear-rate", ["shear", "--out", "{out}", "--viscosity", "1mPa*s", "--youngs-modulus", "1kPa"]),
+    ("pipe", "--pressure-gradient", ["pipe", "--out", "{out}", "--radius", "8um", "--youngs-modulus", "1kPa"]),
+    ("fit afm", "--radius", ["fit", "afm", "{out}/curve.csv"]),
+    ("fit afm", "--contact-point", ["fit", "afm", "{out}/curve.csv", "--radius", "8um"]),
+    *[("fit shear", option, ["fit", "shear", "--out", "{out}", "--deformation", "0.1", "--shear-stress", "12Pa",
+                             "--shear-rate", "1000/s", "--tank-treading-frequency", "400rad/s"])
+      for option in ("--shear-stress", "--shear-stress-error", "--tank-treading-frequency",
+                     "--tank-treading-frequency-error", "--shear-rate", "--radius")],
+    *[("lut", option, [*LUT, "--out", "{out}/lut.txt"])
+      for option in ("--channel-radius", "--flow-rate", "--viscosity", "--radii", "--moduli")],
+    ("lut", "--channel-width", ["lut", "--flow-rate", "0.04uL/s", "--viscosity", "15mPa*s", "--quick", "--out",
+                                "{out}/lut.txt"]),
+]
+
+
+def test_the_hostile_cases_cover_every_quantity_option():
+    declared = {(path, param.opts[0]) for path, command in _commands() for param in command.params
+                if OPTIONS[param.name].quantity is not None}
+    assert {(command, option) for command, option, _ in QUANTITY_OPTIONS} == declared
+
+
+@pytest.fixture()
+def parse_timer(monkeypatch):
+    """Every parse_quantity call of the command line (the options' own check and the LUT's lists), timed
+    in-process; pint's one-time import and registry are loaded first (not parse time)."""
+    parse_quantity("8um", "m", "radius")
+    times = []
+
+    def timed(*args, **kwargs):
+        start = time.perf_counter()
+        try:
+            return parse_quantity(*args, **kwargs)
+        finally:
+            times.append(time.perf_counter() - start)
+
+    monkeypatch.setattr(options, "parse_quantity", timed)
+    monkeypatch.setattr(lut_module, "parse_quantity", timed)
+    return times
+
+
+@pytest.mark.parametrize("command, option, arguments", QUANTITY_OPTIONS, ids=[f"{c} {o}" for c, o, _ in QUANTITY_OPTIONS])
+@pytest.mark.parametrize("text", HOSTILE, ids=lambda t: repr(t)[:20])
+def test_a_hostile_quantity_is_one_line_exit_2_naming_the_option(tmp_path, parse_timer, command, option, arguments,
+                                                                  text):
+    if text == "wrong dimension":  # 1kPa where a length is expected, 8um anywhere else
+        length = option in ("--radius", "--contact-point", "--channel-radius", "--channel-width", "--radii")
+        text = "1kPa" if length else "8um"
+    out = tmp_path / "x"
+    result = runner.invoke(app, [a.replace("{out}", str(out)) for a in arguments] + [option, text])
+    assert result.exit_code == 2, result.output
+    lines = [line for line in result.output.strip().splitlines() if line]
+    assert len(lines) == 1 and lines[0].startswith(f"elastocell: error: {option}: expected "), result.output
+    assert parse_timer and max(parse_timer) < 1.0
+    assert not out.exists() or not any(out.iterdir())  # refused before any work
+
+
+# ---------------------------------------------------------------- one rule for bare numbers
+
+
+def test_a_bare_viscosity_is_in_mpa_s_in_shear_and_lut(monkeypatch, tmp_path):
+    """shear --viscosity 15 is 15 mPa*s (Ca = 2 (1 + nu) eta gdot / E_c = 2 x 1.48 x 0.015 x 1000 / 300 = 0.148),
+    the same as 15mPa*s, and as lut --viscosity 15."""
+    import elastocell.api.shear as shear_api
+
+    seen = []
+    monkeypatch.setattr(shear_api, "shear", lambda out, ca, **kwargs: seen.append(ca) or {})
+    for viscosity in ("15", "15mPa*s"):
+        result = runner.invoke(app, ["shear", "--out", str(tmp_path / viscosity), "--viscosity", viscosity,
+                                     "--shear-rate", "1000", "--youngs-modulus", "300Pa", "--quiet"])
+        assert result.exit_code == 0, result.output
+    assert seen == [pytest.approx(0.148, rel=1e-12)] * 2
+
+    settings = []
+    monkeypatch.setattr(lut_module, "compute_lut", lambda out, *args, **kwargs: settings.append(
+        lut_module.plan(*args, radii=kwargs["radii"], moduli=kwargs["moduli"], quick=True,
+                        channel_width=kwargs["channel_width"])[1]) or {"records": []})
+    for viscosity in ("15", "15mPa*s"):
+        runner.invoke(app, ["lut", "--channel-radius", "10", "--flow-rate", "0.04", "--viscosity", viscosity,
+                            "--out", str(tmp_path / "lut.txt"), "--radii", "5", "--moduli", "1000", "--quiet"])
+    assert len(settings) == 2 and settings[0] == settings[1]
+    assert settings[0]["viscosity_mpa_s"] == pytest.approx(15, rel=1e-12)
+    assert settings[0]["channel_radius_um"] == pytest.approx(10, rel=1e-12)
+
+
+def test_a_bare_radius_is_in_um_in_fit_shear(tmp_path):
+    """fit shear --radius 8 records 8 um (8e-6 m) like --radius 8um."""
+    radii = []
+    for radius in ("8", "8um"):
+        out = tmp_path / radius
+        result = runner.invoke(app, ["fit", "shear", "--deformation", "0.1", "--shear-stress", "12",
+                                     "--radius", radius, "--out", str(out), "--quiet"])
+        assert result.exit_code == 0, result.output
+        radii.append(np.genfromtxt(out / "shear_fits.csv", delimiter=",", names=True)["radius"])
+    assert radii[0] == radii[1] == pytest.approx(8e-6, rel=1e-12)

@@ -1,31 +1,17 @@
-"""Shared pieces of the command line: one-line user errors (exit code 2) naming the option."""
+"""Shared pieces of the command line: one-line user errors (exit code 2) naming the option (its name from
+:data:`elastocell.cli.options.OPTION_NAMES`)."""
 
 from __future__ import annotations
 
 import typer
 
+from elastocell.cli.options import OPTION_NAMES
 from elastocell.parameters.units import ParameterError
-
-# CLI option names for parameter names used in error messages
-OPTION_NAMES = {
-    "stiffness_ratio": "--stiffness-ratio", "size_ratio": "--size-ratio", "offset": "--offset",
-    "semi_axes": "--semi-axes", "poisson_ratio": "--poisson-ratio", "youngs_modulus": "--youngs-modulus",
-    "radius": "--radius", "mesh_size": "--mesh-size", "pole_size": "--pole-size", "interface_size": "--interface-size",
-    "quadrature_degree": "--quadrature-degree",
-    "delta_max": "--delta-max",
-    "steps": "--steps", "material": "--material", "element": "--element", "random": "--random",
-    "compare": "--compare",
-    # shear
-    "capillary_number": "--capillary-number", "resolution": "--resolution", "duration": "--duration",
-    "confinement": "--confinement", "resume": "--resume", "wall_clock": "--wall-clock",
-    "stationary_tolerance": "--stationary-tolerance", "record_interval": "--record-interval",
-    "checkpoint_every": "--checkpoint-every", "vtk_interval": "--vtk-interval", "viscosity": "--viscosity",
-    "shear_rate": "--shear-rate", "size": "--size", "threads": "--threads",
-}
 
 
 def fail(message: str) -> None:
-    typer.echo(f"elastocell: error: {message}", err=True)
+    """One line on stderr, exit code 2."""
+    typer.echo(f"elastocell: error: {message}".replace("\n", " "), err=True)
     raise typer.Exit(code=2)
 
 
@@ -34,7 +20,6 @@ def user_errors(function):
     import functools
 
     from pydantic import ValidationError
-
 
     @functools.wraps(function)
     def wrapper(*args, **kwargs):

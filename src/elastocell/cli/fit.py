@@ -1,4 +1,4 @@
-"""Command line: ``elastocell mastercurve compression`` and ``elastocell fit afm``.
+"""Command line: ``elastocell mastercurve compression|shear`` and ``elastocell fit afm|shear``.
 
 Registered in :mod:`elastocell.cli.app` with ``app.add_typer(mastercurve_app, name="mastercurve")`` and
 ``app.add_typer(fit_app, name="fit")``. Impossible input exits with code 2 and one line (``user_errors``).
@@ -11,15 +11,10 @@ from pathlib import Path
 
 import typer
 
-from elastocell.cli.common import OPTION_NAMES, fail, user_errors
+from elastocell.cli.common import fail, user_errors
+from elastocell.cli.options import opt, takes
 from elastocell.parameters.units import ParameterError
 from elastocell.simulation.distributed import check_execution
-
-for _name in ("model", "geometry", "contact_point", "nucleus_size_ratio", "bootstrap", "baseline_fraction",
-              "threshold", "scheduler", "workers", "deformation", "deformation_error", "shear_stress",
-              "shear_stress_error", "tank_treading_frequency", "tank_treading_frequency_error", "table",
-              "confidence"):
-    OPTION_NAMES.setdefault(_name, "--" + _name.replace("_", "-"))
 
 mastercurve_app = typer.Typer(add_completion=False, no_args_is_help=True,
                               help="Master curves of a homogeneous cell (computed once, cached, shipped).")
@@ -27,16 +22,16 @@ fit_app = typer.Typer(add_completion=False, no_args_is_help=True,
                       help="Fit measurements: Young's modulus from AFM plate compression (afm) or from the "
                            "deformation in shear flow (shear).")
 
+MASTERCURVE_OPTIONS = ("poisson_ratio", "material",
+                       opt("out", annotation=Path | None, default=None,
+                           help="Write the curve (CSV with # JSON metadata) here.", shown="not written"),
+                       "no_cache", opt("quiet", help="No progress, no summary."))
+
 
 @mastercurve_app.command("compression")
 @user_errors
-def mastercurve_compression(
-    poisson_ratio: float = typer.Option(0.48, "--poisson-ratio", help="nu in (-1, 0.5)."),
-    material: str = typer.Option("neo-hookean", "--material", help="neo-hookean | mooney-rivlin."),
-    out: Path | None = typer.Option(None, "--out", help="Write the curve (CSV with # JSON metadata) here."),  # noqa: UP007
-    no_cache: bool = typer.Option(False, "--no-cache", help="Recompute even if shipped or cached."),
-    quiet: bool = typer.Option(False, "--quiet", help="No progress, no summary."),
-):
+@takes(*MASTERCURVE_OPTIONS)
+def mastercurve_compression(poisson_ratio: float, material: str, out: Path | None, no_cache: bool, quiet: bool):
     """F/(E R^2) against delta (0..0.75) of a homogeneous sphere: the shipped curve, the cached one, or a fresh
     computation on the default and a finer p2 mesh (their difference is the error column)."""
     from elastocell.inverse.mastercurve import (  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
@@ -73,34 +68,22 @@ def mastercurve_compression(
 
 @fit_app.command("afm")
 @user_errors
-def fit_afm(
-    files: list[Path] = typer.Argument(..., help="Curves: plain CSV (columns displacement in m, force in N) or "
-                                                  "afmformats files; a folder contributes its files."),
-    radius: str = typer.Option(..., "--radius", help="Cell radius R, e.g. 8um (plain number: metres)."),
-    geometry: str = typer.Option("parallel-plates", "--geometry", help="parallel-plates (the only one)."),
-    poisson_ratio: float = typer.Option(0.48, "--poisson-ratio", help="nu (shipped: 0.45, 0.48, 0.49)."),
-    material: str = typer.Option("neo-hookean", "--material", help="Master curve's law."),
-    model: str = typer.Option("both", "--model", help="master | hertz | both (master is youngs_modulus)."),
-    delta_max: float = typer.Option(0.75, "--delta-max", help="Fit the data up to this delta (<= 0.75)."),
-    contact_point: str = typer.Option("auto", "--contact-point", help="auto, or a displacement (e.g. 1.2um)."),
-    bootstrap: int = typer.Option(0, "--bootstrap", help="Residual-bootstrap replicas for a second CI."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the bootstrap."),
-    nucleus_size_ratio: float | None = typer.Option(  # noqa: UP007
-        None, "--nucleus-size-ratio", help="lambda: also report E_c and E_n (needs --stiffness-ratio)."),
-    stiffness_ratio: float | None = typer.Option(None, "--stiffness-ratio", help="gamma = E_n/E_c."),  # noqa: UP007
-    baseline_fraction: float = typer.Option(0.2, "--baseline-fraction", help="Share of the approach for the baseline."),
-    threshold: float = typer.Option(5.0, "--threshold", help="Contact: force above threshold*sigma of the baseline."),
-    baseline_tilt: bool = typer.Option(False, "--baseline-tilt", help="Subtract a sloped baseline (default: offset)."),
-    out: Path = typer.Option(Path("fits"), "--out", help="Output directory."),
-    no_plots: bool = typer.Option(False, "--no-plots", help="Skip the per-curve PNGs (faster for many curves)."),
-    scheduler: str | None = typer.Option(  # noqa: UP007
-        None, "--scheduler", help="Run one task per file on this Dask scheduler (e.g. tcp://host:8786); --out "
-                                  "must be on a file system the workers share."),
-    workers: int | None = typer.Option(  # noqa: UP007
-        None, "--workers", help="Run one task per file on a local Dask cluster of N processes. Default: a plain "
-                                "loop, or one worker per core from 150 files on (1200 with --no-plots)."),
-    quiet: bool = typer.Option(False, "--quiet", help="No progress bar, no summary."),
-):
+@takes("files", opt("radius", default=..., help="Cell radius R.", scale=None), "geometry",
+       opt("poisson_ratio", help="nu (shipped: 0.45, 0.48, 0.49)."), opt("material", help="Master curve's law."),
+       "model", opt("delta_max", help="Fit the data up to this delta = 1 - h/(2R) (<= 0.75)."), "contact_point",
+       "bootstrap", opt("seed", help="Seed of the bootstrap."), "nucleus_size_ratio",
+       opt("stiffness_ratio", annotation=float | None, default=None, help="gamma = E_n/E_c.",
+           shown="none: homogeneous"),
+       "baseline_fraction", "threshold", "baseline_tilt", opt("out", default=Path("fits")), "no_plots",
+       opt("scheduler", help="Run one task per file on this Dask scheduler (e.g. tcp://host:8786); --out must be on "
+           "a file system the workers share.", shown="none"),
+       opt("workers", help="Run one task per file on a local Dask cluster of N processes.",
+           shown="a plain loop, or one worker per core from 150 files on, 1200 with --no-plots"),
+       "quiet")
+def fit_afm(files: list[Path], radius: str, geometry: str, poisson_ratio: float, material: str, model: str,
+            delta_max: float, contact_point: str, bootstrap: int, seed: int, nucleus_size_ratio: float | None,
+            stiffness_ratio: float | None, baseline_fraction: float, threshold: float, baseline_tilt: bool,
+            out: Path, no_plots: bool, scheduler: str | None, workers: int | None, quiet: bool):
     """Young's modulus from plate-compression force curves: master-curve and Hertz fits, 95 % CIs."""
     from elastocell.inverse.fit import (  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
         FitSettings,
@@ -138,13 +121,9 @@ def fit_afm(
 
 @mastercurve_app.command("shear")
 @user_errors
-def mastercurve_shear(
-    poisson_ratio: float = typer.Option(0.48, "--poisson-ratio", help="nu in (-1, 0.5)."),
-    material: str = typer.Option("neo-hookean", "--material", help="neo-hookean | mooney-rivlin."),
-    out: Path | None = typer.Option(None, "--out", help="Write the curve (CSV with # JSON metadata) here."),  # noqa: UP007
-    no_cache: bool = typer.Option(False, "--no-cache", help="Recompute even if shipped or cached (runs too)."),
-    quiet: bool = typer.Option(False, "--quiet", help="No progress, no summary."),
-):
+@takes(*MASTERCURVE_OPTIONS[:3], opt("no_cache", help="Recompute even if shipped or cached (runs too)."),
+       MASTERCURVE_OPTIONS[4])
+def mastercurve_shear(poisson_ratio: float, material: str, out: Path | None, no_cache: bool, quiet: bool):
     """Stationary D, inclination (degrees) and tank-treading frequency (x shear rate) against Ca of a homogeneous
     cell in shear flow: the shipped curve, the cached one, or a fresh computation (shear runs at 7 Ca and
     R/dx = 6 and 8, about 20 min on one core; resumable); the curve is their Richardson extrapolation."""
@@ -183,30 +162,18 @@ def mastercurve_shear(
 
 @fit_app.command("shear")
 @user_errors
-def fit_shear_command(
-    deformation: float | None = typer.Option(  # noqa: UP007
-        None, "--deformation", help="Stationary Taylor deformation D = (a-b)/(a+b)."),
-    shear_stress: str | None = typer.Option(  # noqa: UP007
-        None, "--shear-stress", help="tau = eta * shear rate, e.g. 15Pa (plain number: Pa)."),
-    deformation_error: float = typer.Option(0.0, "--deformation-error", help="Standard uncertainty of D (1 sigma)."),
-    shear_stress_error: str = typer.Option("0", "--shear-stress-error", help="Standard uncertainty of tau (Pa)."),
-    tank_treading_frequency: str | None = typer.Option(  # noqa: UP007
-        None, "--tank-treading-frequency", help="Angular frequency, e.g. 300rad/s (Hz is converted x 2 pi); "
-                                                "needs --shear-rate. A second, independent estimate."),
-    tank_treading_frequency_error: str = typer.Option("0", "--tank-treading-frequency-error",
-                                                      help="Its standard uncertainty (rad/s)."),
-    shear_rate: str | None = typer.Option(None, "--shear-rate", help="e.g. 1000/s."),  # noqa: UP007
-    radius: str | None = typer.Option(None, "--radius", help="Cell radius (recorded only; D and Ca are "  # noqa: UP007
-                                                             "dimensionless)."),
-    table: Path | None = typer.Option(  # noqa: UP007
-        None, "--table", help="CSV of cells: deformation, shear_stress (Pa), optional deformation_error, "
-                              "shear_stress_error, tank_treading_frequency (rad/s), shear_rate (1/s), cell."),
-    poisson_ratio: float = typer.Option(0.48, "--poisson-ratio", help="nu (shipped: 0.48)."),
-    material: str = typer.Option("neo-hookean", "--material", help="Master curve's law."),
-    confidence: float = typer.Option(0.95, "--confidence", help="Confidence level of the intervals."),
-    out: Path = typer.Option(Path("fits"), "--out", help="Output directory."),
-    quiet: bool = typer.Option(False, "--quiet", help="No summary."),
-):
+@takes("deformation", "shear_stress", "deformation_error", "shear_stress_error", "tank_treading_frequency",
+       "tank_treading_frequency_error",
+       opt("shear_rate", help="Shear rate of the flow (normalises --tank-treading-frequency).", shown="none"),
+       opt("radius", annotation=str | None, default=None, help="Cell radius (recorded only; D and Ca are "
+           "dimensionless).", scale=None, shown="none"),
+       "table", opt("poisson_ratio", help="nu (shipped: 0.48)."), opt("material", help="Master curve's law."),
+       "confidence", opt("out", default=Path("fits")), opt("quiet", help="No summary."))
+def fit_shear_command(deformation: float | None, shear_stress: str | None, deformation_error: float,
+                      shear_stress_error: str, tank_treading_frequency: str | None,
+                      tank_treading_frequency_error: str, shear_rate: str | None, radius: str | None,
+                      table: Path | None, poisson_ratio: float, material: str, confidence: float, out: Path,
+                      quiet: bool):
     """Shear and Young's modulus from the stationary deformation in shear flow (inverts the shear master curve)."""
     from elastocell.inverse.fit import (  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
         fit_shear_cells,

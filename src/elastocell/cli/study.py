@@ -8,17 +8,13 @@ from pathlib import Path
 
 import typer
 
-from elastocell.cli.common import OPTION_NAMES, fail, user_errors
-
-for _name in ("scheduler", "workers", "name", "out", "directory"):
-    OPTION_NAMES.setdefault(_name, "--" + _name if _name not in ("name", "directory") else _name.upper())
+from elastocell.cli.common import fail, user_errors
+from elastocell.cli.options import opt, takes
 
 study_app = typer.Typer(add_completion=False, no_args_is_help=True,
                         help="The paper's figures as studies: list, run (through Dask), plot.")
 
-QUICK_HELP = "Coarse meshes and lattices: every study in minutes on a laptop (not converged)."
-SCHEDULER_HELP = "Address of a running Dask scheduler (tcp://host:8786); default: a local cluster."
-WORKERS_HELP = "Worker processes of the local Dask cluster (default: one per core)."
+STUDY_OUT = opt("out", help="Output directory (rerun to resume).")
 
 
 @study_app.command("list")
@@ -51,14 +47,8 @@ def _report(summary: dict, out: Path, quiet: bool) -> None:
 
 @study_app.command("run")
 @user_errors
-def study_run(
-    name: str = typer.Argument(..., help="Study name (see `elastocell study list`)."),
-    quick: bool = typer.Option(False, "--quick", help=QUICK_HELP),
-    scheduler: str | None = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),  # noqa: UP007
-    workers: int | None = typer.Option(None, "--workers", help=WORKERS_HELP),  # noqa: UP007
-    out: Path = typer.Option(..., "--out", help="Output directory (rerun to resume)."),
-    quiet: bool = typer.Option(False, "--quiet", help="No progress bar, no summary."),
-):
+@takes("name", "quick", "scheduler", "workers", STUDY_OUT, "quiet")
+def study_run(name: str, quick: bool, scheduler: str | None, workers: int | None, out: Path, quiet: bool):
     """Run one study: its simulations through Dask, then its table, figure, claims and DIR/report.md."""
     from elastocell.studies import (
         run_studies,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
@@ -71,10 +61,8 @@ def study_run(
 
 @study_app.command("plot")
 @user_errors
-def study_plot(
-    name: str = typer.Argument(..., help="Study name."),
-    directory: Path = typer.Argument(..., help="The --out directory of `study run`."),
-):
+@takes(opt("name", help="Study name."), "directory")
+def study_plot(name: str, directory: Path):
     """Redraw a study's figure (PNG, PDF) and re-derive its claims from its table; no simulation."""
     from elastocell.studies import (
         plot_study,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
@@ -87,13 +75,8 @@ def study_plot(
 
 
 @user_errors
-def reproduce(
-    quick: bool = typer.Option(False, "--quick", help=QUICK_HELP),
-    scheduler: str | None = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),  # noqa: UP007
-    workers: int | None = typer.Option(None, "--workers", help=WORKERS_HELP),  # noqa: UP007
-    out: Path = typer.Option(..., "--out", help="Output directory (rerun to resume)."),
-    quiet: bool = typer.Option(False, "--quiet", help="No progress bar, no summary."),
-):
+@takes("quick", "scheduler", "workers", STUDY_OUT, "quiet")
+def reproduce(quick: bool, scheduler: str | None, workers: int | None, out: Path, quiet: bool):
     """Run every study of the paper (shared runs once) and write DIR/report.md with each claim's verdict."""
     from elastocell.studies import (
         reproduce as run,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
