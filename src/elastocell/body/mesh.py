@@ -5,14 +5,13 @@ sphere or ellipsoid, is its own volume, fragmented with the ball so that the int
 element faces. The mesh is refined towards the poles z = +-R where the plates touch.
 
 Node ordering of 10-node tetrahedra follows VTK: corners 0-3, then edges (0,1) (1,2) (0,2) (0,3) (1,3) (2,3).
-Meshes are cached on disk as ``.npz`` under a hash of the geometry, the mesh parameters and gmsh's version.
+Meshes are cached on disk (:func:`build_mesh`): one verified cache entry (``elastocell.files``) per set of
+:func:`mesh_parameters`, an ``.npz`` payload under the hash of those parameters and :data:`MESH_FORMAT_VERSION`.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
-import os
+import io
 import threading
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,11 +19,14 @@ from pathlib import Path
 import numpy as np
 
 from elastocell.body.elements import NODE_POINTS, TET10_EDGES, jacobian_determinants, reference_element
+from elastocell.files import cache_directory, parameter_hash, read_cache_entry, write_cache_entry
 from elastocell.parameters.cell import CellParameters, MeshParameters, NucleusParameters
 from elastocell.parameters.units import ParameterError
 
 CYTOPLASM, NUCLEUS = 0, 1
 MESH_FORMAT_VERSION = 6
+"""Version of what a cached mesh holds and how it is made from its parameters; raised when the generation or
+the stored arrays change for the same :func:`mesh_parameters`."""
 
 # Edges of a tetrahedron in VTK order (local corner indices) and gmsh's order for TET10.
 GMSH_TO_VTK_TET10 = np.array([0, 1, 2, 3, 4, 5, 6, 7, 9, 8])
@@ -99,54 +101,59 @@ class CellMesh:
         }
 
 
-def cache_directory() -> Path:
-    """Where meshes and other reusable results are cached (``ELASTOCELL_CACHE`` overrides)."""
-    root = os.environ.get("ELASTOCELL_CACHE")
-    if root:
-        path = Path(root)
-    else:
-        path = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "elastocell"
-    path.mkdir(parents=True, exist_ok=True)
-    return path
-
-
-def _mesh_key(nucleus: NucleusParameters, mesh: MeshParameters) -> str:
+def mesh_parameters(nucleus: NucleusParameters, mesh: MeshParameters) -> dict:
+    """Everything a mesh is made from, resolved: the nucleus geometry (not its stiffness; ``{"shape": "none"}``
+    without one), the mesh settings (not the quadrature degree; no interface settings when nothing refines an
+    interface) and gmsh's version. Cells that differ in anything else share the mesh."""
     import gmsh
 
     geometry = nucleus.model_dump(mode="json")
     if nucleus.shape == "none":
         geometry = {"shape": "none"}
     else:
-        geometry.pop("stiffness_ratio")  # does not change the mesh
+        geometry.pop("stiffness_ratio")
     settings = mesh.model_dump(mode="json")
-    settings.pop("quadrature_degree")  # not a property of the mesh
+    settings.pop("quadrature_degree")
     if nucleus.shape == "none" or not mesh.refines_interface:
-        settings["interface_size"] = None  # no refinement: the same mesh
+        settings["interface_size"] = None
         settings.pop("interface_width")
-    payload = json.dumps(
-        {"nucleus": geometry, "mesh": settings, "gmsh": gmsh.__version__,
-         "format": MESH_FORMAT_VERSION},
-        sort_keys=True,
-    )
-    return hashlib.sha256(payload.encode()).hexdigest()[:20]
+    return {"nucleus": geometry, "mesh": settings, "gmsh": gmsh.__version__}
+
+
+def mesh_cache_path(parameters: dict) -> Path:
+    """The cache entry of the mesh made from :func:`mesh_parameters` ``parameters``."""
+    return cache_directory() / f"mesh-{parameter_hash(parameters, format_version=MESH_FORMAT_VERSION)[:20]}.npz"
+
+
+def _mesh_bytes(mesh: CellMesh) -> bytes:
+    buffer = io.BytesIO()
+    np.savez(buffer, **mesh.__dict__)
+    return buffer.getvalue()
+
+
+def _mesh_from_bytes(payload: bytes) -> CellMesh:
+    with np.load(io.BytesIO(payload), allow_pickle=False) as data:
+        mesh = CellMesh(**{name: data[name] for name in CellMesh.__dataclass_fields__})
+    if mesh.elements.ndim != 2 or mesh.elements.shape[1] not in (4, 10) or mesh.region.shape != mesh.elements.shape[:1]:
+        raise ValueError("inconsistent arrays")
+    return mesh
 
 
 def build_mesh(cell: CellParameters, use_cache: bool = True) -> CellMesh:
-    """Mesh of the cell described by ``cell`` (geometry and mesh parameters only), cached on disk."""
+    """Mesh of the cell described by ``cell`` (geometry and mesh parameters only), cached on disk
+    (``use_cache``): an entry made from other parameters or damaged is reported once (a warning naming the file)
+    and made again, never used."""
     nucleus = cell.nucleus if cell.random is None else NucleusParameters(shape="none")
-    path = cache_directory() / f"mesh-{_mesh_key(nucleus, cell.mesh)}.npz"
-    if use_cache and path.exists():
-        try:
-            with np.load(path) as data:
-                return CellMesh(**{k: data[k] for k in data.files})
-        except (OSError, ValueError, KeyError):
-            pass
+    parameters = mesh_parameters(nucleus, cell.mesh)
+    path = mesh_cache_path(parameters)
+    if use_cache:
+        mesh = read_cache_entry(path, "mesh", parameters, MESH_FORMAT_VERSION, _mesh_from_bytes)
+        if mesh is not None:
+            return mesh
     mesh = _generate(nucleus, cell.mesh)
     _check_valid(mesh, cell.mesh)
     if use_cache:
-        temporary = path.with_suffix(f".{os.getpid()}.tmp.npz")
-        np.savez(temporary, **mesh.__dict__)
-        os.replace(temporary, path)
+        write_cache_entry(path, _mesh_bytes(mesh), "mesh", parameters, MESH_FORMAT_VERSION)
     return mesh
 
 

@@ -2,11 +2,13 @@
 
 A homogeneous sphere of Young's modulus ``E`` and radius ``R`` squeezed between two rigid frictionless plates
 (``delta = 1 - h/(2R)``, docs/theory.md) pushes back with ``F = E R^2 f(delta; nu, law)``. ``f`` is computed once per
-Poisson ratio and material law on two p2 meshes (sizes 0.35/0.1, the default until 2026-12, and 0.25/0.05);
+Poisson ratio and material law on two p2 meshes (:data:`MESHES`: sizes 0.35/0.1 and 0.25/0.05);
 the finer gives the curve, the difference between the two its error estimate. Curves for nu = 0.45, 0.48, 0.49 (neo-Hookean) ship
 with the package (``elastocell/data/mastercurve_*.csv``) so that fitting needs no simulation; others are
-computed on demand by ``elastocell mastercurve compression`` and cached (``ELASTOCELL_CACHE``), keyed by the
-inputs and the package version.
+computed on demand by ``elastocell mastercurve compression`` and cached (``ELASTOCELL_CACHE``): a verified
+cache entry (``elastocell.files``) keyed by the resolved parameters of the computation
+(:func:`curve_parameters`: the cell of each mesh, the load stepping, the Hertz blend) and :data:`FORMAT_VERSION`;
+a cached curve made from other parameters or damaged is reported once and computed again, never used.
 
 Small deformations: a mesh under-resolves the contact patch when delta is small (nu = 0.48: the fine mesh is
 6.9 % above Hertz at delta = 0.0125 and the two meshes differ by 9 % there, 3.4 % at 0.05, 1.0 % at 0.1).
@@ -21,9 +23,8 @@ table ``delta,force_per_E_R2,error,force_per_E_R2_default_mesh``.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -31,22 +32,38 @@ from pathlib import Path
 import numpy as np
 
 from elastocell.body.cell import Cell
-from elastocell.body.mesh import cache_directory
-from elastocell.files import read_curve_csv, software_versions, write_curve_csv
-from elastocell.parameters.cell import cell_parameters
+from elastocell.files import (
+    cache_directory,
+    curve_csv_text,
+    parameter_hash,
+    parse_curve_csv,
+    read_cache_entry,
+    read_curve_csv,
+    software_versions,
+    write_cache_entry,
+    write_curve_csv,
+)
+from elastocell.parameters.cell import CellParameters, cell_parameters
 from elastocell.parameters.units import ParameterError
-from elastocell.scenarios.compression import CompressionParameters, compress, hertz_force
+from elastocell.scenarios.compression import (
+    CompressionParameters,
+    compress,
+    compression_parameters_for,
+    hertz_force,
+)
 from elastocell.version import __version__
 
 SHIPPED_POISSON_RATIOS = (0.45, 0.48, 0.49)
-# (mesh_size, pole_size) of the two meshes: a coarse one (the default p2 mesh until 2026-12; the key and the
-# CSV column keep that name) and a finer one (its error estimate)
+# (mesh_size, pole_size) of the two meshes: a coarser one ("default", the name of its key and CSV column) and a
+# finer one; their difference is the error estimate
 MESHES = {"default": (0.35, 0.1), "fine": (0.25, 0.05)}
-POLE_RADIUS = 0.9  # the pole grading of the shipped curves (the default until session 14)
+POLE_RADIUS = 0.9  # the pole grading of the shipped curves
 DELTA_MAX = 0.75
 STEPS = 60
 HERTZ_BLEND_BELOW = 0.1  # below: Hertz x linear ratio (the meshes differ by > 1 % there, see module doc)
 FORMAT_VERSION = 1
+"""Version of the curve CSV and of how a cached curve is computed from its parameters; raised when either
+changes."""
 
 
 @dataclass
@@ -117,19 +134,32 @@ class MasterCurve:
         delta = np.clip(np.asarray(delta, dtype=float), self._first, self._end)
         return np.abs(self._relative_error(delta))
 
-    def to_csv(self, path: Path, force_default_mesh: np.ndarray | None = None) -> None:
-        path = Path(path)
+    def _csv(self, force_default_mesh: np.ndarray | None = None) -> tuple[dict, dict]:
         force_default_mesh = self.force_default_mesh if force_default_mesh is None else force_default_mesh
         metadata = dict(self.metadata, poisson_ratio=self.poisson_ratio, material=self.material,
                         hertz_blend_below=self.hertz_blend_below, format_version=FORMAT_VERSION)
         columns = {"delta": self.delta, "force_per_E_R2": self.force, "error": self.error}
         if force_default_mesh is not None:
             columns["force_per_E_R2_default_mesh"] = force_default_mesh
-        write_curve_csv(path, metadata, columns)
+        return metadata, columns
+
+    def to_csv(self, path: Path, force_default_mesh: np.ndarray | None = None) -> None:
+        write_curve_csv(Path(path), *self._csv(force_default_mesh))
+
+    def csv_text(self) -> str:
+        """The CSV file's text (what :meth:`to_csv` writes)."""
+        return curve_csv_text(*self._csv())
 
     @classmethod
     def from_csv(cls, path) -> MasterCurve:
-        metadata, table = read_curve_csv(path)
+        return cls._from_table(*read_curve_csv(path))
+
+    @classmethod
+    def from_csv_text(cls, text: str) -> MasterCurve:
+        return cls._from_table(*parse_curve_csv(text))
+
+    @classmethod
+    def _from_table(cls, metadata: dict, table: dict) -> MasterCurve:
         return cls(delta=table["delta"], force=table["force_per_E_R2"], error=table["error"],
                    poisson_ratio=float(metadata["poisson_ratio"]), material=metadata.get("material", "neo-hookean"),
                    hertz_blend_below=float(metadata.get("hertz_blend_below", HERTZ_BLEND_BELOW)), metadata=metadata,
@@ -147,14 +177,33 @@ def shipped_name(poisson_ratio: float, material: str = "neo-hookean") -> str:
     return f"mastercurve_compression_{material}_nu{poisson_ratio:.4f}.csv"
 
 
-def cache_path(poisson_ratio: float, material: str = "neo-hookean") -> Path:
-    """On-disk cache file of a computed curve, keyed by inputs, meshes, steps and the package version."""
+def curve_parameters(poisson_ratio: float, material: str = "neo-hookean", meshes: dict | None = None,
+                     steps: int = STEPS, element: str = "p2") -> dict:
+    """What a computed curve is made from, resolved: the homogeneous cell of every mesh (``CellParameters`` with
+    the defaults filled in and the quadrature a compression uses), the load stepping and the Hertz blend."""
+    cells = {name: compression_parameters_for(cell_parameters(
+        nucleus="none", poisson_ratio=poisson_ratio, material=material, element=element, mesh_size=mesh_size,
+        pole_size=pole_size, pole_radius=POLE_RADIUS)) for name, (mesh_size, pole_size) in (meshes or MESHES).items()}
+    return {"cells": cells, "compression": CompressionParameters(delta_max=DELTA_MAX, steps=steps),
+            "hertz_blend_below": HERTZ_BLEND_BELOW}
 
-    key = json.dumps({"nu": round(float(poisson_ratio), 10), "material": material, "meshes": MESHES,
-                      "steps": STEPS, "delta_max": DELTA_MAX, "blend": HERTZ_BLEND_BELOW,
-                      "version": __version__, "format": FORMAT_VERSION}, sort_keys=True)
-    digest = hashlib.sha256(key.encode()).hexdigest()[:16]
+
+def cache_path(poisson_ratio: float, material: str = "neo-hookean", meshes: dict | None = None, steps: int = STEPS,
+               element: str = "p2") -> Path:
+    """The cache entry of a computed curve: named by the hash of its :func:`curve_parameters` and
+    :data:`FORMAT_VERSION`."""
+    digest = parameter_hash(curve_parameters(poisson_ratio, material, meshes, steps, element),
+                            format_version=FORMAT_VERSION)[:16]
     return cache_directory() / f"mastercurve-compression-{digest}.csv"
+
+
+def read_cached(poisson_ratio: float, material: str = "neo-hookean", meshes: dict | None = None, steps: int = STEPS,
+                element: str = "p2") -> MasterCurve | None:
+    """The cached curve of these inputs, verified (None: none, or one that was damaged or made from other
+    parameters, reported in a warning and removed)."""
+    parameters = curve_parameters(poisson_ratio, material, meshes, steps, element)
+    return read_cache_entry(cache_path(poisson_ratio, material, meshes, steps, element), "compression master curve",
+                            parameters, FORMAT_VERSION, lambda payload: MasterCurve.from_csv_text(payload.decode()))
 
 
 def shipped_file(name: str):
@@ -168,14 +217,15 @@ def shipped(poisson_ratio: float, material: str = "neo-hookean") -> MasterCurve 
     return None if resource is None else MasterCurve.from_csv(resource)
 
 
-def shipped_or_cached(shipped_curve, cached: Path, read, kind: str, poisson_ratio: float, material: str, hint: str = "",
-                      shipped_ratios=SHIPPED_POISSON_RATIOS):
-    """The shipped curve, else the cached file read with ``read``; otherwise a ParameterError naming the
-    ``elastocell mastercurve KIND`` command that computes it."""
+def shipped_or_cached(shipped_curve, cached: Callable[[], object], kind: str, poisson_ratio: float, material: str,
+                      hint: str = "", shipped_ratios=SHIPPED_POISSON_RATIOS):
+    """The shipped curve, else ``cached()`` (the verified cache entry, or None); otherwise a ParameterError naming
+    the ``elastocell mastercurve KIND`` command that computes it."""
     if shipped_curve is not None:
         return shipped_curve
-    if cached.exists():
-        return read(cached)
+    curve = cached()
+    if curve is not None:
+        return curve
     shipped_list = ", ".join(f"{nu:g}" for nu in shipped_ratios)
     raise ParameterError(
         "poisson_ratio",
@@ -187,32 +237,37 @@ def shipped_or_cached(shipped_curve, cached: Path, read, kind: str, poisson_rati
 def load_master_curve(poisson_ratio: float = 0.48, material: str = "neo-hookean") -> MasterCurve:
     """The shipped curve, else a cached one; otherwise a ParameterError naming the command that computes it."""
     check_inputs(poisson_ratio, material)
-    return shipped_or_cached(shipped(poisson_ratio, material), cache_path(poisson_ratio, material),
-                             MasterCurve.from_csv, "compression", poisson_ratio, material)
+    return shipped_or_cached(shipped(poisson_ratio, material), lambda: read_cached(poisson_ratio, material),
+                             "compression", poisson_ratio, material)
 
 
 def compute_master_curve(poisson_ratio: float = 0.48, material: str = "neo-hookean", use_cache: bool = True,
-                         progress=None, meshes: dict | None = None, steps: int = STEPS) -> MasterCurve:
+                         progress=None, meshes: dict | None = None, steps: int = STEPS,
+                         element: str = "p2") -> MasterCurve:
     """Compute (or read from the cache) the homogeneous curve on the default and the fine mesh.
 
     ``progress(mesh_name, delta)`` is called after each converged row. Returns the fine-mesh curve with
     ``error = |fine - default|``; the default-mesh forces are kept as ``force_default_mesh`` (a CSV column).
+    ``meshes`` ({"default": (mesh_size, pole_size), "fine": ...}, default :data:`MESHES`), ``steps`` and
+    ``element`` are part of the cache key.
     """
 
     check_inputs(poisson_ratio, material)
     meshes = meshes or MESHES
-    path = cache_path(poisson_ratio, material)
-    if use_cache and meshes is MESHES and steps == STEPS and path.exists():
-        return MasterCurve.from_csv(path)
+    parameters = curve_parameters(poisson_ratio, material, meshes, steps, element)
+    path = cache_path(poisson_ratio, material, meshes, steps, element)
+    if use_cache:
+        cached = read_cached(poisson_ratio, material, meshes, steps, element)
+        if cached is not None:
+            return cached
+    scenario: CompressionParameters = parameters["compression"]
     forces, info = {}, {}
     delta = None
     for name, (mesh_size, pole_size) in meshes.items():
         start = time.perf_counter()
-        cell = Cell.from_parameters(cell_parameters(nucleus="none", poisson_ratio=poisson_ratio, material=material,
-                                                    element="p2", mesh_size=mesh_size, pole_size=pole_size,
-                                                    pole_radius=POLE_RADIUS))
-        result = compress(cell, CompressionParameters(delta_max=DELTA_MAX, steps=steps),
-                          progress=(lambda d, n=name: progress(n, d)) if progress else None)
+        resolved: CellParameters = parameters["cells"][name]
+        cell = Cell.from_parameters(resolved)
+        result = compress(cell, scenario, progress=(lambda d, n=name: progress(n, d)) if progress else None)
         delta = result.delta
         forces[name] = result.force
         info[name] = {"mesh_size": mesh_size, "pole_size": pole_size, "pole_radius": POLE_RADIUS,
@@ -227,9 +282,9 @@ def compute_master_curve(poisson_ratio: float = 0.48, material: str = "neo-hooke
                              f"--material {material}",
                   "quantity": "F/(E R^2) of a homogeneous sphere between rigid frictionless parallel plates, "
                               "delta = 1 - h/(2R); error = |fine - default mesh|",
-                  "element": "p2", "steps": steps, "delta_max": DELTA_MAX, "meshes": info,
+                  "element": element, "steps": steps, "delta_max": DELTA_MAX, "meshes": info,
                   "elastocell_version": __version__, "software": software_versions()})
     curve.force_default_mesh = default
-    if use_cache and meshes is MESHES and steps == STEPS:
-        curve.to_csv(path)
+    if use_cache:
+        write_cache_entry(path, curve.csv_text().encode(), "compression master curve", parameters, FORMAT_VERSION)
     return curve

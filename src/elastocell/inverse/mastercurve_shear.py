@@ -37,17 +37,27 @@ File format: comment lines ``# {json}`` (metadata), then a CSV table with the co
 
 from __future__ import annotations
 
-import hashlib
 import json
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from elastocell.api.resolved import resolved_parameters
 from elastocell.api.shear import shear
-from elastocell.body.mesh import cache_directory
-from elastocell.files import read_curve_csv, software_versions, write_curve_csv
+from elastocell.files import (
+    cache_directory,
+    curve_csv_text,
+    parameter_hash,
+    parse_curve_csv,
+    read_cache_entry,
+    read_curve_csv,
+    software_versions,
+    write_cache_entry,
+    write_curve_csv,
+)
 from elastocell.inverse.mastercurve import shipped_file, shipped_or_cached
 from elastocell.parameters.units import ParameterError
 from elastocell.version import __version__
@@ -61,6 +71,8 @@ SMALL_CA_DEFORMATION_SLOPE = 1.25  # D -> (5/4) Ca (Taylor/Roscoe, neo-Hookean s
 SMALL_CA_INCLINATION_DEG = 45.0
 SMALL_CA_TANK_TREADING = 0.5
 FORMAT_VERSION = 1
+"""Version of the curve CSV and of how a cached curve is computed from its parameters; raised when either
+changes."""
 OBSERVABLES = ("deformation", "inclination_deg", "tank_treading_frequency")
 COLUMNS = ("capillary_number", "deformation", "deformation_error", "inclination_deg", "inclination_deg_error",
            "tank_treading_frequency", "tank_treading_frequency_error")
@@ -172,16 +184,29 @@ class ShearMasterCurve:
         return float(brentq(lambda c: float(self.value(name, c)) - observed, 0.0, self.ca_max, xtol=1e-12))
 
     # ---------------------------------------------------------------- files
-    def to_csv(self, path) -> None:
-        path = Path(path)
+    def _csv(self) -> tuple[dict, dict]:
         metadata = dict(self.metadata, poisson_ratio=self.poisson_ratio, material=self.material,
                         format_version=FORMAT_VERSION)
         names = list(COLUMNS) + [k for k in self.table if k not in COLUMNS]
-        write_curve_csv(path, metadata, {k: self.table[k] for k in names})
+        return metadata, {k: self.table[k] for k in names}
+
+    def to_csv(self, path) -> None:
+        write_curve_csv(Path(path), *self._csv())
+
+    def csv_text(self) -> str:
+        """The CSV file's text (what :meth:`to_csv` writes)."""
+        return curve_csv_text(*self._csv())
 
     @classmethod
     def from_csv(cls, path) -> ShearMasterCurve:
-        metadata, table = read_curve_csv(path)
+        return cls._from_table(*read_curve_csv(path))
+
+    @classmethod
+    def from_csv_text(cls, text: str) -> ShearMasterCurve:
+        return cls._from_table(*parse_curve_csv(text))
+
+    @classmethod
+    def _from_table(cls, metadata: dict, table: dict) -> ShearMasterCurve:
         return cls(table=table, poisson_ratio=float(metadata["poisson_ratio"]),
                    material=metadata.get("material", "neo-hookean"), metadata=metadata)
 
@@ -191,21 +216,41 @@ def shipped_name(poisson_ratio: float, material: str = "neo-hookean") -> str:
     return f"mastercurve_shear_{material}_nu{poisson_ratio:.4f}.csv"
 
 
-def _key(poisson_ratio: float, material: str, capillary_numbers, resolutions, duration) -> str:
+def _run_options(poisson_ratio: float, material: str, ca: float, resolution: float, duration: float) -> dict:
+    """The ``elastocell.shear`` options of one run of the curve (:func:`_run_one` calls it with them)."""
+    return {"capillary_number": float(ca), "resolution": float(resolution), "duration": float(duration),
+            "vtk_interval": None, "nucleus": "none", "poisson_ratio": float(poisson_ratio), "material": material}
 
-    key = json.dumps({"nu": round(float(poisson_ratio), 10), "material": material,
-                      "ca": [round(float(c), 10) for c in capillary_numbers],
-                      "resolutions": [float(r) for r in resolutions], "duration": float(duration),
-                      "order": CONVERGENCE_ORDER, "version": __version__, "format": FORMAT_VERSION}, sort_keys=True)
-    return hashlib.sha256(key.encode()).hexdigest()[:16]
+
+def curve_parameters(poisson_ratio: float, material: str = "neo-hookean", capillary_numbers=CAPILLARY_NUMBERS,
+                     resolutions=RESOLUTIONS, duration: float = DURATION) -> dict:
+    """What a computed curve is made from, resolved: every shear run's parameters
+    (``api.resolved.resolved_parameters``: cell, flow, stop criteria, options with their defaults) and the
+    extrapolation's order."""
+    capillary_numbers = tuple(sorted(float(c) for c in capillary_numbers))
+    resolutions = tuple(sorted(float(r) for r in resolutions))
+    runs = [resolved_parameters("shear", _run_options(poisson_ratio, material, ca, resolution, duration))
+            for resolution in resolutions for ca in capillary_numbers]
+    return {"runs": runs, "convergence_order": CONVERGENCE_ORDER}
 
 
 def cache_path(poisson_ratio: float, material: str = "neo-hookean", capillary_numbers=CAPILLARY_NUMBERS,
                resolutions=RESOLUTIONS, duration: float = DURATION) -> Path:
-    """On-disk cache file of a computed curve, keyed by inputs, grid, resolutions, duration and the version."""
-
-    digest = _key(poisson_ratio, material, capillary_numbers, resolutions, duration)
+    """The cache entry of a computed curve: named by the hash of its :func:`curve_parameters` and
+    :data:`FORMAT_VERSION`."""
+    digest = parameter_hash(curve_parameters(poisson_ratio, material, capillary_numbers, resolutions, duration),
+                            format_version=FORMAT_VERSION)[:16]
     return cache_directory() / f"mastercurve-shear-{digest}.csv"
+
+
+def read_cached(poisson_ratio: float, material: str = "neo-hookean", capillary_numbers=CAPILLARY_NUMBERS,
+                resolutions=RESOLUTIONS, duration: float = DURATION) -> ShearMasterCurve | None:
+    """The cached curve of these inputs, verified (None: none, or one that was damaged or made from other
+    parameters, reported in a warning and removed)."""
+    parameters = curve_parameters(poisson_ratio, material, capillary_numbers, resolutions, duration)
+    return read_cache_entry(cache_path(poisson_ratio, material, capillary_numbers, resolutions, duration),
+                            "shear master curve", parameters, FORMAT_VERSION,
+                            lambda payload: ShearMasterCurve.from_csv_text(payload.decode()))
 
 
 def shipped(poisson_ratio: float, material: str = "neo-hookean") -> ShearMasterCurve | None:
@@ -216,9 +261,8 @@ def shipped(poisson_ratio: float, material: str = "neo-hookean") -> ShearMasterC
 def load_shear_master_curve(poisson_ratio: float = 0.48, material: str = "neo-hookean") -> ShearMasterCurve:
     """The shipped curve, else the cached one (default grid); otherwise a ParameterError naming the command."""
     check_inputs(poisson_ratio, material)
-    return shipped_or_cached(shipped(poisson_ratio, material), cache_path(poisson_ratio, material),
-                             ShearMasterCurve.from_csv, "shear", poisson_ratio, material, "about 20 min on one core",
-                             SHIPPED_POISSON_RATIOS)
+    return shipped_or_cached(shipped(poisson_ratio, material), lambda: read_cached(poisson_ratio, material),
+                             "shear", poisson_ratio, material, "about 20 min on one core", SHIPPED_POISSON_RATIOS)
 
 
 def _run_one(poisson_ratio: float, material: str, ca: float, resolution: float, duration: float,
@@ -227,11 +271,17 @@ def _run_one(poisson_ratio: float, material: str, ca: float, resolution: float, 
 
     summary_path = directory / "summary.json"
     if use_cache and summary_path.exists():
-        summary = json.loads(summary_path.read_text())
-        if summary.get("duration_strain", 0.0) >= duration - 1e-9:
+        try:
+            summary = json.loads(summary_path.read_text())
+            finished = summary.get("duration_strain", 0.0) >= duration - 1e-9
+        except (OSError, ValueError, AttributeError, TypeError) as error:
+            warnings.warn(f"{summary_path} is not used ({type(error).__name__}: {error}); the run is made again",
+                          stacklevel=2)
+            finished = False
+        if finished:
             return summary
-    summary = shear(directory, ca, resolution=resolution, duration=duration, resume=use_cache, progress=False,
-                    vtk_interval=None, nucleus="none", poisson_ratio=poisson_ratio, material=material)
+    summary = shear(directory, resume=use_cache, progress=False,
+                    **_run_options(poisson_ratio, material, ca, resolution, duration))
     (directory / "checkpoint.npz").unlink(missing_ok=True)  # ~20 MB a run; a finished run is read from its summary
     return summary
 
@@ -252,9 +302,12 @@ def compute_shear_master_curve(poisson_ratio: float = 0.48, material: str = "neo
     resolutions = tuple(sorted(float(r) for r in resolutions))
     if len(resolutions) != 2:
         raise ParameterError("resolution", f"needs exactly two resolutions (coarse, fine), got {resolutions}")
+    parameters = curve_parameters(poisson_ratio, material, capillary_numbers, resolutions, duration)
     path = cache_path(poisson_ratio, material, capillary_numbers, resolutions, duration)
-    if use_cache and path.exists():
-        return ShearMasterCurve.from_csv(path)
+    if use_cache:
+        cached = read_cached(poisson_ratio, material, capillary_numbers, resolutions, duration)
+        if cached is not None:
+            return cached
     if work_directory is None:
         work_directory = path.with_suffix("")
     work_directory = Path(work_directory)
@@ -304,7 +357,7 @@ def compute_shear_master_curve(poisson_ratio: float = 0.48, material: str = "neo
                            "theory": SMALL_CA_DEFORMATION_SLOPE},
         "runs": runs, "elastocell_version": __version__, "software": software_versions()})
     if use_cache:
-        curve.to_csv(path)
+        write_cache_entry(path, curve.csv_text().encode(), "shear master curve", parameters, FORMAT_VERSION)
     return curve
 
 
