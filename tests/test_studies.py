@@ -46,29 +46,36 @@ def test_shared_runs_have_one_identity():
     assert len({r.run_id for r in everything}) == len(set(everything))  # one id per distinct run
 
 
-def test_compression_run_id_follows_the_default_mesh(monkeypatch):
-    """A compression run made on another default mesh is another run (not reused); a flow run keeps its id."""
-    import elastocell.studies.base as parameters
+def test_run_id_changes_when_and_only_when_a_resolved_parameter_changes():
+    """The id hashes the run's resolved parameters: spelling out a default (the mesh size, the size ratio) keeps
+    it, another value changes it; the readable prefix stays."""
+    from elastocell.parameters.cell import DEFAULT_MESH_SIZES
 
-    compress, shear = Run.of("compress", stiffness_ratio=2), Run.of("shear", capillary_number=0.1)
-    before = compress.run_id, shear.run_id
-    changed = {**parameters.DEFAULT_MESH_SIZES, "p2": {**parameters.DEFAULT_MESH_SIZES["p2"], "mesh_size": 0.3}}
-    monkeypatch.setattr(parameters, "DEFAULT_MESH_SIZES", changed)
-    assert compress.run_id != before[0]
-    assert shear.run_id == before[1]
+    default = Run.of("compress", stiffness_ratio=2)
+    assert default.run_id.startswith("compress-g2-")
+    assert Run.of("compress", stiffness_ratio=2, mesh_size=DEFAULT_MESH_SIZES["p2"]["mesh_size"],
+                  size_ratio=0.5, material="neo-hookean").run_id == default.run_id
+    assert Run.of("compress", stiffness_ratio=2, mesh_size=0.3).run_id != default.run_id
+    assert Run.of("compress", stiffness_ratio=2, steps=41).run_id != default.run_id
+    assert Run.of("compress", stiffness_ratio=2, progress=True).run_id == default.run_id  # not computed
+
+    shear = Run.of("shear", capillary_number=0.1)
+    assert shear.run_id.startswith("shear-g2-ca0.1-")
+    assert Run.of("shear", capillary_number=0.1, resolution=8.0, element="p1").run_id == shear.run_id
+    assert Run.of("shear", capillary_number=0.1, resolution=6.0).run_id != shear.run_id
+    assert Run.of("shear", capillary_number=0.1, duration=7.0).run_id != shear.run_id
 
 
-def test_compression_run_id_follows_the_quadrature_rule_of_a_stiff_nucleus(monkeypatch):
-    """A run with a stiff neo-Hookean nucleus uses the 25-point rule since session 18 (its cached curves from the
-    4-point rule are not reused); the reference cell and Mooney-Rivlin keep the default rule and their ids."""
-    import elastocell.studies.base as compression
-
-    runs = [Run.of("compress", stiffness_ratio=20), Run.of("compress", stiffness_ratio=2),
-            Run.of("compress", stiffness_ratio=20, material="mooney-rivlin")]
-    now = [run.run_id for run in runs]
-    monkeypatch.setattr(compression, "compression_parameters_for", lambda cell: cell)  # as before session 18
-    before = [run.run_id for run in runs]
-    assert now[0] != before[0] and now[1:] == before[1:]
+def test_run_id_holds_the_quadrature_rule_the_compression_resolves():
+    """A stiff neo-Hookean nucleus (ratio 20) resolves quadrature degree 5 on p2 elements: its id is that of the
+    same run with quadrature_degree=5 given, not that of degree 2; the reference cell resolves no degree."""
+    stiff = Run.of("compress", stiffness_ratio=20)
+    assert stiff.run_id == Run.of("compress", stiffness_ratio=20, quadrature_degree=5).run_id
+    assert stiff.run_id != Run.of("compress", stiffness_ratio=20, quadrature_degree=2).run_id
+    mooney = Run.of("compress", stiffness_ratio=20, material="mooney-rivlin")
+    assert mooney.run_id != Run.of("compress", stiffness_ratio=20, material="mooney-rivlin",
+                                   quadrature_degree=5).run_id
+    assert Run.of("compress").run_id != Run.of("compress", quadrature_degree=5).run_id
 
 
 def _curve_rows(pair, equivalent, delta, force, series="stiffness", gamma=2.0, size=0.5, reached=None):

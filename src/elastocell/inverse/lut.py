@@ -39,7 +39,6 @@ hash of every input of the run, so changing the flow rate or the resolution make
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import time
@@ -49,8 +48,9 @@ from pathlib import Path
 import numpy as np
 
 from elastocell.api.pipe import pipe
+from elastocell.api.resolved import resolved_parameters
 from elastocell.body.cell import Cell
-from elastocell.files import write_json
+from elastocell.files import parameter_hash, write_json
 from elastocell.parameters.flow import flow_cell
 from elastocell.parameters.units import ParameterError, parse_quantity
 from elastocell.scenarios.pipe import PipeFlowParameters, pipe_lattice_units
@@ -119,9 +119,15 @@ def _list(values, unit: str, name: str) -> list[float]:
     return out
 
 
+POINT_KEY_FORMAT = 1
+"""Version of what a grid point's run directory holds for given resolved parameters (part of its key)."""
+
+
 def point_key(radius_um: float, emodulus_kpa: float, options: dict) -> str:
-    """Run directory name: readable radius and modulus plus a hash of every input of the run."""
-    digest = hashlib.sha256(json.dumps(options, sort_keys=True).encode()).hexdigest()[:10]
+    """Run directory name: readable radius and modulus plus a hash of the pipe run's full resolved parameters
+    (``api.resolved.resolved_parameters("pipe", options)``: cell, flow, stop criteria, every option with its
+    default) and :data:`POINT_KEY_FORMAT`."""
+    digest = parameter_hash(resolved_parameters("pipe", options), format_version=POINT_KEY_FORMAT)[:10]
     return f"R{radius_um:g}um_E{emodulus_kpa:g}kPa_{digest}"
 
 

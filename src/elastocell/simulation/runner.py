@@ -24,7 +24,6 @@ wall guard, VTK slice and summary.
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import os
 import time
@@ -38,6 +37,7 @@ import numpy as np
 
 from elastocell.coupling.immersed import ImmersedCell
 from elastocell.coupling.markers import FlowError
+from elastocell.files import parameter_hash
 from elastocell.parameters.units import ParameterError
 
 TYPICAL_UPDATE_RATE = 2.5e7
@@ -108,9 +108,9 @@ def stationary_summary(series: dict, transient: float) -> dict:
     out["volume_change_max_abs"] = float(np.abs(series["volume_change"]).max())
     return out
 
-CHECKPOINT_VERSION = 3
-"""Version of the checkpoint layout and fingerprint (3: the fingerprint hashes the flow parameters with sorted
-keys, and the coupled step reads the marker velocities from the LB sweep; 2026-12-02)."""
+CHECKPOINT_VERSION = 4
+"""Version of the checkpoint layout and of what its fingerprint (:meth:`FlowRun.fingerprint`) hashes; raised when
+the state a checkpoint holds, or how a run continues from it, changes for the same parameters."""
 
 
 @dataclass(frozen=True)
@@ -350,21 +350,19 @@ class FlowRun:
 
     # ------------------------------------------------------------------ checkpoints
     def fingerprint(self) -> str:
-        """Hash of what a checkpoint must match: flow parameters, lattice units, mesh, moduli and law."""
-        digest = hashlib.sha256()
-        digest.update(json.dumps(self.params.model_dump(mode="json"), sort_keys=True).encode())
-        digest.update(json.dumps(self.units.as_dict(), sort_keys=True, default=float).encode())
-        digest.update(np.ascontiguousarray(self.cell.mesh.nodes).tobytes())
-        digest.update(np.ascontiguousarray(self.cell.mesh.elements).tobytes())
-        digest.update(np.ascontiguousarray(self.cell.youngs_moduli, dtype=np.float64).tobytes())
-        digest.update(self.cell.law.name.encode())
-        digest.update(np.ascontiguousarray(self.cell.material_parameters, dtype=np.float64).tobytes())
-        degree = self.cell.parameters.mesh.quadrature_degree
-        if degree not in (None, 2):  # the default keeps older fingerprints
-            # degrees 4-5 changed rule in session 18 (14 points -> 25 with the nodes): not the same run
-            digest.update(f"quadrature {degree}{' nodal 25' if degree in (4, 5) else ''}".encode())
-        digest.update(str(self.steps_per_record).encode())
-        return digest.hexdigest()
+        """Hash of what a checkpoint must match (``files.parameter_hash`` with :data:`CHECKPOINT_VERSION`): the
+        resolved flow parameters and cell parameters (mesh settings and quadrature degree included), the law,
+        whether the body is the homogeneous equivalent, the lattice units, the steps per record, and the sha256
+        of the mesh, the element moduli and the material constants the run was made with."""
+        arrays = hashlib.sha256()
+        for array in (self.cell.mesh.nodes, self.cell.mesh.elements,
+                      np.asarray(self.cell.youngs_moduli, dtype=np.float64),
+                      np.asarray(self.cell.material_parameters, dtype=np.float64)):
+            arrays.update(np.ascontiguousarray(array).tobytes())
+        return parameter_hash(self.params, self.cell.parameters, {
+            "law": self.cell.law.name, "equivalent": bool(self.cell.is_equivalent), "units": self.units.as_dict(),
+            "steps_per_record": int(self.steps_per_record), "arrays": arrays.hexdigest()},
+            format_version=CHECKPOINT_VERSION)
 
     def save(self, path: str | Path) -> None:
         """Write the complete state to ``path`` atomically (temporary file, then ``os.replace``)."""

@@ -2,9 +2,9 @@
 
 A :class:`Study` declares its runs (scenario + options, exactly the keyword arguments of the Python API, so
 every run is reproducible with ``elastocell compress/shear/pipe``), the figure drawn from its table, and the
-paper's claims it tests. Runs are identified by their options (:attr:`Run.run_id`), so that studies sharing
-a run (the reference cell appears in four figures) compute it once, and a killed study resumes: a run whose
-``run.json`` exists is not repeated, an interrupted flow run continues from its checkpoint.
+paper's claims it tests. Runs are identified by their resolved parameters (:attr:`Run.run_id`), so that studies
+sharing a run (the reference cell appears in four figures) compute it once, and a killed study resumes: a run
+whose ``run.json`` exists is not repeated, an interrupted flow run continues from its checkpoint.
 
 Directory layout of ``elastocell study run NAME --out DIR`` (and of ``reproduce``, which runs every study):
 ``DIR/runs/<run_id>/`` (the scenario's own files plus ``run.json``), ``DIR/<name>.parquet`` and ``.csv`` (one
@@ -13,7 +13,7 @@ tidy table), ``DIR/<name>.png`` and ``.pdf``, ``DIR/<name>.claims.json``, and ``
 
 from __future__ import annotations
 
-import hashlib
+import functools
 import json
 import time
 from collections.abc import Callable
@@ -24,32 +24,35 @@ import numpy as np
 
 from elastocell.api.compression import compress
 from elastocell.api.pipe import pipe
+from elastocell.api.resolved import resolved_parameters
 from elastocell.api.shear import shear
 from elastocell.body.cell import Cell
-from elastocell.files import replace_atomically, write_json
-from elastocell.parameters.cell import DEFAULT_MESH_SIZES, CellParameters, cell_parameters
+from elastocell.files import parameter_hash, replace_atomically, write_json
+from elastocell.parameters.cell import CellParameters, cell_parameters
 from elastocell.parameters.units import ParameterError
-from elastocell.scenarios.compression import CompressionError, compression_parameters_for
+from elastocell.scenarios.compression import CompressionError
 from elastocell.scenarios.shear import compile_kernels
 from elastocell.simulation.distributed import TaskFailure, run_tasks
 from elastocell.simulation.runner import resume_or_restart
 from elastocell.solvers.stiffness_kernel import compile_kernel
-from elastocell.version import __version__
 
 RUN_FILE = "run.json"
 
 
-def _compression_quadrature_degree(options: dict) -> int | None:
-    """The quadrature degree ``elastocell.compress`` uses for a run with these options (None: the default)."""
-    import inspect
+RUN_ID_FORMAT = 1
+"""Version of what a run directory holds for given resolved parameters; raised when a change of the code makes
+the runs of a study differ for the same parameters."""
 
 
-    names = inspect.signature(cell_parameters).parameters
+@functools.lru_cache(maxsize=4096)
+def _identity(run: Run) -> tuple[dict | None, str]:
+    """(the resolved parameters of ``run``, or None for options the API refuses; the hash of its id)."""
     try:
-        cell = cell_parameters(**{k: v for k, v in options.items() if k in names})
-    except (ValueError, TypeError):  # an invalid run fails later, with its own message
-        return None
-    return compression_parameters_for(cell).mesh.quadrature_degree
+        resolved = resolved_parameters(run.scenario, run.kwargs)
+    except (ValueError, TypeError):  # an impossible run keeps an id of its options and fails with its own message
+        return None, parameter_hash({"scenario": run.scenario, "unresolved options": run.kwargs},
+                                    format_version=RUN_ID_FORMAT)
+    return resolved, parameter_hash(resolved, format_version=RUN_ID_FORMAT)
 
 
 @dataclass(frozen=True)
@@ -70,36 +73,36 @@ class Run:
 
     @property
     def run_id(self) -> str:
-        """Readable and unique: scenario, the leading options, and a hash of all of them and the code version."""
-
-        identity = [self.scenario, [list(p) for p in self.options], __version__]
-        if self.scenario == "compress":  # the default mesh changed (session 14): not the same run any more
-
-            identity.append(DEFAULT_MESH_SIZES)
-            if _compression_quadrature_degree(self.kwargs) in (4, 5):  # that rule changed in session 18
-                identity.append("quadrature 25 points with the nodes")
-        text = json.dumps(identity, sort_keys=True, default=str)
-        digest = hashlib.sha1(text.encode()).hexdigest()[:10]
-        options = self.kwargs
+        """Readable and unique: the scenario, the cell, the driving, then 10 hex digits of the hash of the run's
+        full resolved parameters (``api.resolved.resolved_parameters``: cell with its mesh and quadrature, the
+        scenario's model, every option with its default) and :data:`RUN_ID_FORMAT`. Runs that resolve to the
+        same parameters share the id whatever options they spell out."""
+        resolved, digest = _identity(self)
+        if resolved is None:
+            return f"{self.scenario}-{digest[:10]}"
+        cell, options = resolved["cell"], resolved["options"]
+        nucleus = cell.nucleus
         parts = [self.scenario]
-        if options.get("random"):
-            parts.append(f"random{options.get('seed', 0)}")
-        elif options.get("nucleus") == "none":
+        if cell.random is not None:
+            parts.append(f"random{cell.random.seed}")
+        elif nucleus.shape == "none":
             parts.append("homogeneous")
         else:
-            parts.append(f"g{options.get('stiffness_ratio', 2):g}")
-        if options.get("material") == "mooney-rivlin":
+            parts.append(f"g{nucleus.stiffness_ratio:g}")
+        if cell.material.law == "mooney-rivlin":
             parts.append("mr")
-        if options.get("offset"):
-            parts.append(f"off{options['offset']:g}{options.get('offset_axis', 'x')}")
-        if options.get("nucleus") == "ellipsoid":
-            parts.append(f"ell{options.get('nucleus_axis', 'x')}")
+        if cell.random is None and nucleus.shape != "none":
+            if nucleus.offset:
+                parts.append(f"off{nucleus.offset:g}{nucleus.offset_axis}")
+            if nucleus.shape == "ellipsoid":
+                parts.append(f"ell{nucleus.nucleus_axis}")
         if options.get("equivalent"):
             parts.append("eq")
+        flow = resolved.get("flow")
         for name, short in (("capillary_number", "ca"), ("capillary_number_wall", "caw")):
-            if name in options:
-                parts.append(f"{short}{options[name]:g}")
-        return "-".join(parts) + "-" + digest
+            if flow is not None and hasattr(flow, name):
+                parts.append(f"{short}{getattr(flow, name):g}")
+        return "-".join(parts) + "-" + digest[:10]
 
 
 @dataclass
