@@ -78,6 +78,22 @@ def test_run_id_holds_the_quadrature_rule_the_compression_resolves():
     assert Run.of("compress").run_id != Run.of("compress", quadrature_degree=5).run_id
 
 
+def test_the_resolved_parameters_of_a_run_id_are_those_the_api_runs(tmp_path, monkeypatch):
+    """What the id hashes (api.resolved) is the cell and the compression the API records in metadata.json,
+    here for a stiff nucleus whose quadrature degree the compression resolves."""
+    from elastocell.api.compression import compress
+    from elastocell.api.resolved import resolved_parameters
+    from elastocell.files import canonical_json
+
+    monkeypatch.setenv("ELASTOCELL_NO_VTK", "1")
+    options = dict(element="p2", mesh_size=0.6, pole_size=0.6, steps=1, delta_max=0.05, stiffness_ratio=20, vtk=False)
+    summary = compress(out=tmp_path / "run", progress=False, **options)
+    resolved = resolved_parameters("compress", options)
+    assert resolved["cell"].mesh.quadrature_degree == 5
+    assert canonical_json(summary["cell"]) == canonical_json(resolved["cell"])
+    assert canonical_json(summary["compression"]) == canonical_json(resolved["compression"])
+
+
 def _curve_rows(pair, equivalent, delta, force, series="stiffness", gamma=2.0, size=0.5, reached=None):
     return [{"series": series, "cell": pair, "pair": pair, "equivalent": equivalent, "stiffness_ratio": gamma,
              "size_ratio": size, "delta": d, "force_per_Ec_R2": f, "force_per_Eeff_R2": f / (1 + (gamma - 1) / 8),
