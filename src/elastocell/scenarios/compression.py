@@ -51,8 +51,8 @@ RETRY_SHIFT = 1e-3
 step (the stiffness at the predicted state has a negative eigenvalue of about -1e-6 to -4e-5 of the mean diagonal,
 a global mode spread over some 3,000 of the 4,656 nodes), and there 1e-4 to 1 (measured on the reference cell's
 default curve: 19 of 20 such iterations); each rung of the x100 ladder below 1e-4 was a failed factorisation (72
-of 383). Retrying at 1e-3 instead of 1e-4 (session 16, same curve): 256 instead of 277 factorisations and 213
-instead of 221 Newton iterations (1e-5: 267 and 208), F equal to 2e-8."""
+of 383). Retrying at 1e-3 instead of 1e-4 on the same curve: 256 instead of 277 factorisations and 213 instead
+of 221 Newton iterations (1e-5: 267 and 208), F equal to 2e-8."""
 FORCE_FLOOR = 1e-4  # smallest force scale of the convergence test (E_c R^2; Hertz's plate force near delta = 0.0015)
 MAX_NODE_STEP = 0.05  # largest nodal move of one Newton iteration (units of R)
 
