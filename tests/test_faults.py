@@ -264,3 +264,24 @@ def test_a_full_disk_names_the_file_and_leaves_nothing_that_looks_complete(tmp_p
     assert error.value.errno == errno.ENOSPC
     left = sorted(p.name for p in tmp_path.iterdir())
     assert "compression.csv" not in left and "metadata.json" not in left and "compression.png" not in left
+
+
+def test_ctrl_c_on_the_command_line_exits_130_in_one_line_and_resume_finishes(tmp_path):
+    import signal
+
+    out = tmp_path / "run"
+    command = [sys.executable, "-m", "elastocell", "compress", "--out", str(out), "--element", "p1", "--mesh-size",
+               "0.4", "--pole-size", "0.2", "--delta-max", "0.6", "--steps", "40", "--quiet"]
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while not (out / "checkpoint.npz").exists() and time.time() < deadline and process.poll() is None:
+        time.sleep(0.05)
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130, stderr
+    assert len(stderr.strip().splitlines()) == 1 and "--resume" in stderr
+    assert json.loads((out / "metadata.json").read_text())["interrupted"] is True
+    finished = subprocess.run(command + ["--resume"], capture_output=True, text=True, timeout=300)
+    assert finished.returncode == 0, finished.stderr
+    rows = np.genfromtxt(out / "compression.csv", delimiter=",", names=True)
+    assert len(rows) == 41 and rows["delta"][-1] == pytest.approx(0.6)

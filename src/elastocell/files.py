@@ -278,4 +278,4 @@ def save_figure(figure, path: Path, **options) -> None:
         replace_atomically(path, lambda temporary: figure.savefig(temporary, format=path.suffix.lstrip(".") or None,
                                                                   **options))
     except OSError as error:
-        raise OSError(error.errno, f"cannot write {path}: {error.strerror or error}", str(path)) from None
+        raise OSError(error.errno, error.strerror or str(error), str(path)) from None

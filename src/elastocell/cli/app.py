@@ -95,14 +95,17 @@ def _warn_curves(summary: dict, name: str = "cell") -> None:
 
 @app.command()
 @user_errors
-@takes("out", CELL, "delta_max", "steps", "equivalent", "compare", "quiet")
-def compress(out: Path, cell: dict, delta_max: float, steps: int, equivalent: bool, compare: bool, quiet: bool):
+@takes("out", CELL, "delta_max", "steps", "equivalent", "compare",
+       opt("resume", help="Continue an interrupted curve from DIR/checkpoint.npz (same options)."), "quiet")
+def compress(out: Path, cell: dict, delta_max: float, steps: int, equivalent: bool, compare: bool, resume: bool,
+             quiet: bool):
     """Quasistatic compression between two rigid frictionless plates (delta from 0 to --delta-max)."""
     from elastocell.api.compression import (
         compress as run,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
     from elastocell.scenarios.compression import (  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
         CompressionError,
+        CompressionInterrupted,
         CompressionParameters,
     )
 
@@ -110,7 +113,10 @@ def compress(out: Path, cell: dict, delta_max: float, steps: int, equivalent: bo
     CompressionParameters(delta_max=delta_max, steps=steps)  # validate before meshing
     try:
         summary = run(out, cell=cell, delta_max=delta_max, steps=steps, equivalent=equivalent, compare=compare,
-                      progress=not quiet and sys.stderr.isatty())
+                      resume=resume, progress=not quiet and sys.stderr.isatty())
+    except CompressionInterrupted as error:  # the converged rows are written
+        typer.echo(f"elastocell: {error}", err=True)
+        raise typer.Exit(code=130) from None
     except CompressionError as error:
         typer.echo(f"elastocell: compression failed: {error}", err=True)
         for name, path in (("cell", out / "metadata.json"), ("equivalent", out / "equivalent" / "metadata.json")):

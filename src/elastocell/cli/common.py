@@ -38,6 +38,9 @@ def user_errors(function):
             fail(f"cannot write or read {error.filename or ''}: {error.strerror or error}")
         except typer.Exit:
             raise
+        except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the run wrote what it had finished
+            typer.echo("elastocell: interrupted; finished work is written, rerun with --resume to continue", err=True)
+            raise typer.Exit(code=130) from None
         except Exception as error:  # anything unforeseen: one line, not a traceback (ELASTOCELL_DEBUG shows it)
             import os
 

@@ -119,7 +119,7 @@ class OutputSet:
             result = writer(path, *args, **kwargs)
         except OSError as error:
             self.discard()
-            raise OSError(error.errno, f"cannot write {path}: {error.strerror or error}", str(path)) from None
+            raise OSError(error.errno, error.strerror or str(error), str(path)) from None
         self.written.append(path)
         return result
 
