@@ -285,3 +285,17 @@ def test_ctrl_c_on_the_command_line_exits_130_in_one_line_and_resume_finishes(tm
     assert finished.returncode == 0, finished.stderr
     rows = np.genfromtxt(out / "compression.csv", delimiter=",", names=True)
     assert len(rows) == 41 and rows["delta"][-1] == pytest.approx(0.6)
+
+
+def test_a_study_directory_and_a_lut_in_use_are_refused(tmp_path):
+    from elastocell.inverse.lut import compute_lut, runs_directory
+    from elastocell.studies import run_studies
+
+    with output_directory(tmp_path / "paper"):
+        with pytest.raises(ParameterError, match="in use by process"):
+            run_studies(["cell-models"], tmp_path / "paper", quick=True, workers=1)
+    lut = tmp_path / "lut.txt"
+    with output_directory(runs_directory(lut)):
+        with pytest.raises(ParameterError, match="in use by process"):
+            compute_lut(lut, channel_radius="10um", flow_rate="0.04uL/s", viscosity="15mPa*s", radii=[5],
+                        moduli=[1000], quick=True, workers=1)

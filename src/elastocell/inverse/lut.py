@@ -55,6 +55,7 @@ from elastocell.parameters.flow import flow_cell
 from elastocell.parameters.units import ParameterError, parse_quantity
 from elastocell.scenarios.pipe import PipeFlowParameters, pipe_lattice_units
 from elastocell.scenarios.shear import compile_kernels
+from elastocell.simulation.directory import output_directory
 from elastocell.simulation.distributed import TaskFailure, check_execution, run_tasks
 from elastocell.simulation.runner import StopCriteria, resume_or_restart
 from elastocell.version import __version__
@@ -283,6 +284,7 @@ def run_point(task: tuple[dict, str]) -> dict:
         "strain_axial_mean": summary.get("strain_axial_mean"), "strain_radial_mean": summary.get("strain_radial_mean"),
         "volume_change_max_abs": summary.get("volume_change_max_abs"),
         "stop_reason": summary.get("stop_reason"), "stationary": summary.get("stop_reason") == "stationary",
+        "window_stationary": summary.get("stationary"),
         "duration": summary.get("duration"),
         "steps": summary.get("steps"), "options": point["options"],
         "wall_time_s": time.perf_counter() - start,
@@ -413,27 +415,27 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     lattice = check_lattice(points)
     identifier = identifier or f"elastocell-{out.stem}"
     runs = runs_directory(out)
-    runs.mkdir(parents=True, exist_ok=True)
-    start = time.perf_counter()
-    records, failures = [], []
-    tasks = [(point, str(runs)) for point in points]
-    dtype = PipeFlowParameters.model_fields["dtype"].default  # the runs' LB storage precision
-    for index, outcome in run_tasks(run_point, tasks, scheduler=scheduler, workers=workers, progress=progress,
-                                    prepare=lambda: compile_kernels((dtype,)),
-                                    description="LUT grid", client=client):
-        if isinstance(outcome, TaskFailure):
-            failures.append({"key": points[index]["key"], "error": str(outcome)})
-        else:
-            records.append(outcome)
-    records.sort(key=lambda r: (r["emodulus_kpa"], r["radius_um"]))
-    metadata = lut_metadata(settings, identifier)
-    not_stationary = [r["key"] for r in records if not r.get("stationary")]
-    metadata["elastocell"] = {**settings, "points": len(points), "finished": len(records),
-                              "failed": [f["key"] for f in failures], "not_stationary": not_stationary}
-    result = {"lut": str(out), "isoelastics": str(isoelastics_path(out)), "runs": str(runs),
-              "records": records, "failures": failures, "wall_time_s": time.perf_counter() - start,
-              "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary}
-    if records:
-        write_lut(out, records, metadata)
-        write_isoelastics(isoelastics_path(out), records, metadata)
-    return result
+    with output_directory(runs, "out"):  # one LUT computation at a time in its runs directory
+        start = time.perf_counter()
+        records, failures = [], []
+        tasks = [(point, str(runs)) for point in points]
+        dtype = PipeFlowParameters.model_fields["dtype"].default  # the runs' LB storage precision
+        for index, outcome in run_tasks(run_point, tasks, scheduler=scheduler, workers=workers, progress=progress,
+                                        prepare=lambda: compile_kernels((dtype,)),
+                                        description="LUT grid", client=client):
+            if isinstance(outcome, TaskFailure):
+                failures.append({"key": points[index]["key"], "error": str(outcome)})
+            else:
+                records.append(outcome)
+        records.sort(key=lambda r: (r["emodulus_kpa"], r["radius_um"]))
+        metadata = lut_metadata(settings, identifier)
+        not_stationary = [r["key"] for r in records if not r.get("stationary")]
+        metadata["elastocell"] = {**settings, "points": len(points), "finished": len(records),
+                                  "failed": [f["key"] for f in failures], "not_stationary": not_stationary}
+        result = {"lut": str(out), "isoelastics": str(isoelastics_path(out)), "runs": str(runs),
+                  "records": records, "failures": failures, "wall_time_s": time.perf_counter() - start,
+                  "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary}
+        if records:
+            write_lut(out, records, metadata)
+            write_isoelastics(isoelastics_path(out), records, metadata)
+        return result

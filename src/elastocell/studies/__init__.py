@@ -20,6 +20,7 @@ from pathlib import Path
 
 from elastocell.files import software_versions, write_json
 from elastocell.parameters.units import ParameterError
+from elastocell.simulation.directory import output_directory
 from elastocell.simulation.distributed import check_execution, default_workers
 from elastocell.studies.base import Claim, Study, read_study_table, run_members, write_study_table
 from elastocell.studies.compression import locking
@@ -38,35 +39,35 @@ def run_studies(names, out, quick: bool = False, scheduler: str | None = None, w
     studies = [get_study(name) for name in names]
     check_execution(scheduler, workers)
     out = Path(out).resolve()  # workers of a remote cluster need the absolute path
-    out.mkdir(parents=True, exist_ok=True)
-    _check_mode(out, quick)
-    members = {study.name: study.members(quick) for study in studies}
-    everything = [member for group in members.values() for member in group]
-    start = time.perf_counter()
-    pairs, failures, executed = run_members(everything, out, scheduler=scheduler, workers=workers,
-                                            progress=progress)
-    records = {id(member): record for member, record in pairs}
-    summary = {}
-    for study in studies:
-        own = [(member, records[id(member)]) for member in members[study.name]]
-        frame = study.table(own, out, quick)
-        failed = sorted({record["run_id"] for _, record in own if record["status"] == "failed"})
-        write_study_table(frame, out, study.name, {
-            "study": study.name, "title": study.title, "figure": study.figure, "description": study.description,
-            "quick": quick, "runs": len({record["run_id"] for _, record in own}), "failed_runs": failed,
-            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **_versions()})
-        try:
-            summary[study.name] = _finish(study, frame, out)
-        except Exception as error:  # one study's analysis must not cost the others their figures and the report
-            summary[study.name] = {"figures": [], "claims": []}
-            failures.append((study.name, f"analysis failed: {type(error).__name__}: {error}"))
-        summary[study.name].update({"runs": len({record["run_id"] for _, record in own}), "failed": failed})
+    with output_directory(out):  # one invocation at a time per results directory
+        _check_mode(out, quick)
+        members = {study.name: study.members(quick) for study in studies}
+        everything = [member for group in members.values() for member in group]
+        start = time.perf_counter()
+        pairs, failures, executed = run_members(everything, out, scheduler=scheduler, workers=workers,
+                                                progress=progress)
+        records = {id(member): record for member, record in pairs}
+        summary = {}
+        for study in studies:
+            own = [(member, records[id(member)]) for member in members[study.name]]
+            frame = study.table(own, out, quick)
+            failed = sorted({record["run_id"] for _, record in own if record["status"] == "failed"})
+            write_study_table(frame, out, study.name, {
+                "study": study.name, "title": study.title, "figure": study.figure, "description": study.description,
+                "quick": quick, "runs": len({record["run_id"] for _, record in own}), "failed_runs": failed,
+                "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **_versions()})
+            try:
+                summary[study.name] = _finish(study, frame, out)
+            except Exception as error:  # one study's analysis must not cost the others their figures and the report
+                summary[study.name] = {"figures": [], "claims": []}
+                failures.append((study.name, f"analysis failed: {type(error).__name__}: {error}"))
+            summary[study.name].update({"runs": len({record["run_id"] for _, record in own}), "failed": failed})
 
-    write_report(out)
-    summary["_wall_time_s"] = time.perf_counter() - start
-    summary["_failures"] = failures
-    _log_timing(out, names, quick, scheduler, workers, summary["_wall_time_s"], pairs, executed)
-    return summary
+        write_report(out)
+        summary["_wall_time_s"] = time.perf_counter() - start
+        summary["_failures"] = failures
+        _log_timing(out, names, quick, scheduler, workers, summary["_wall_time_s"], pairs, executed)
+        return summary
 
 
 def _log_timing(out: Path, names, quick: bool, scheduler, workers, wall_time: float, pairs, executed) -> None:

@@ -198,10 +198,11 @@ def _execute_compression(directory: Path, options: dict) -> dict:
 FLOW_SUMMARY_KEYS = {
     "shear": ("capillary_number", "capillary_number_mu_c", "effective_stiffness_ratio", "taylor_deformation_mean",
               "taylor_deformation_std", "inclination_deg_mean", "inclination_deg_std", "tank_treading_frequency",
-              "volume_change_max_abs", "transient_strain", "duration_strain", "stop_reason", "reynolds_number"),
+              "volume_change_max_abs", "transient_strain", "duration_strain", "stop_reason", "stationary",
+              "reynolds_number"),
     "pipe": ("capillary_number_wall", "capillary_number_wall_mu_c", "effective_stiffness_ratio", "strain_axial_mean", "strain_axial_std",
              "strain_radial_mean", "strain_radial_std", "deformation_mean", "projected_area_mean",
-             "radial_position", "volume_change_max_abs", "stop_reason", "reynolds_number"),
+             "radial_position", "volume_change_max_abs", "stop_reason", "stationary", "reynolds_number"),
 }
 
 
