@@ -197,14 +197,14 @@ class StiffnessPattern:
     mesh).
     """
 
-    def __init__(self, elements: np.ndarray, n_nodes: int):
+    def __init__(self, elements: np.ndarray, n_nodes: int, dofs_per_node: int = 3):
         import scipy.sparse as sp
 
-        k = elements.shape[1]
-        dofs = (3 * elements[:, :, None] + np.arange(3)).reshape(len(elements), 3 * k)
-        rows = np.repeat(dofs, 3 * k, axis=1).ravel()
-        cols = np.tile(dofs, (1, 3 * k)).ravel()
-        n = 3 * n_nodes
+        k, d = elements.shape[1], dofs_per_node  # d = 2: the meridian section of body.axisymmetric
+        dofs = (d * elements[:, :, None] + np.arange(d)).reshape(len(elements), d * k)
+        rows = np.repeat(dofs, d * k, axis=1).ravel()
+        cols = np.tile(dofs, (1, d * k)).ravel()
+        n = d * n_nodes
         keys = rows.astype(np.int64) * n + cols
         unique_keys, self.entry_to_data = np.unique(keys, return_inverse=True)
         self.rows = (unique_keys // n).astype(np.int64)
