@@ -8,6 +8,8 @@ scheduler.
 Local cluster: one process per worker and one thread per process, because every task is already
 whole-array compiled code (JAX, PARDISO, Numba) that brings its own threads; ``threads`` sets the thread
 count each worker's kernels may use (``NUMBA_NUM_THREADS``, ``OMP_NUM_THREADS``, ``MKL_NUM_THREADS``).
+Its scheduler and workers listen on 127.0.0.1 only, and it has no dashboard unless ``dashboard`` asks for
+one (the dashboard needs ``bokeh``).
 
 An existing cluster (``scheduler="tcp://host:8786"``), e.g. started on a batch system with::
 
@@ -15,7 +17,28 @@ An existing cluster (``scheduler="tcp://host:8786"``), e.g. started on a batch s
     dask worker tcp://HOST:8786 --nworkers 8 --nthreads 1   # on each compute node
 
 needs elastocell installed on every worker and the output directory on a file system all workers share
-(every task writes its own files there; the caller only collects small results).
+(every task writes its own files there; the caller only collects small results). See
+``docs/usage/cluster.md``.
+
+Trust: a Dask scheduler runs the code it is sent (pickled functions), on its workers, as their user.
+Connect only to a scheduler you trust, and do not let others reach yours: bind it to a private network
+or 127.0.0.1, or make it require TLS. TLS: a ``tls://`` address with ``security`` (a
+``distributed.Security`` holding the CA file and this client's certificate and key), or with Dask's own
+configuration, which every ``distributed.Client`` reads when no ``security`` is given, e.g. from the
+environment::
+
+    DASK_DISTRIBUTED__COMM__TLS__CA_FILE=ca.pem
+    DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT=client.pem
+    DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY=client.key   # not needed when client.pem holds the key
+
+(the command line's ``--scheduler tls://host:8786`` takes its TLS files this way).
+
+Lost workers: a task whose worker dies (killed, out of memory, its batch job ended) is run again on another
+worker by the Dask scheduler itself, up to ``distributed.scheduler.allowed-failures`` times (default 3;
+the scheduler's own configuration); after that it is reported as a :class:`TaskFailure`
+(``KilledWorker``) and the other tasks go on. A result is released as soon as it has been collected, so a
+task that already finished is not run again when its worker dies later (and the tasks of elastocell read
+a finished run's record back instead of repeating it).
 """
 
 from __future__ import annotations
@@ -59,19 +82,49 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+LOCAL_HOST = "127.0.0.1"
+
+
+def dashboard_address(dashboard: bool | str) -> str | None:
+    """The local cluster's dashboard address: None (no dashboard) for False, a free port on 127.0.0.1 for
+    True, or the address given (e.g. ``"127.0.0.1:8787"``; ``":8787"`` would listen on every interface)."""
+    if dashboard is False or dashboard is None:
+        return None
+    if dashboard is True:
+        return f"{LOCAL_HOST}:0"
+    if not isinstance(dashboard, str) or not dashboard:
+        raise ParameterError("dashboard", f"expected True, False or an address such as 127.0.0.1:8787, "
+                                          f"got {dashboard!r}")
+    return dashboard
+
+
 @contextmanager
-def dask_client(scheduler: str | None = None, workers: int | None = None, threads: int = 1):
+def dask_client(scheduler: str | None = None, workers: int | None = None, threads: int = 1, *,
+                security=None, dashboard: bool | str = False):
     """A ``distributed.Client``: connected to ``scheduler``, or to a local cluster of ``workers`` processes
-    (default: one per core) that is shut down on exit."""
+    (default: one per core) that is shut down on exit.
+
+    The local cluster listens on 127.0.0.1 only (scheduler and workers) and opens a dashboard only when
+    ``dashboard`` asks for it (:func:`dashboard_address`; ``client.dashboard_link`` then says where).
+    ``security``: a ``distributed.Security`` for a TLS scheduler (``tls://host:8786``), or, for the local
+    cluster, its TLS settings (``Security.temporary()``: encrypted with throwaway certificates); None: Dask's
+    configuration (``distributed.comm.tls.*``, e.g. ``DASK_DISTRIBUTED__COMM__TLS__CA_FILE``).
+    A scheduler runs the code it is sent: connect only to one you trust."""
     check_execution(scheduler, workers)
     import dask
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
         try:
-            client = Client(scheduler, timeout="20s")
-        except OSError as error:
+            client = Client(scheduler, timeout="20s", security=security)
+        except (OSError, TimeoutError) as error:
             raise ParameterError("scheduler", f"cannot reach the Dask scheduler at {scheduler}: {error}") from None
+        except TypeError as error:  # a tls:// address without certificates
+            if "TLS" not in str(error):
+                raise
+            raise ParameterError("scheduler", f"{scheduler} needs TLS files: give security=distributed.Security(...) "
+                                 "or set DASK_DISTRIBUTED__COMM__TLS__CA_FILE, ..._TLS__CLIENT__CERT and "
+                                 "..._TLS__CLIENT__KEY") from None
         try:
             yield client
         finally:
@@ -79,10 +132,19 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, thread
         return
     environment = {name: str(threads) for name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
                                                     "OPENBLAS_NUM_THREADS")}
-    with dask.config.set({"distributed.worker.daemon": False, "logging.distributed": "error"}):
+    address = dashboard_address(dashboard)
+    settings = {"distributed.worker.daemon": False, "logging.distributed": "error"}
+    scheduler_options = {}
+    if address is None:
+        # Dask's nodes serve HTTP pages (cluster and task information, metrics) even without a dashboard: none
+        # here, and the scheduler's (then empty) HTTP server on a free port of 127.0.0.1 instead of 8787
+        settings.update({"distributed.scheduler.http.routes": [], "distributed.worker.http.routes": []})
+        scheduler_options = {"dashboard": False, "dashboard_address": f"{LOCAL_HOST}:0"}
+    with dask.config.set(settings):
         cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
-                               dashboard_address=":0", env=environment, silence_logs=40)
-        client = Client(cluster)
+                               host=LOCAL_HOST, dashboard_address=address, env=environment, silence_logs=40,
+                               security=security, scheduler_kwargs=scheduler_options)
+        client = Client(cluster, security=security)
         try:
             yield client
         finally:
@@ -101,14 +163,20 @@ def _guarded(function: Callable, item):
 
 def run_tasks(function: Callable, items: Sequence, *, scheduler: str | None = None, workers: int | None = None,
               threads: int = 1, description: str = "running", progress: bool = False,
-              client=None, prepare: Callable[[], None] | None = None) -> Iterator[tuple[int, object]]:
+              client=None, prepare: Callable[[], None] | None = None, security=None,
+              dashboard: bool | str = False) -> Iterator[tuple[int, object]]:
     """Yield ``(index, result)`` for ``function(items[index])`` as the tasks finish, run on Dask.
 
     ``function`` must be importable by the workers (a module-level function). A raising task yields a
-    :class:`TaskFailure` instead of its result. ``progress`` shows a rich progress bar (tasks done / total).
+    :class:`TaskFailure` instead of its result; so does a task whose workers kept dying (``KilledWorker``:
+    the scheduler already ran it again on other workers, ``distributed.scheduler.allowed-failures`` times).
+    A task lost with its worker is run again by the scheduler, not by this function; a result is released
+    once collected, so a finished task is not repeated when its worker dies afterwards.
+    ``progress`` shows a rich progress bar (tasks done / total).
     ``prepare`` runs in this process before a local cluster starts (not with ``scheduler`` or ``client``),
     e.g. :func:`elastocell.scenarios.shear.compile_kernels` so that the workers load compiled kernels from the cache
-    instead of compiling them all at once.
+    instead of compiling them all at once. ``security`` and ``dashboard``: as in :func:`dask_client` (not with
+    ``client``).
     """
     items = list(items)
     if not items:
@@ -116,7 +184,7 @@ def run_tasks(function: Callable, items: Sequence, *, scheduler: str | None = No
     if client is None and scheduler is None and prepare is not None:
         prepare()
     if client is None:
-        with dask_client(scheduler, workers, threads) as own:
+        with dask_client(scheduler, workers, threads, security=security, dashboard=dashboard) as own:
             yield from run_tasks(function, items, description=description, progress=progress, client=own)
         return
     from distributed import as_completed
@@ -132,12 +200,13 @@ def run_tasks(function: Callable, items: Sequence, *, scheduler: str | None = No
         task = bar.add_task(description, total=len(items))
     try:
         for future in as_completed(futures):
-            index = futures[future]
-            try:
+            index = futures.pop(future)  # this is the last reference: the scheduler forgets the task once
+            try:                        # its result is here, and does not recompute it if its worker dies
                 result = future.result()
-            except Exception as error:  # a worker died (memory, segfault): report it as this task's failure
+            except Exception as error:  # KilledWorker (the task's workers kept dying), a cancelled task
                 result = TaskFailure(type(error).__name__, str(error).splitlines()[0] if str(error) else "",
                                      traceback.format_exc())
+            del future
             if bar is not None:
                 bar.advance(task)
             yield index, result
