@@ -299,3 +299,11 @@ def test_a_study_directory_and_a_lut_in_use_are_refused(tmp_path):
         with pytest.raises(ParameterError, match="in use by process"):
             compute_lut(lut, channel_radius="10um", flow_rate="0.04uL/s", viscosity="15mPa*s", radii=[5],
                         moduli=[1000], quick=True, workers=1)
+
+
+def test_progress_is_reported_in_plain_lines_when_output_is_not_a_terminal(tmp_path):
+    command = [sys.executable, "-m", "elastocell", "compress", "--out", str(tmp_path / "run"), "--element", "p1",
+               "--mesh-size", "0.5", "--pole-size", "0.25", "--delta-max", "0.3", "--steps", "6"]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert "delta 0.300 of 0.3 (100 %)" in result.stderr

@@ -33,7 +33,7 @@ from elastocell.scenarios.compression import (
 )
 from elastocell.scenarios.compression import compress as compress_cell
 from elastocell.simulation.directory import OutputSet, interruptible, output_directory
-from elastocell.simulation.output import von_mises, vtk_enabled, write_vtk_series
+from elastocell.simulation.output import progress_bar, von_mises, vtk_enabled, write_vtk_series
 
 
 def equivalent(cell: CellParameters | None = None, **cell_options) -> dict:
@@ -150,18 +150,6 @@ def _load_checkpoint(path: Path, fingerprint: str, n_nodes: int) -> CompressionR
                              history=[])
 
 
-def _progress_bar(enabled: bool):
-    """A rich progress bar (delta against delta_max) or nothing."""
-    from contextlib import nullcontext
-
-    if not enabled:
-        return nullcontext(None)
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-    return Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("delta {task.completed:.3f}"),
-                    TimeElapsedColumn(), TimeRemainingColumn())
-
-
 def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell: CellParameters, solver: str,
                    show_progress: bool, label: str, vtk: bool = True, resume: bool = False) -> dict:
     out.mkdir(parents=True, exist_ok=True)
@@ -169,7 +157,7 @@ def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell:
     checkpoint = out / "checkpoint.npz"
     fingerprint = _fingerprint(body, cell, scenario, solver)
     start = _load_checkpoint(checkpoint, fingerprint, body.mesh.n_nodes) if resume and checkpoint.exists() else None
-    with _progress_bar(show_progress) as progress:
+    with progress_bar(show_progress, "delta {task.completed:.3f}", label=None) as progress:
         if progress is not None:
             task = progress.add_task(f"compress {label}", total=scenario.delta_max)
             callback = lambda delta: progress.update(task, completed=delta)  # noqa: E731

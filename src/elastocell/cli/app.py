@@ -7,7 +7,6 @@ range, before any meshing; never a traceback. Every option is declared once in :
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import typer
@@ -113,7 +112,7 @@ def compress(out: Path, cell: dict, delta_max: float, steps: int, equivalent: bo
     CompressionParameters(delta_max=delta_max, steps=steps)  # validate before meshing
     try:
         summary = run(out, cell=cell, delta_max=delta_max, steps=steps, equivalent=equivalent, compare=compare,
-                      resume=resume, progress=not quiet and sys.stderr.isatty())
+                      resume=resume, progress=not quiet)
     except CompressionInterrupted as error:  # the converged rows are written
         typer.echo(f"elastocell: {error}", err=True)
         raise typer.Exit(code=130) from None
@@ -174,7 +173,7 @@ def shear(out: Path, capillary_number: float | None, cell: dict, equivalent: boo
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance)
     try:
         summary = run(out, capillary_number, cell=cell, equivalent=equivalent, resolution=resolution,
-                      duration=duration, resume=resume, progress=not quiet and sys.stderr.isatty(),
+                      duration=duration, resume=resume, progress=not quiet,
                       wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                       record_interval=record_interval, checkpoint_every=checkpoint_every, vtk_interval=vtk_interval,
                       flow_options=flow_options, capillary_number_modulus="mu_c" if viscosity is not None else "reference")
@@ -262,7 +261,7 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
                  stationary_observable=stationary_observable.value, unit="units of 1/gdot_w")
     try:
         summary = run(out, capillary_number_wall, cell=cell, equivalent=equivalent, duration=duration, resume=resume,
-                      progress=not quiet and sys.stderr.isatty(), wall_clock=wall_clock,
+                      progress=not quiet, wall_clock=wall_clock,
                       stationary_tolerance=stationary_tolerance, stationary_observable=stationary_observable.value,
                       record_interval=record_interval, checkpoint_every=checkpoint_every, vtk_interval=vtk_interval,
                       flow_options=flow_options)

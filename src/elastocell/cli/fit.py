@@ -6,7 +6,6 @@ Registered in :mod:`elastocell.cli.app` with ``app.add_typer(mastercurve_app, na
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import typer
@@ -49,7 +48,7 @@ def mastercurve_compression(poisson_ratio: float, material: str, out: Path | Non
         if curve is None and cache_path(poisson_ratio, material).exists():
             source = "cached"
     if curve is None:
-        show = not quiet and sys.stderr.isatty()
+        show = not quiet
         progress = (lambda mesh, delta: typer.echo(f"\r{mesh} mesh: delta = {delta:.3f}", err=True, nl=False)) \
             if show else None
         curve = compute_master_curve(poisson_ratio, material, use_cache=not no_cache, progress=progress)
@@ -101,7 +100,7 @@ def fit_afm(files: list[Path], radius: str, geometry: str, poisson_ratio: float,
     for path in files:
         if not path.exists():
             raise ParameterError("file", f"{path}: no such file or directory")
-    result = fit_files(files, settings, out, plots=not no_plots, progress=not quiet and sys.stderr.isatty(),
+    result = fit_files(files, settings, out, plots=not no_plots, progress=not quiet,
                        scheduler=scheduler, workers=workers)
     if not quiet and result["rows"]:
         for row in result["rows"][:20]:

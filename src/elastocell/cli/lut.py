@@ -3,7 +3,6 @@ radii and Young's moduli (see :mod:`elastocell.inverse.lut`)."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import typer
@@ -40,7 +39,7 @@ def lut(channel_radius: str | None, channel_width: str | None, flow_rate: str, v
     result = compute_lut(out, channel_radius, flow_rate, viscosity, radii=radii, moduli=moduli, quick=quick,
                          poisson_ratio=poisson_ratio, material=material, resolution=resolution, duration=duration,
                          stationary_tolerance=stationary_tolerance, identifier=identifier, scheduler=scheduler,
-                         workers=workers, progress=not quiet and sys.stderr.isatty(), channel_width=channel_width)
+                         workers=workers, progress=not quiet, channel_width=channel_width)
     if not quiet:
         settings = result["settings"]
         typer.echo(f"gdot_w = {settings['wall_shear_rate_1_s']:.4g} 1/s, G = {settings['pressure_gradient_pa_m']:.4g} "

@@ -3,7 +3,6 @@ studies, run through Dask). Registered in :mod:`elastocell.cli.app`."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import typer
@@ -55,7 +54,7 @@ def study_run(name: str, quick: bool, scheduler: str | None, workers: int | None
     )
 
     summary = run_studies([name], out, quick=quick, scheduler=scheduler, workers=workers,
-                          progress=not quiet and sys.stderr.isatty())
+                          progress=not quiet)
     _report(summary, out, quiet)
 
 
@@ -82,5 +81,5 @@ def reproduce(quick: bool, scheduler: str | None, workers: int | None, out: Path
         reproduce as run,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
 
-    summary = run(out, quick=quick, scheduler=scheduler, workers=workers, progress=not quiet and sys.stderr.isatty())
+    summary = run(out, quick=quick, scheduler=scheduler, workers=workers, progress=not quiet)
     _report(summary, out, quiet)

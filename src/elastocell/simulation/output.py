@@ -4,6 +4,8 @@ VTK snapshots (``vtk/``, cell and fluid slice) for ParaView, time-series figures
 
 from __future__ import annotations
 
+import sys
+import time
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -94,16 +96,73 @@ class VTKWriter:
                 + "\n".join(entries) + "\n  </Collection>\n</VTKFile>\n")
 
 
-def progress_bar(enabled: bool, time_format: str = "strain {task.completed:.2f}", label: str = "D"):
-    """A rich progress bar showing the time and one observable (task field ``value``), or a null context."""
+def progress_bar(enabled: bool, time_format: str = "strain {task.completed:.2f}", label: str | None = "D"):
+    """Progress of a long run: a rich progress bar showing the time and one observable (task field ``value``,
+    none when ``label`` is None) on a terminal; elsewhere (a log file, a batch job, a pipe) one plain line at most
+    every :data:`PLAIN_PROGRESS_INTERVAL` seconds and at the end; a null context when not ``enabled``."""
     from contextlib import nullcontext
 
     if not enabled:
         return nullcontext(None)
+    if not sys.stderr.isatty():
+        return PlainProgress(time_format, label)
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    return Progress(TextColumn("{task.description}"), BarColumn(), TextColumn(time_format),
-                    TextColumn(f"{label} {{task.fields[value]:.4f}}"), TimeElapsedColumn(), TimeRemainingColumn())
+    columns = [TextColumn("{task.description}"), BarColumn(), TextColumn(time_format)]
+    if label is not None:
+        columns.append(TextColumn(f"{label} {{task.fields[value]:.4f}}"))
+    return Progress(*columns, TimeElapsedColumn(), TimeRemainingColumn())
+
+
+PLAIN_PROGRESS_INTERVAL = 10.0
+"""Seconds between two progress lines when the output is not a terminal."""
+
+
+class PlainProgress:
+    """The part of rich's ``Progress`` the runs use (``add_task``, ``update``, a context), written as plain
+    lines to standard error for output that is not a terminal: ``description: strain 1.20 of 6 (20 %), D 0.0623,
+    34 s``."""
+
+    def __init__(self, time_format: str, label: str | None, interval: float = PLAIN_PROGRESS_INTERVAL):
+        self.time_format, self.label, self.interval = time_format, label, interval
+        self.tasks: dict[int, dict] = {}
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        for task_id in self.tasks:
+            self._line(task_id)
+        return False
+
+    def add_task(self, description: str, total: float | None = None, completed: float = 0.0, **fields) -> int:
+        task_id = len(self.tasks)
+        self.tasks[task_id] = {"description": description, "total": total, "completed": completed,
+                               "fields": fields, "start": time.perf_counter(), "printed": time.perf_counter()}
+        return task_id
+
+    def update(self, task_id: int, completed: float | None = None, **fields) -> None:
+        task = self.tasks[task_id]
+        if completed is not None:
+            task["completed"] = completed
+        task["fields"].update(fields)
+        if time.perf_counter() - task["printed"] >= self.interval:
+            self._line(task_id)
+
+    def _line(self, task_id: int) -> None:
+        task = self.tasks[task_id]
+        task["printed"] = time.perf_counter()
+
+        class View:  # what rich's format strings read: task.completed, task.fields
+            completed, fields = task["completed"], task["fields"]
+
+        text = self.time_format.format(task=View)
+        if task["total"]:
+            text += f" of {task['total']:g} ({100 * task['completed'] / task['total']:.0f} %)"
+        if self.label is not None and "value" in task["fields"]:
+            text += f", {self.label} {task['fields']['value']:.4g}"
+        print(f"{task['description']}: {text}, {time.perf_counter() - task['start']:.0f} s", file=sys.stderr,
+              flush=True)
 
 
 def time_series_figure():
