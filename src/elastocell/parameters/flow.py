@@ -5,13 +5,14 @@ whose edge is tied to the lattice spacing).
 from __future__ import annotations
 
 import math
+import warnings
 
 # =========================================================================== shear flow
 from typing import Literal  # noqa: E402
 
 from pydantic import BaseModel, ConfigDict, model_validator  # noqa: E402
 
-from elastocell.parameters.cell import cell_parameters
+from elastocell.parameters.cell import cell_parameters, require
 from elastocell.parameters.units import ParameterError
 
 
@@ -38,10 +39,6 @@ class FlowLatticeParameters(BaseModel):
 
     @model_validator(mode="after")
     def _check_lattice(self) -> FlowLatticeParameters:
-        def require(ok, name, message):
-            if not ok:
-                raise ParameterError(name, message)
-
         require(math.isfinite(self.resolution) and 2 <= self.resolution <= 64, "resolution",
                 f"R/dx must be in [2, 64], got {self.resolution}")
         require(math.isfinite(self.box_length) and self.box_length >= 2.5, "box_length",
@@ -87,3 +84,14 @@ def flow_cell(cell, cell_options: dict, resolution: float):
     if cell_options.get("interface_size") is None:
         cell_options["interface_size"] = cell_options["mesh_size"]
     return cell_parameters(**cell_options)
+
+
+def check_capillary_number(value: float, parameter: str, maximum: float, validated: float, refusal: str,
+                           validated_range: str) -> None:
+    """A capillary number must be finite, > 0 and at most ``maximum`` (``refusal`` says why larger ones are
+    impossible); above ``validated`` one warning says the run leaves the range ``validated_range`` covers."""
+    require(math.isfinite(value) and value > 0, parameter, f"must be > 0, got {value}")
+    require(value <= maximum, parameter, f"must be <= {maximum:g}, got {value:g}: {refusal}")
+    if value > validated:
+        warnings.warn(f"{parameter} {value:g} is beyond the validated range (<= {validated:g}, {validated_range}): "
+                      "expect large strains and possibly inverted elements", stacklevel=4)

@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -50,7 +49,8 @@ from elastocell.coupling.immersed import ImmersedCell, immersed_cell
 from elastocell.coupling.markers import FlowError
 from elastocell.coupling.stability import shear_rate_limits
 from elastocell.lattice import Lattice, LatticeParams
-from elastocell.parameters.flow import FlowLatticeParameters
+from elastocell.parameters.cell import require
+from elastocell.parameters.flow import FlowLatticeParameters, check_capillary_number
 from elastocell.parameters.units import ParameterError
 from elastocell.simulation.output import save_time_series_figure, time_series_figure
 from elastocell.simulation.runner import FlowRun, StopCriteria, window_verdict
@@ -216,19 +216,10 @@ class PipeFlowParameters(FlowLatticeParameters):
 
     @model_validator(mode="after")
     def _check(self) -> PipeFlowParameters:
-        def require(ok, name, message):
-            if not ok:
-                raise ParameterError(name, message)
-
-        ca = self.capillary_number_wall
-        require(math.isfinite(ca) and ca > 0, "capillary_number_wall", f"must be > 0, got {ca}")
-        require(ca <= MAX_CAPILLARY_NUMBER_WALL, "capillary_number_wall",
-                f"must be <= {MAX_CAPILLARY_NUMBER_WALL:g}, got {ca:g}: near the wall the local capillary number "
-                "would stretch the cell beyond what its mesh can follow")
-        if ca > VALIDATED_CAPILLARY_NUMBER_WALL:
-            warnings.warn(f"capillary_number_wall {ca:g} is beyond the validated range "
-                          f"(<= {VALIDATED_CAPILLARY_NUMBER_WALL:g}, the RT-DC conditions of the look-up tables): "
-                          "expect large strains and possibly inverted elements", stacklevel=2)
+        check_capillary_number(self.capillary_number_wall, "capillary_number_wall", MAX_CAPILLARY_NUMBER_WALL,
+                               VALIDATED_CAPILLARY_NUMBER_WALL, "near the wall the local capillary number would "
+                               "stretch the cell beyond what its mesh can follow",
+                               "the RT-DC conditions of the look-up tables")
         ratio = self.channel_radius_ratio
         require(math.isfinite(ratio) and 1 < ratio <= 20, "channel_radius_ratio",
                 f"R_ch/R must be in (1, 20] (the cell must fit in the channel), got {ratio}")

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,8 +25,8 @@ from elastocell.coupling.immersed import ImmersedCell, immersed_cell
 from elastocell.coupling.markers import FlowError
 from elastocell.coupling.stability import shear_rate_limits
 from elastocell.lattice import LatticeParams
-from elastocell.parameters.cell import cell_parameters
-from elastocell.parameters.flow import FlowLatticeParameters
+from elastocell.parameters.cell import cell_parameters, require
+from elastocell.parameters.flow import FlowLatticeParameters, check_capillary_number
 from elastocell.parameters.units import ParameterError
 from elastocell.simulation.output import save_time_series_figure, time_series_figure
 from elastocell.simulation.runner import FlowRun, StopCriteria, stationary_summary, window_verdict
@@ -85,19 +84,10 @@ class ShearFlowParameters(FlowLatticeParameters):
 
     @model_validator(mode="after")
     def _check(self) -> ShearFlowParameters:
-        def require(ok, name, message):
-            if not ok:
-                raise ParameterError(name, message)
-
-        ca = self.capillary_number
-        require(math.isfinite(ca) and ca > 0, "capillary_number", f"must be > 0, got {ca}")
-        require(ca <= MAX_CAPILLARY_NUMBER, "capillary_number",
-                f"must be <= {MAX_CAPILLARY_NUMBER:g}, got {ca:g}: the small-deformation estimate D = 5/4 Ca = "
-                f"{1.25 * ca:.3g} is far beyond any shape the cell's mesh can follow")
-        if ca > VALIDATED_CAPILLARY_NUMBER:
-            warnings.warn(f"capillary_number {ca:g} is beyond the validated range (<= {VALIDATED_CAPILLARY_NUMBER:g}, "
-                          f"Taylor deformation D ~ 0.5 and more): expect large strains and possibly inverted elements",
-                          stacklevel=2)
+        check_capillary_number(self.capillary_number, "capillary_number", MAX_CAPILLARY_NUMBER,
+                               VALIDATED_CAPILLARY_NUMBER, f"the small-deformation estimate D = 5/4 Ca = "
+                               f"{1.25 * self.capillary_number:.3g} is far beyond any shape the cell's mesh can follow",
+                               "Taylor deformation D ~ 0.5 and more beyond it")
         require(math.isfinite(self.confinement) and 0 < self.confinement < 1, "confinement",
                 f"2R/H must be in (0, 1), got {self.confinement}")
         if self.lattice_shear_rate is not None:
