@@ -52,15 +52,19 @@ _lock = threading.Lock()
 class MeridianMeshParameters(ParameterModel):
     """Mesh of the meridian half-disk (units of R).
 
-    mesh_size: element size far from the poles and the nucleus.
-    pole_size: size at the poles (0, +-1), growing linearly to ``mesh_size`` over ``pole_radius``.
+    mesh_size: element size inside the cell, away from its surface and the nucleus.
+    surface_size: size on the cell's surface (where the contact spreads at large deformation), growing to
+    ``mesh_size`` over ``surface_width`` inwards.
+    pole_size: size at the poles (0, +-1), growing linearly to ``surface_size`` over ``pole_radius``.
     interface_size: size on the nucleus boundary, growing to ``mesh_size`` over ``interface_width``.
     quadrature_points: n of the collapsed Gauss-Jacobi rule (n^2 points per triangle, exact to degree 2n - 1).
     """
 
     mesh_size: float = 0.1
-    pole_size: float = 0.02
-    pole_radius: float = 1.2
+    surface_size: float = 0.04
+    surface_width: float = 0.2
+    pole_size: float = 0.01
+    pole_radius: float = 0.5
     interface_size: float = 0.04
     interface_width: float = 0.2
     quadrature_points: int = 3
@@ -68,8 +72,11 @@ class MeridianMeshParameters(ParameterModel):
     @model_validator(mode="after")
     def _check(self) -> MeridianMeshParameters:
         require(0.002 <= self.mesh_size <= 1.0, "mesh_size", f"must be in [0.002, 1] (units of R), got {self.mesh_size}")
-        require(0.0005 <= self.pole_size <= self.mesh_size, "pole_size",
-                f"must be in [0.0005, mesh_size={self.mesh_size}], got {self.pole_size}")
+        require(0.0005 <= self.surface_size <= self.mesh_size, "surface_size",
+                f"must be in [0.0005, mesh_size={self.mesh_size}], got {self.surface_size}")
+        require(0 < self.surface_width <= 1, "surface_width", f"must be in (0, 1], got {self.surface_width}")
+        require(0.0005 <= self.pole_size <= self.surface_size, "pole_size",
+                f"must be in [0.0005, surface_size={self.surface_size}], got {self.pole_size}")
         require(0 < self.pole_radius <= 2, "pole_radius", f"must be in (0, 2], got {self.pole_radius}")
         require(0.0005 <= self.interface_size, "interface_size", f"must be >= 0.0005, got {self.interface_size}")
         require(0 < self.interface_width <= 2, "interface_width", f"must be in (0, 2], got {self.interface_width}")
@@ -79,7 +86,7 @@ class MeridianMeshParameters(ParameterModel):
     def scaled(self, factor: float) -> MeridianMeshParameters:
         """Every size times ``factor`` (a refinement study's meshes)."""
         return self.model_copy(update={name: getattr(self, name) * factor
-                                       for name in ("mesh_size", "pole_size", "interface_size")})
+                                       for name in ("mesh_size", "surface_size", "pole_size", "interface_size")})
 
 
 def meridian_nucleus(cell: CellParameters) -> tuple[float, float, float] | None:
@@ -210,7 +217,10 @@ def _generate(nucleus: tuple[float, float, float] | None, parameters: MeridianMe
                     low, high = gmsh.model.getBoundingBox(1, curve)[0], gmsh.model.getBoundingBox(1, curve)[3]
                     if high > 1e-9:  # not the axis segment
                         interface.append(curve)
-            _size_field(parameters, interface)
+            outer = [tag for _, tag in gmsh.model.getBoundary([(2, t) for t in surfaces], combined=True,
+                                                               oriented=False)
+                     if gmsh.model.getBoundingBox(1, abs(tag))[3] > 1e-9]  # not the axis
+            _size_field(parameters, interface, [abs(tag) for tag in outer])
             gmsh.model.mesh.generate(2)
             gmsh.model.mesh.setOrder(2)
             node_tags, coordinates, _ = gmsh.model.mesh.getNodes()
@@ -243,31 +253,38 @@ def _generate(nucleus: tuple[float, float, float] | None, parameters: MeridianMe
                         surface_nodes=surface, axis_nodes=np.flatnonzero(on_axis))
 
 
-def _size_field(parameters: MeridianMeshParameters, interface: list[int]) -> None:
+def _size_field(parameters: MeridianMeshParameters, interface: list[int], outer: list[int]) -> None:
     import gmsh
 
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-    h, hp, radius = parameters.mesh_size, parameters.pole_size, parameters.pole_radius
+    h, hs, hp, radius = parameters.mesh_size, parameters.surface_size, parameters.pole_size, parameters.pole_radius
     field = gmsh.model.mesh.field
     distance = "Min(Sqrt(x*x+(y-1)*(y-1)), Sqrt(x*x+(y+1)*(y+1)))"
-    tag = field.add("MathEval")
-    field.setString(tag, "F", f"{hp} + ({h}-{hp})*Min(1, {distance}/{radius})")
-    if interface and parameters.interface_size < h:
-        to_interface = field.add("Distance")
-        field.setNumbers(to_interface, "CurvesList", interface)
-        field.setNumber(to_interface, "Sampling", 400)
+    poles = field.add("MathEval")
+    field.setString(poles, "F", f"{hp} + ({h}-{hp})*Min(1, {distance}/{radius})")
+    fields = [poles]
+
+    def near(curves, size, width):
+        to_curves = field.add("Distance")
+        field.setNumbers(to_curves, "CurvesList", curves)
+        field.setNumber(to_curves, "Sampling", 1000)
         threshold = field.add("Threshold")
-        field.setNumber(threshold, "InField", to_interface)
-        field.setNumber(threshold, "SizeMin", parameters.interface_size)
+        field.setNumber(threshold, "InField", to_curves)
+        field.setNumber(threshold, "SizeMin", size)
         field.setNumber(threshold, "SizeMax", h)
         field.setNumber(threshold, "DistMin", 0.0)
-        field.setNumber(threshold, "DistMax", parameters.interface_width)
-        smallest = field.add("Min")
-        field.setNumbers(smallest, "FieldsList", [tag, threshold])
-        tag = smallest
-    field.setAsBackgroundMesh(tag)
+        field.setNumber(threshold, "DistMax", width)
+        fields.append(threshold)
+
+    if hs < h:
+        near(outer, hs, parameters.surface_width)
+    if interface and parameters.interface_size < h:
+        near(interface, parameters.interface_size, parameters.interface_width)
+    smallest = field.add("Min")
+    field.setNumbers(smallest, "FieldsList", fields)
+    field.setAsBackgroundMesh(smallest)
 
 
 # ------------------------------------------------------------------------------------------- the element
