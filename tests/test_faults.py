@@ -307,3 +307,20 @@ def test_progress_is_reported_in_plain_lines_when_output_is_not_a_terminal(tmp_p
     result = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     assert "delta 0.300 of 0.3 (100 %)" in result.stderr
+
+
+def test_a_lock_whose_holder_went_silent_is_taken_over(tmp_path):
+    """On a cluster the holder of a lock may have died with its node: another host's lock untouched for longer
+    than STALE_AFTER is taken over (a live holder touches it every HEARTBEAT seconds)."""
+    from elastocell.simulation import directory
+
+    lock = tmp_path / LOCK_NAME
+    lock.write_text(json.dumps({"pid": 1, "host": "another-node", "command": "x"}))
+    with pytest.raises(ParameterError, match="in use by process 1 on another-node"):
+        with output_directory(tmp_path):
+            pass
+    old = time.time() - directory.STALE_AFTER - 5
+    os.utime(lock, (old, old))
+    with pytest.warns(UserWarning, match="silent for more than"):
+        with output_directory(tmp_path):
+            assert json.loads(lock.read_text())["pid"] == os.getpid()

@@ -156,7 +156,9 @@ OPTIONS: dict[str, Opt] = _declare(
     Opt("as_json", bool, False, "Print JSON.", flag="--json", shown="off"),
     Opt("quick", bool, False, "Coarse meshes and lattices: every study in minutes on a laptop (not converged).",
         shown="off"),
-    Opt("scheduler", str | None, None, "Address of a running Dask scheduler (tcp://host:8786).",
+    Opt("scheduler", str | None, None, "Address of a running Dask scheduler (tcp://host:8786; tls://host:8786 "
+        "takes its TLS files from DASK_DISTRIBUTED__COMM__TLS__CA_FILE, __CLIENT__CERT, __CLIENT__KEY). A scheduler "
+        "runs the code it is sent: connect only to one you trust. See docs/usage/cluster.md.",
         shown="a local cluster"),
     Opt("workers", int | None, None, "Worker processes of the local Dask cluster.", shown="one per core"),
     Opt("backend", Backend, Backend.numba, "Compute engine: numba (fused CPU kernels, fastest on a CPU) or jax (the "

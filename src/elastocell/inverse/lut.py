@@ -394,8 +394,9 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                 resolution: float | None = None, duration: float | None = None,
                 stationary_tolerance: float | None = None, identifier: str | None = None,
                 scheduler: str | None = None, workers: int | None = None, progress: bool = False,
-                client=None, channel_width=None) -> dict:
-    """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``.
+                client=None, channel_width=None, security=None) -> dict:
+    """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``. ``security``:
+    a ``distributed.Security`` for a TLS scheduler (docs/usage/cluster.md).
 
     channel_radius, flow_rate, viscosity: quantities ("10um", "0.04uL/s", "15mPa*s") or numbers in um, uL/s,
     mPa s; or ``channel_radius=None`` and ``channel_width`` the width W of a square RT-DC channel (R_ch =
@@ -420,7 +421,7 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
         records, failures = [], []
         tasks = [(point, str(runs)) for point in points]
         dtype = PipeFlowParameters.model_fields["dtype"].default  # the runs' LB storage precision
-        for index, outcome in run_tasks(run_point, tasks, scheduler=scheduler, workers=workers, progress=progress,
+        for index, outcome in run_tasks(run_point, tasks, scheduler=scheduler, workers=workers, progress=progress, security=security,
                                         prepare=lambda: compile_kernels((dtype,)),
                                         description="LUT grid", client=client):
             if isinstance(outcome, TaskFailure):

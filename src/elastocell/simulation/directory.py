@@ -1,8 +1,10 @@
 """One run per output directory: a lock file that names its holder.
 
 ``with output_directory(out):`` creates ``out`` and holds ``out/.elastocell.lock`` (the holder's process id,
-host and command) for the duration of a run. A second run into the same directory refuses with one line
-naming the holder; a lock left by a process that no longer exists on this host is taken over with a warning.
+host and command) for the duration of a run, touching it every :data:`HEARTBEAT` seconds. A second run into
+the same directory refuses with one line naming the holder; a lock left by a process that no longer exists on
+this host, or one untouched for :data:`STALE_AFTER` seconds (its node died: on a cluster the run is then
+recomputed elsewhere), is taken over with a warning.
 The lock is created with ``O_CREAT | O_EXCL``, so two runs starting at the same instant cannot both win.
 """
 
@@ -14,6 +16,8 @@ import os
 import shutil
 import socket
 import sys
+import threading
+import time
 import warnings
 from pathlib import Path
 
@@ -58,9 +62,12 @@ def output_directory(out, parameter: str = "out"):
         except FileExistsError:
             other = _read_holder(lock)
             same_host = other.get("host") == holder["host"]
-            if same_host and isinstance(other.get("pid"), int) and not _process_alive(other["pid"]):
-                warnings.warn(f"{out}: taking over the lock of process {other['pid']}, which no longer runs "
-                              f"(it was: {other.get('command', '?')})", stacklevel=3)
+            dead = same_host and isinstance(other.get("pid"), int) and not _process_alive(other["pid"])
+            silent = _seconds_since_heartbeat(lock) > STALE_AFTER  # its node died, or it was frozen
+            if dead or silent:
+                reason = "which no longer runs" if dead else f"silent for more than {STALE_AFTER:.0f} s"
+                warnings.warn(f"{out}: taking over the lock of process {other.get('pid', '?')} on "
+                              f"{other.get('host', '?')}, {reason} (it was: {other.get('command', '?')})", stacklevel=3)
                 with contextlib.suppress(FileNotFoundError):
                     lock.unlink()
                 continue
@@ -75,12 +82,38 @@ def output_directory(out, parameter: str = "out"):
         break
     else:  # pragma: no cover - the stale lock reappeared between unlink and create
         raise ParameterError(parameter, f"{out} is in use by another run that just started")
+    stop = threading.Event()
+    beat = threading.Thread(target=_heartbeat, args=(lock, stop), daemon=True, name="elastocell-lock-heartbeat")
+    beat.start()
     try:
         yield out
     finally:
+        stop.set()
+        beat.join()
         if _read_holder(lock).get("pid") == holder["pid"]:
             with contextlib.suppress(FileNotFoundError):
                 lock.unlink()
+
+
+HEARTBEAT = 15.0
+"""Seconds between two touches of a held lock (its modification time says the holder is alive)."""
+
+STALE_AFTER = 8 * HEARTBEAT
+"""A lock untouched for longer belongs to a run that is gone: its node died, so its process id cannot be checked
+from here. It is taken over with a warning."""
+
+
+def _heartbeat(lock: Path, stop: threading.Event) -> None:
+    while not stop.wait(HEARTBEAT):
+        with contextlib.suppress(OSError):
+            os.utime(lock)
+
+
+def _seconds_since_heartbeat(lock: Path) -> float:
+    try:
+        return time.time() - lock.stat().st_mtime
+    except OSError:
+        return 0.0
 
 
 @contextlib.contextmanager

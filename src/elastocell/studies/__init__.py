@@ -30,11 +30,12 @@ from elastocell.version import __version__
 
 
 def run_studies(names, out, quick: bool = False, scheduler: str | None = None, workers: int | None = None,
-                progress: bool = False) -> dict:
+                progress: bool = False, security=None) -> dict:
     """Run the named studies (their distinct runs once, through Dask), then write each study's table, figure
     and claims and ``out/report.md``. Finished runs in ``out/runs`` are reused: kill and rerun to resume.
 
-    Returns ``{name: {"runs", "failed", "figures", "claims"}}``."""
+    ``security``: a ``distributed.Security`` for a TLS scheduler (or the local cluster), see
+    docs/usage/cluster.md. Returns ``{name: {"runs", "failed", "figures", "claims"}}``."""
 
     studies = [get_study(name) for name in names]
     check_execution(scheduler, workers)
@@ -44,7 +45,7 @@ def run_studies(names, out, quick: bool = False, scheduler: str | None = None, w
         members = {study.name: study.members(quick) for study in studies}
         everything = [member for group in members.values() for member in group]
         start = time.perf_counter()
-        pairs, failures, executed = run_members(everything, out, scheduler=scheduler, workers=workers,
+        pairs, failures, executed = run_members(everything, out, scheduler=scheduler, workers=workers, security=security,
                                                 progress=progress)
         records = {id(member): record for member, record in pairs}
         summary = {}
@@ -86,15 +87,17 @@ def _log_timing(out: Path, names, quick: bool, scheduler, workers, wall_time: fl
 
 
 def run_study(name: str, out, quick: bool = False, scheduler: str | None = None, workers: int | None = None,
-              progress: bool = False) -> dict:
+              progress: bool = False, security=None) -> dict:
     """One study (``elastocell study run NAME``): :func:`run_studies` with a single name."""
-    return run_studies([name], out, quick=quick, scheduler=scheduler, workers=workers, progress=progress)
+    return run_studies([name], out, quick=quick, scheduler=scheduler, workers=workers, progress=progress,
+                       security=security)
 
 
 def reproduce(out, quick: bool = False, scheduler: str | None = None, workers: int | None = None,
-              progress: bool = False) -> dict:
+              progress: bool = False, security=None) -> dict:
     """Every study, sharing runs, into one directory with one report."""
-    return run_studies(study_names(), out, quick=quick, scheduler=scheduler, workers=workers, progress=progress)
+    return run_studies(study_names(), out, quick=quick, scheduler=scheduler, workers=workers, progress=progress,
+                       security=security)
 
 
 def plot_study(name: str, directory) -> dict:

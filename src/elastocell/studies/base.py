@@ -178,7 +178,7 @@ def _execute_compression(directory: Path, options: dict) -> dict:
 
     out = {}
     try:
-        summary = compress(out=directory, progress=False, **options)
+        summary = resume_or_restart(compress, directory, progress=False, **options)  # a lost run continues
     except CompressionError as error:
         summary = json.loads((directory / "metadata.json").read_text())
         out = {"status": "partial", "error": str(error).split(" (rows up to")[0]}
@@ -234,7 +234,7 @@ def _save_final_shape(directory: Path, summary: dict, options: dict) -> None:
 
 # =========================================================================== running studies
 def run_members(members: list[Member], out: Path, scheduler: str | None = None, workers: int | None = None,
-                progress: bool = False) -> tuple[list[tuple[Member, dict]], list[tuple[str, str]], list[str]]:
+                progress: bool = False, security=None) -> tuple[list[tuple[Member, dict]], list[tuple[str, str]], list[str]]:
     """Execute the distinct runs of ``members`` through Dask; return (member, record) pairs, failures and the
     ids of the runs executed now.
 
@@ -265,7 +265,7 @@ def run_members(members: list[Member], out: Path, scheduler: str | None = None, 
 
                 compile_kernel()
 
-        for index, result in run_tasks(execute_run, tasks, scheduler=scheduler, workers=workers,
+        for index, result in run_tasks(execute_run, tasks, scheduler=scheduler, workers=workers, security=security,
                                        progress=progress, description=f"{len(pending)} runs", prepare=prepare):
             run = pending[index]
             if isinstance(result, TaskFailure):
