@@ -9,15 +9,20 @@ the same files.
 
 from __future__ import annotations
 
-import hashlib
-import json
 from pathlib import Path
 
 import numpy as np
 
 from elastocell.api.plotting import plot_compression
 from elastocell.body.cell import Cell, enable_compilation_cache
-from elastocell.files import Stopwatch, replace_atomically, software_versions, write_json, write_table
+from elastocell.files import (
+    Stopwatch,
+    parameter_hash,
+    replace_atomically,
+    software_versions,
+    write_json,
+    write_table,
+)
 from elastocell.parameters.cell import (
     CellParameters,
     cell_parameters,
@@ -106,25 +111,27 @@ def compress(
 CHECKPOINT_FORMAT = 1
 """Layout of a compression ``checkpoint.npz``: the rows of :class:`CompressionResult` and a fingerprint."""
 
+CHECKPOINT_ARRAYS = ("delta", "force", "force_lower", "positions", "contact_nodes_upper", "unstable",
+                     "min_nodal_jacobian", "min_volume_ratio")
+"""The per-row arrays of :class:`CompressionResult` a checkpoint keeps."""
+
 
 def _fingerprint(body: Cell, cell: CellParameters, scenario: CompressionParameters, solver: str) -> str:
     """The hash of everything that determines the curve: the resolved cell, the load steps, which body (cell
     or its equivalent) and the solver."""
-    identity = {"cell": cell.model_dump(mode="json"), "compression": scenario.model_dump(mode="json"),
-                "equivalent": body.is_equivalent, "solver": solver, "format": CHECKPOINT_FORMAT}
-    return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
+    return parameter_hash(cell, scenario, {"equivalent": body.is_equivalent, "solver": solver},
+                          format_version=CHECKPOINT_FORMAT)
 
 
 def _save_checkpoint(path: Path, result: CompressionResult, fingerprint: str) -> None:
-    arrays = {name: getattr(result, name) for name in CHECKPOINT_ARRAYS}
-    counts = np.array([result.newton_iterations, result.substeps])
-    replace_atomically(path, lambda temporary: np.savez(
-        temporary.open("wb"), fingerprint=np.array(fingerprint), counts=counts,
-        scalars=np.array([result.max_rigid_reaction, result.wall_time]), **arrays))
+    def write(temporary: Path) -> None:
+        with temporary.open("wb") as handle:  # a file object: np.savez would append .npz to the temporary name
+            np.savez(handle, fingerprint=np.array(fingerprint),
+                     counts=np.array([result.newton_iterations, result.substeps]),
+                     scalars=np.array([result.max_rigid_reaction, result.wall_time]),
+                     **{name: getattr(result, name) for name in CHECKPOINT_ARRAYS})
 
-
-CHECKPOINT_ARRAYS = ("delta", "force", "force_lower", "positions", "contact_nodes_upper", "unstable",
-                     "min_nodal_jacobian", "min_volume_ratio")
+    replace_atomically(path, write)
 
 
 def _load_checkpoint(path: Path, fingerprint: str, n_nodes: int) -> CompressionResult:
