@@ -26,6 +26,8 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+import signal
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -111,6 +113,30 @@ def stationary_summary(series: dict, transient: float) -> dict:
 CHECKPOINT_VERSION = 4
 """Version of the checkpoint layout and of what its fingerprint (:meth:`FlowRun.fingerprint`) hashes; raised when
 the state a checkpoint holds, or how a run continues from it, changes for the same parameters."""
+
+
+class _StopAtRecord:
+    """While a run records, SIGINT and SIGTERM only note that a stop was asked for; the run then ends at the next
+    record boundary with a checkpoint of that record, so an interruption loses only the record in progress.
+    Outside the main thread (a Dask worker) signals are left alone."""
+
+    def __enter__(self):
+        self.received = None
+        self.previous = {}
+        if threading.current_thread() is threading.main_thread():
+            for number in (signal.SIGINT, signal.SIGTERM):
+                self.previous[number] = signal.signal(number, self._note)
+        return self
+
+    def _note(self, number, frame):
+        if self.received is not None:  # a second signal: stop now
+            raise KeyboardInterrupt(f"signal {number}")
+        self.received = number
+
+    def __exit__(self, *exc):
+        for number, handler in self.previous.items():
+            signal.signal(number, handler)
+        return False
 
 
 @dataclass(frozen=True)
@@ -314,18 +340,21 @@ class FlowRun:
         session_start = time.perf_counter()
         n_target = int(math.ceil(stop.duration / self.record_interval - 1e-9))
         reason = "duration"
-        while self.n_records - 1 < n_target:
-            row = self.advance_record()
-            for observer in observers:
-                observer(row, self)
-            if checkpoint is not None and (self.n_records - 1) % checkpoint_every == 0:
-                self.save(checkpoint)
-            if stop.is_stationary(self.series, self.time_column):
-                reason = "stationary"
-                break
-            if stop.wall_clock is not None and time.perf_counter() - session_start >= stop.wall_clock:
-                reason = "wall_clock"
-                break
+        with _StopAtRecord() as stop_signal:  # Ctrl-C/SIGTERM take effect after the record in progress
+            while self.n_records - 1 < n_target:
+                row = self.advance_record()
+                for observer in observers:
+                    observer(row, self)
+                if checkpoint is not None and ((self.n_records - 1) % checkpoint_every == 0 or stop_signal.received):
+                    self.save(checkpoint)
+                if stop_signal.received:
+                    raise KeyboardInterrupt(f"signal {stop_signal.received} at {self.time_column} {self.time:g}")
+                if stop.is_stationary(self.series, self.time_column):
+                    reason = "stationary"
+                    break
+                if stop.wall_clock is not None and time.perf_counter() - session_start >= stop.wall_clock:
+                    reason = "wall_clock"
+                    break
         self.stop_reason = reason
         if checkpoint is not None:
             self.save(checkpoint)
