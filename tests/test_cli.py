@@ -51,6 +51,7 @@ def test_equivalent_json_reports_effective_stiffness_ratio():
     assert payload["n_nodes"] > 0 and payload["volume"] == pytest.approx(4 / 3 * np.pi, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_compress_writes_the_contract_files(tmp_path):
     out = tmp_path / "run"
     result = runner.invoke(app, ["compress", "--out", str(out), "--delta-max", "0.1", "--steps", "2",
@@ -73,6 +74,7 @@ def test_compress_writes_the_contract_files(tmp_path):
     assert np.all(np.isfinite(ratio[1:]))
 
 
+@pytest.mark.slow
 def test_compress_records_the_rule_with_the_nodes_for_a_stiff_nucleus_and_the_smallest_volume_ratio(tmp_path):
     """`elastocell compress --stiffness-ratio 10` takes degree 5 (compression.compression_parameters_for) for the
     cell and its equivalent, and the metadata records it with the smallest J; `--quadrature-degree 2` is kept."""
@@ -122,6 +124,7 @@ def test_equivalent_run_prints_summary_and_conflicting_flags_are_refused(tmp_pat
     assert refused.exit_code == 2 and "--compare" in refused.output
 
 
+@pytest.mark.slow
 def test_bench_lattice_json_contract():
     """`elastocell bench lattice --json`: the last line is JSON with the contract keys, the roofline fraction
     is MLUPS over bandwidth / bytes per update (a consistency check; speed itself is never asserted)."""

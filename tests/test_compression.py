@@ -147,6 +147,7 @@ def test_mixed_precision_solve_refines_to_tolerance_or_falls_back_to_double(monk
     double.close()
 
 
+@pytest.mark.slow
 def test_plate_forces_equal_and_opposite_and_pins_force_free(homogeneous_small_delta):
     _, result = homogeneous_small_delta
     np.testing.assert_allclose(result.force_lower, result.force, rtol=1e-6, atol=1e-9)
@@ -175,6 +176,7 @@ def test_folded_mesh_is_detected():
     assert _folded(problem, x.ravel())
 
 
+@pytest.mark.slow
 def test_hertz_limit_at_small_deformation(homogeneous_small_delta):
     """F/(E R^2 delta^1.5) -> 4/(3(1-nu^2)) = 1.7325 as delta -> 0.
 
@@ -190,6 +192,7 @@ def test_hertz_limit_at_small_deformation(homogeneous_small_delta):
     assert coarser.force[1] / hertz_force(0.02) > ratio[0] + 0.01
 
 
+@pytest.mark.slow
 def test_linear_elements_are_stiffer_than_quadratic():
     """Volumetric locking of linear tetrahedra at nu = 0.48 (measured here: ~15-30 % stiffer at delta 0.1
     on this coarse mesh)."""
@@ -198,6 +201,7 @@ def test_linear_elements_are_stiffer_than_quadratic():
     assert p1.force[-1] > 1.05 * p2.force[-1]
 
 
+@pytest.mark.slow
 def test_refinement_changes_force_little_at_moderate_deformation():
     """F(delta = 0.3), homogeneous cell, on unstructured p2 meshes of 800-5,000 nodes: measured 0.4198,
     0.4181, 0.4159 (spread 0.9 %; the meshes are not nested, so the differences are not monotone). The test
@@ -209,6 +213,7 @@ def test_refinement_changes_force_little_at_moderate_deformation():
     assert abs(forces[1] - forces[0]) / forces[1] < 0.01
 
 
+@pytest.mark.slow
 def test_stiffer_nucleus_needs_more_force_and_equivalent_is_homogeneous():
     cell = Cell.from_parameters(cell_parameters(stiffness_ratio=10, mesh_size=0.4, pole_size=0.1,
                                                 interface_size=0.4))
@@ -223,6 +228,7 @@ def test_stiffer_nucleus_needs_more_force_and_equivalent_is_homogeneous():
     np.testing.assert_allclose(ratio, cell.effective_stiffness_ratio, rtol=1e-6)
 
 
+@pytest.mark.slow
 def test_offset_random_and_mooney_rivlin_cells_compress():
     for options in (dict(offset=0.45, offset_axis="x"), dict(random=True, seed=1),
                     dict(material="mooney-rivlin"), dict(nucleus="ellipsoid", nucleus_axis="z")):
@@ -342,6 +348,7 @@ def test_a_quadrature_of_higher_degree_sees_a_fold_the_four_point_rule_misses():
     assert np.isfinite(cells[5].energy(mesh.nodes))
 
 
+@pytest.mark.slow
 def test_holding_blocked_nodes_by_schur_complement_or_new_factorisation_gives_the_same_curve(monkeypatch):
     """Nodes that a Newton step pushes into a plate are held through the Schur complement of the factorisation
     already made; with that path switched off (MAX_SCHUR_DOFS = 0) every hold falls back to a new factorisation.
@@ -359,6 +366,7 @@ def test_holding_blocked_nodes_by_schur_complement_or_new_factorisation_gives_th
 
 
 @pytest.mark.skipif(not __import__("elastocell.solvers.sparse").solvers.sparse.HAVE_PARDISO, reason="needs PARDISO")
+@pytest.mark.slow
 def test_mixed_and_double_precision_factorisations_give_the_same_curve():
     """The precision of the factorisation changes the Newton path at most, never the equilibrium: F from the
     mixed-precision and the double-precision solver agree within the Newton tolerance (1e-7 of the plate force;

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow  # each example runs in a new process: about 90 s together
+
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 # script -> files (relative to its output directory; glob patterns allowed) that a smoke run must leave

@@ -43,6 +43,7 @@ def uninterrupted(tmp_path_factory):
     return np.genfromtxt(out / "compression.csv", delimiter=",", names=True)
 
 
+@pytest.mark.slow
 def test_an_interrupted_curve_keeps_its_rows_and_resumes_to_the_uninterrupted_curve(tmp_path, monkeypatch,
                                                                                      uninterrupted):
     # Reference: the same curve run without interruption. The resumed rows repeat the same load steps from the
@@ -113,6 +114,7 @@ def test_options_are_validated_before_any_file_is_written(tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_sigterm_during_a_curve_writes_the_converged_rows(tmp_path):
     """A batch system's stop (SIGTERM) is handled as Ctrl-C: the converged rows and an incomplete metadata."""
     out = tmp_path / "run"
@@ -266,6 +268,7 @@ def test_a_full_disk_names_the_file_and_leaves_nothing_that_looks_complete(tmp_p
     assert "compression.csv" not in left and "metadata.json" not in left and "compression.png" not in left
 
 
+@pytest.mark.slow
 def test_ctrl_c_on_the_command_line_exits_130_in_one_line_and_resume_finishes(tmp_path):
     import signal
 
@@ -326,6 +329,7 @@ def test_a_lock_whose_holder_went_silent_is_taken_over(tmp_path):
             assert json.loads(lock.read_text())["pid"] == os.getpid()
 
 
+@pytest.mark.slow
 def test_ctrl_c_in_a_flow_keeps_every_finished_record_and_resume_matches_an_uninterrupted_run(tmp_path):
     """SIGINT takes effect at the next record, with a checkpoint of that record (not only the periodic ones), so
     nothing finished is lost and the resumed series equals the uninterrupted one (the compiled steps are

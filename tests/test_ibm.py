@@ -158,6 +158,7 @@ def test_compiled_forces_flag_inverted_elements(coarse_cells):
 
 
 # --------------------------------------------------------------------------- coupled stepping
+@pytest.mark.slow
 def test_markers_without_force_follow_a_uniform_flow_exactly(coarse_cells):
     # Reference: X(t) = X0 + u0 t. With E = 0 the markers carry no force; a uniform lattice flow stays uniform
     # and both kernels interpolate it exactly, across the periodic seams too. float64: round-off (measured
@@ -230,6 +231,7 @@ def test_coupled_steps_across_periodic_seams_and_a_solid_wall_match_the_referenc
 
 
 @pytest.mark.parametrize("element, kernel, law", [("p1", "trilinear", "neo-hookean"), ("p2", "peskin4", "mooney-rivlin")])
+@pytest.mark.slow
 def test_jax_backend_coupled_steps_match_the_numba_kernels(coarse_cells, element, kernel, law):
     # Reference: the Numba coupled steps (themselves checked against the public-API path above). The JAX
     # backend (elastocell.coupling.immersed_jax, the path for GPUs) implements the same algorithm independently: JAX
@@ -260,6 +262,7 @@ def test_jax_backend_coupled_steps_match_the_numba_kernels(coarse_cells, element
 
 @pytest.mark.parametrize("kernel", KERNELS)
 @pytest.mark.parametrize("geometry", ["walls", "solid"])
+@pytest.mark.slow
 def test_jax_spreading_and_interpolation_match_ibm_at_walls_and_solids(kernel, geometry):
     # Reference: elastocell.coupling.ibm (spread; interpolate_lattice_velocity, which reads u = 0 at solid nodes and drops
     # kernel nodes beyond the y-walls). Markers are placed where the kernel support crosses a y-wall or covers

@@ -59,6 +59,7 @@ def test_shear_wave_decay_gives_the_viscosity(collision, lattice_class):
 # --------------------------------------------------------------------------- 2. Couette
 @pytest.mark.parametrize("collision", ["trt", "bgk"])
 @pytest.mark.parametrize("dtype, tolerance", [("float64", 1e-10), ("float32", 1e-4)])
+@pytest.mark.slow
 def test_couette_profile_is_linear(collision, dtype, tolerance, lattice_class):
     # Reference: walls at y = -1/2 (u_x = -U) and y = ny - 1/2 (u_x = +U); steady
     # u_x(y) = -U + 2U (y + 1/2)/ny, exact for half-way bounce-back (any tau).
@@ -79,6 +80,7 @@ def test_couette_profile_is_linear(collision, dtype, tolerance, lattice_class):
 
 # --------------------------------------------------------------------------- 3. Poiseuille
 @pytest.mark.parametrize("relaxation_time", [0.8, 1.7])
+@pytest.mark.slow
 def test_poiseuille_profile_is_the_exact_parabola_with_trt(relaxation_time, lattice_class):
     # Reference: u_x(y) = g/(2 nu) s (H - s), s = y + 1/2 the distance to the wall at
     # y = -1/2, H = ny. TRT with Lambda = 3/16 puts half-way walls exactly, so the

@@ -59,6 +59,7 @@ def test_stress_matches_finite_difference(name, params):
 
 
 @pytest.mark.parametrize("name,params", [("neo-hookean", [MU, KAPPA]), ("mooney-rivlin", [0.25 * MU, 0.75 * MU, KAPPA])])
+@pytest.mark.slow
 def test_batched_tangent_equals_pointwise_hessian(name, params):
     """material_tangent over a batch (points last, per-point parameters) = jax.hessian of W at each point, to
     round-off (1e-12 relative)."""

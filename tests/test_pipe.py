@@ -125,6 +125,7 @@ def centred_runs(cell):
                          record_interval=0.5) for ca in (0.1, 0.4)}
 
 
+@pytest.mark.slow
 def test_centred_cell_stays_on_the_axis_and_becomes_stationary(centred_runs):
     result = centred_runs[0.1]
     s = result.series
@@ -140,6 +141,7 @@ def test_centred_cell_stays_on_the_axis_and_becomes_stationary(centred_runs):
     assert abs(result.summary["volume_change_max_abs"]) < 0.01
 
 
+@pytest.mark.slow
 def test_stiffer_cell_deforms_less(centred_runs):
     def distortion(result):
         s = result.series
@@ -150,6 +152,7 @@ def test_stiffer_cell_deforms_less(centred_runs):
     assert centred_runs[0.1].summary["deformation_mean"] < centred_runs[0.4].summary["deformation_mean"]
 
 
+@pytest.mark.slow
 def test_off_axis_cell_migrates_towards_the_axis(cell):
     params = PipeFlowParameters(capillary_number_wall=0.2, start_offset=0.3, **SMALL)
     result = run_pipe(cell, params, duration=5.0, record_interval=1.0)
@@ -282,6 +285,7 @@ def test_cli_runs_and_writes_every_output(tmp_path):
     assert "eps_x" in result.output
 
 
+@pytest.mark.slow
 def test_jax_backend_carries_the_cell_like_the_numba_kernels(cell):
     # Reference: the Numba backend on the same off-axis run (channel solid mask, body force, float64). The JAX
     # backend (the GPU path) is an independent implementation of the same steps, so the time series agree to

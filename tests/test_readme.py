@@ -66,6 +66,7 @@ def test_readme_opens_with_the_two_commands():
                      'pip install ".[test]" && python -m pytest -q']
 
 
+@pytest.mark.slow
 def test_quick_start_runs(tmp_path):
     """The quick start as written (in a temporary directory): it must finish, and quickly."""
     quick = blocks("bash")[1]

@@ -149,6 +149,7 @@ def test_unstable_or_impossible_runs_are_refused_with_the_parameter(coarse_cell)
 
 
 # --------------------------------------------------------------------------- the cell in shear flow
+@pytest.mark.slow
 def test_homogeneous_cell_at_small_ca_taylor_limit_tank_treading_and_volume(coarse_cell):
     # Reference (docs/theory.md): unbounded neo-Hookean sphere in Stokes shear flow, D -> (5/4) Ca and a
     # tank-treading angular frequency -> shear_rate/2 as Ca -> 0 (viscosity ratio 1 leaves D unchanged at
@@ -331,6 +332,7 @@ def test_cli_shear_impossible_input_is_one_line_exit_2(tmp_path, arguments, opti
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.slow
 def test_cli_shear_sigkill_then_resume_equals_the_uninterrupted_run(tmp_path):
     # Reference: an uninterrupted run with the same options. A real SIGKILL after the first checkpoint; the
     # resumed series must equal it exactly (deterministic steps, complete checkpoint; tolerance 0).

@@ -177,6 +177,7 @@ def tiny_study(monkeypatch):
     return study
 
 
+@pytest.mark.slow
 def test_a_study_runs_through_dask_writes_its_outputs_and_resumes(tiny_study, tmp_path):
     summary = run_studies(["tiny"], tmp_path, quick=True, workers=1)
     assert summary["_failures"] == []
