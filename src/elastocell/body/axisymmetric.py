@@ -44,6 +44,8 @@ AXISYMMETRIC_MESH_FORMAT_VERSION = 1
 """Version of what a cached meridian mesh holds and how it is made from its parameters."""
 
 TRIANGLE6_PERMUTATION_FLIP = np.array([0, 2, 1, 5, 4, 3])
+TRIANGLE6_NODES = np.array([[0, 0], [1, 0], [0, 1], [0.5, 0], [0.5, 0.5], [0, 0.5]], dtype=float)
+"""The nodes of the reference 6-node triangle (gmsh order)."""
 """Swapping corners 1 and 2 of a 6-node triangle (gmsh order: corners, then edges (0,1), (1,2), (2,0))."""
 
 _lock = threading.Lock()
@@ -424,8 +426,16 @@ class AxisymmetricCell:
         def point_energies(x_elements, radius, grads, vals, w, p):
             return w * energy_law(deformation_gradients(x_elements, radius, grads, vals), p)
 
+        nodal = jnp.asarray(shape_functions(TRIANGLE6_NODES)[1])  # dN/dxi at the six nodes
+
         def energy(x):
-            return jnp.sum(point_energies(x[elements], reference_radius, gradients, values, weights, params))
+            # a map folded at a node (det dx/dxi <= 0 there) has no finite energy, as the 3D rule with the nodes
+            # among its points: the interior points alone let a quadratic element crushed in the thin layer between a
+            # stiff nucleus and a plate fold at a node, an equilibrium no body can reach
+            x_elements = x[elements]
+            folded = jnp.any(jnp.linalg.det(jnp.einsum("eki,qkj->eqij", x_elements, nodal)) <= 0)
+            total = jnp.sum(point_energies(x_elements, reference_radius, gradients, values, weights, params))
+            return total + jnp.where(folded, jnp.nan, 0.0)
 
         def tangents(x):
             # w_q d2W/dF2 by autodiff, [i, j, k, l, e, q]
