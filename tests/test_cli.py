@@ -169,7 +169,8 @@ EXPECTED_OPTIONS = {
                   '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 --mesh-size=None '
                   '--pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 '
                   '--material=neo-hookean --element=p2 --json=False',
-    'fit afm': 'files! --radius! --geometry=parallel-plates --poisson-ratio=0.48 --material=neo-hookean '
+    'fit afm': 'files! --radius! --geometry=parallel-plates --spring-constant=None --sensitivity=None '
+               '--poisson-ratio=0.48 --material=neo-hookean '
                '--model=both --delta-max=0.75 --contact-point=auto --bootstrap=0 --seed=0 '
                '--nucleus-size-ratio=None --stiffness-ratio=None --baseline-fraction=0.2 --threshold=5.0 '
                '--baseline-tilt=False --out=fits --no-plots=False --scheduler=None --workers=None --quiet=False',
@@ -288,6 +289,8 @@ QUANTITY_OPTIONS = [
     ("pipe", "--pressure-gradient", ["pipe", "--out", "{out}", "--radius", "8um", "--youngs-modulus", "1kPa"]),
     ("fit afm", "--radius", ["fit", "afm", "{out}/curve.csv"]),
     ("fit afm", "--contact-point", ["fit", "afm", "{out}/curve.csv", "--radius", "8um"]),
+    *[("fit afm", option, ["fit", "afm", "{out}/curve.csv", "--radius", "8um"])
+      for option in ("--spring-constant", "--sensitivity")],
     *[("fit shear", option, ["fit", "shear", "--out", "{out}", "--deformation", "0.1", "--shear-stress", "12Pa",
                              "--shear-rate", "1000/s", "--tank-treading-frequency", "400rad/s"])
       for option in ("--shear-stress", "--shear-stress-error", "--tank-treading-frequency",

@@ -67,8 +67,9 @@ def mastercurve_compression(poisson_ratio: float, material: str, out: Path | Non
 
 @fit_app.command("afm")
 @user_errors
-@takes("files", opt("radius", default=..., help="Cell radius R.", scale=None), "geometry",
-       opt("poisson_ratio", help="nu (shipped: 0.45, 0.48, 0.49)."), opt("material", help="Master curve's law."),
+@takes("files", opt("radius", default=..., help="Cell radius R.", scale=None), "geometry", "spring_constant",
+       "sensitivity", opt("poisson_ratio", help="nu (shipped: 0.45, 0.48, 0.49)."),
+       opt("material", help="Master curve's law."),
        "model", opt("delta_max", help="Fit the data up to this delta = 1 - h/(2R) (<= 0.75)."), "contact_point",
        "bootstrap", opt("seed", help="Seed of the bootstrap."), "nucleus_size_ratio",
        opt("stiffness_ratio", annotation=float | None, default=None, help="gamma = E_n/E_c.",
@@ -79,15 +80,20 @@ def mastercurve_compression(poisson_ratio: float, material: str, out: Path | Non
        opt("workers", help="Run one task per file on a local Dask cluster of N processes.",
            shown="a plain loop, or one worker per core from 150 files on, 1200 with --no-plots"),
        "quiet")
-def fit_afm(files: list[Path], radius: str, geometry: str, poisson_ratio: float, material: str, model: str,
-            delta_max: float, contact_point: str, bootstrap: int, seed: int, nucleus_size_ratio: float | None,
-            stiffness_ratio: float | None, baseline_fraction: float, threshold: float, baseline_tilt: bool,
-            out: Path, no_plots: bool, scheduler: str | None, workers: int | None, quiet: bool):
-    """Young's modulus from plate-compression force curves: master-curve and Hertz fits, 95 % CIs."""
+def fit_afm(files: list[Path], radius: str, geometry: str, spring_constant: str | None, sensitivity: str | None,
+            poisson_ratio: float, material: str, model: str, delta_max: float, contact_point: str, bootstrap: int,
+            seed: int, nucleus_size_ratio: float | None, stiffness_ratio: float | None, baseline_fraction: float,
+            threshold: float, baseline_tilt: bool, out: Path, no_plots: bool, scheduler: str | None,
+            workers: int | None, quiet: bool):
+    """Young's modulus from force curves (plain CSV or instrument files, every curve of a map): master-curve and
+    Hertz fits of plate compression, 95 % CIs; a curve that fails a check is flagged in fits.csv (exit code 3
+    when no curve is accepted)."""
     from elastocell.inverse.fit import (  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
         FitSettings,
         fit_files,
         parse_length,
+        parse_sensitivity,
+        parse_spring_constant,
     )
 
     radius_m = parse_length(radius, "radius")
@@ -95,27 +101,41 @@ def fit_afm(files: list[Path], radius: str, geometry: str, poisson_ratio: float,
     settings = FitSettings(radius=radius_m, poisson_ratio=poisson_ratio, material=material, geometry=geometry,
                            model=model, delta_max=delta_max, contact_point=contact, bootstrap=bootstrap, seed=seed,
                            baseline_fraction=baseline_fraction, threshold=threshold, baseline_tilt=baseline_tilt,
-                           nucleus_size_ratio=nucleus_size_ratio, stiffness_ratio=stiffness_ratio)
+                           nucleus_size_ratio=nucleus_size_ratio, stiffness_ratio=stiffness_ratio,
+                           spring_constant=None if spring_constant is None else parse_spring_constant(spring_constant),
+                           sensitivity=None if sensitivity is None else parse_sensitivity(sensitivity))
     check_execution(scheduler, workers)
     for path in files:
         if not path.exists():
             raise ParameterError("file", f"{path}: no such file or directory")
     result = fit_files(files, settings, out, plots=not no_plots, progress=not quiet,
                        scheduler=scheduler, workers=workers)
-    if not quiet and result["rows"]:
-        for row in result["rows"][:20]:
+    rows, accepted = result["rows"], result["accepted"]
+    if not quiet and accepted:
+        for row in rows[:20]:
+            if row.get("flag"):
+                value = row.get("youngs_modulus", float("nan"))
+                typer.echo(f"{row['file']}: flagged: {row['flag']}"
+                           + (f" (E = {value:.4g} Pa not accepted)" if value == value else ""))
+                continue
             hertz = row.get("youngs_modulus_hertz")
             typer.echo(f"{row['file']}: E = {row['youngs_modulus']:.4g} Pa [{row['youngs_modulus_ci_low']:.4g}, "
                        f"{row['youngs_modulus_ci_high']:.4g}] ({row['model']}), delta up to {row['delta_max']:.3f}"
                        + (f", Hertz {hertz:.4g} Pa" if hertz == hertz else ""))
-        typer.echo(f"{len(result['rows'])} curve(s) in {result['wall_time_s']:.2f} s ({result['execution']}) -> "
-                   f"{out / 'fits.csv'}")
+        typer.echo(f"{len(rows)} curve(s), {accepted} accepted, {len(rows) - accepted} flagged, in "
+                   f"{result['wall_time_s']:.2f} s ({result['execution']}) -> {out / 'fits.csv'}")
     if result["errors"]:
         for _, message in result["errors"]:
             typer.echo(f"elastocell: error: {message}", err=True)
         raise typer.Exit(code=2)
-    if not result["rows"]:
+    if not rows:
         fail("no curve could be fitted")
+    if not accepted:
+        first = rows[0]
+        where = first.get("source", first["file"]) if len(rows) == 1 else \
+            f"{len(rows)} curves, the flag column of {out / 'fits.csv'} gives each one's reason; first {first['file']}"
+        typer.echo(f"elastocell: error: no curve accepted ({where}): {first['flag']}".replace("\n", " "), err=True)
+        raise typer.Exit(code=3)
 
 
 @mastercurve_app.command("shear")

@@ -231,7 +231,14 @@ OPTIONS: dict[str, Opt] = _declare(
     # ---------------------------------------------------------------- fit afm
     Opt("files", list[Path], REQUIRED, "Curves: plain CSV (columns displacement in m, force in N) or afmformats "
         "files; a folder contributes its files.", argument=True),
-    Opt("geometry", str, "parallel-plates", "parallel-plates (the only one)."),
+    Opt("geometry", str, "parallel-plates", "parallel-plates (or plates) | sphere-indenter (refused until its "
+        "master surfaces exist)."),
+    Opt("spring_constant", str | None, None, "Cantilever spring constant k: overrides the file's or supplies a "
+        "missing one (force = k x deflection; afmformats recomputes it from the raw signal).", quantity="N/m",
+        shown="the file's"),
+    Opt("sensitivity", str | None, None, "Deflection sensitivity (InvOLS): overrides the file's or supplies a "
+        "missing one (deflection = sensitivity x detector signal; NT-MDT: nm/nA).", quantity="m/V",
+        shown="the file's"),
     Opt("model", str, "both", "master | hertz | both (master is youngs_modulus)."),
     Opt("contact_point", str, "auto", "auto, or the contact point's displacement.", quantity="m", words=("auto",)),
     Opt("bootstrap", int, 0, "Residual-bootstrap replicas for a second CI."),

@@ -1,28 +1,64 @@
-"""From a measured compression curve to a Young's modulus: least-squares fits to the master curve and to Hertz.
+"""From a measured force curve to a Young's modulus: instrument files, a robust contact point, least-squares fits
+to the master curve and to Hertz, and the checks that say when a fit cannot be trusted.
 
-Geometry: parallel plates (docs/theory.md). The plate's approach ``displacement`` (m, increasing towards the cell)
-and the ``force`` (N) are converted to ``delta = (displacement - contact_point) / (2 R)`` (the gap is
-``h = 2R - (displacement - contact_point)``, so ``delta = 1 - h/(2R)``) and fitted by
+Geometry: parallel plates (docs/theory.md; ``plates`` is the same). The plate's approach ``displacement`` (m,
+increasing towards the cell) and the ``force`` (N) are converted to ``delta = (displacement - contact_point) / (2 R)``
+(the gap is ``h = 2R - (displacement - contact_point)``, so ``delta = 1 - h/(2R)``) and fitted by
 ``F = E R^2 f(delta)`` with ``f`` the homogeneous master curve (:mod:`elastocell.inverse.mastercurve`) or Hertz's
-two-contact law ``f = 4/(3(1-nu^2)) delta^(3/2)``.
+two-contact law ``f = 4/(3(1-nu^2)) delta^(3/2)``. ``sphere-indenter`` is refused until its master surfaces exist;
+:func:`fit_hertz_sphere` is its Hertz estimate, ``F = 4/3 E/(1-nu^2) sqrt(R_b) d^(3/2)`` for a bead of radius R_b.
 
-Contact point (``contact_point="auto"``):
-1. Baseline: the mean force over the first ``baseline_fraction`` (20 %) of the approach (sorted by
-   displacement; with ``baseline_tilt`` a straight line instead -- its slope, extrapolated over the contact
-   region, adds a tilt that is only worth it when the baseline is long and clearly tilted); the residual
-   standard deviation is the force noise ``sigma``. The baseline is subtracted from the whole curve.
-2. First guess: the last point whose corrected force is below ``threshold * sigma`` (5 sigma). The force
-   rises as delta^1.5, so this crossing is late; it is moved back by extrapolating F^(2/3) (linear in the
-   displacement for Hertz) over the next points (up to 5 % of the force range, at most 50 points) to zero force.
-3. Refinement: E and the contact point are fitted together by least squares over every point up to
-   ``delta_max`` (points before contact are predicted to carry no force), re-selecting the points with the
-   refined contact point until the selection settles (at most 6 fits), together with a constant force offset (what the baseline
-   left), so that the baseline's uncertainty enters E's.
-A numeric ``contact_point`` fixes it and only E is fitted.
+Reading (:func:`read_curves`): a ``.csv``/``.tsv``/``.txt`` whose header names the columns ``displacement`` (m)
+and ``force`` (N) is elastocell's plain CSV, read as it is (its displacement is the plate's own). Every other file
+goes to afmformats (JPK ``.jpk-force``/``-force-map``/``-qi-series``/``-qi-data``, Asylum ``.ibw``, AFM Workshop
+``.csv``, NT-MDT ``.txt``, afmformats' ``.tab``/``.h5``), and afmformats' own error is the one reported. Each
+curve's approach segment (cut at the piezo's turning point) becomes the tip's displacement towards the sample,
+``displacement = -(tip position)`` with ``tip position = height (measured) + force / k``: the piezo height minus
+the cantilever's deflection, the convention of afmformats and of nanite's ``compute_tip_position`` (a file's own
+``tip position`` column is used as it is). Without the deflection removed, the cantilever's bending counts as
+indentation and E comes out too low. ``spring_constant`` (N/m) and ``sensitivity`` (m/V) override the file's
+calibration or supply a missing one, with ``F = k * deflection`` and ``deflection = sensitivity * signal``: afmformats
+recomputes the force from the raw detector signal where its reader takes them (JPK, AFM Workshop, NT-MDT; the
+NT-MDT signal is a photodiode current in nA, so its sensitivity is in nm/nA, given here as nm/V); for the other
+formats the signal is recovered from the file's own calibration, ``signal = F / (k_file s_file)``, and
+``F = k s signal``. An AFM Workshop file that stores force in nN has no signal to rescale: ``k`` then only turns
+the force into the deflection.
 
-Uncertainty: a 95 % confidence interval from the fit's covariance (Student t, ``s^2 (J^T J)^-1``) and,
+Contact point (``contact_point="auto"``, :func:`estimate_contact`):
+1. Baseline: the first ``baseline_fraction`` (20 %) of the approach (sorted by displacement), its mean (with
+   ``baseline_tilt`` a straight line); the force noise ``sigma`` is 1.4826 times the median absolute deviation of
+   its residuals (the standard deviation of Gaussian noise, unmoved by spikes). The baseline is subtracted.
+2. Noise exit: the last point whose corrected force is at most ``threshold * sigma`` (5 sigma); after it the force
+   stays above the noise. No such rise (fewer than 3 points after it): "no contact".
+3. Change point: a piecewise model, a flat baseline and then a power law, ``F = b + a (x - c)^p`` for ``x > c``
+   (``a >= 0``, ``p`` in 1..2.5), fitted by linear least squares for each candidate ``c`` between the first point
+   and the noise exit (coarse to fine) to the curve up to 30 % of its largest force. Its ``c`` is the first guess.
+4. The rise region ``[c - max(x_exit - c, 5 spacings), x_exit]``: the contact must lie where the force leaves the
+   noise. The final fit keeps its contact point inside it (a contact point on its edge is flagged).
+5. Refinement: E, the contact point and a constant force offset (what the baseline left) are fitted together by
+   least squares over every point up to ``delta_max``, re-selecting the points with the refined contact point
+   until the selection settles (at most 6 fits), so that the baseline's uncertainty enters E's.
+A numeric ``contact_point`` fixes it and only E (and the offset) is fitted.
+
+Uncertainty: a 95 % confidence interval from the fit's covariance (Student t, ``s^2 (J^T J)^-1``), widened for
+correlated noise by ``sqrt((1 + rho)/(1 - rho))`` with ``rho`` the lag-1 autocorrelation of the residuals before
+contact (the AR(1) effective sample size; ``noise_correlation_inflation``; measured on synthetic curves with AR(1)
+noise: coverage 0.45 at rho = 0.9 without it, 0.95 with it), and,
 with ``bootstrap=N``, a residual bootstrap (percentile interval of N refits to fitted curve + resampled
 residuals). ``chi_square`` uses the baseline noise ``sigma``.
+
+Checks (:func:`check_fit`, every fit): a curve that fails one gets a non-empty ``flag`` in ``fits.csv`` (its
+reasons, separated by ``; ``), is drawn in a warning colour, and a value that is no result (E not finite or
+positive, E at the solver's lower bound, an interval bound below zero) is written as NaN:
+- the contact point inside the rise region and not on its edge;
+- E finite, positive and above the solver's floor; its interval finite with both bounds > 0 and not wider
+  than E itself (``ci_high - ci_low <= E``);
+- at least :data:`MIN_POINTS_IN_CONTACT` points in contact;
+- residuals without structure: the signs of the in-contact residuals, taken one per correlation length of the
+  baseline noise (so coloured noise is not mistaken for a misfit), have a runs-test z above
+  :data:`RUNS_Z_LIMIT`, or the misfit is small (the rms of the residuals smoothed over a twentieth of the contact
+  region, below :data:`SYSTEMATIC_LIMIT` of the largest fitted force).
+A curve that cannot be fitted at all (unreadable calibration, no contact) is a row with its reason as the flag.
 
 Many files: :func:`fit_files` runs one Dask task per file (:mod:`elastocell.simulation.distributed`) with ``workers`` or
 ``scheduler``, or by itself from :data:`DASK_AUTO_MIN_FILES` files on; ``fits.csv`` is the same either way.
@@ -35,7 +71,9 @@ uncertainty and the curve's error; :func:`fit_shear_cells` writes ``shear_fits.c
 from __future__ import annotations
 
 import functools
+import logging
 import math
+import re
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -52,6 +90,25 @@ from elastocell.scenarios.compression import hertz_force
 from elastocell.simulation.distributed import TaskFailure, check_execution, default_workers, run_tasks
 
 PLAIN_SUFFIXES = (".csv", ".txt", ".tsv")
+GEOMETRIES = {"parallel-plates": "parallel-plates", "plates": "parallel-plates", "sphere-indenter": "sphere-indenter"}
+"""Accepted ``geometry`` names and what they mean (``plates`` is an alias)."""
+SPHERE_INDENTER_UNAVAILABLE = ("sphere-indenter: the sphere-indenter master surfaces are not available yet; use "
+                               "parallel-plates (or plates)")
+
+RISE_FRACTION = 0.05
+"""The contact point lies before the force has risen above this fraction of its largest value (and above
+``threshold`` sigma of the baseline noise): a slow foot or a drifting baseline stays within the rise region."""
+MIN_POINTS_IN_CONTACT = 10
+"""Fewer points in contact than this (below delta_max) and the fit is flagged."""
+RUNS_Z_LIMIT = -3.29
+"""Runs test on the signs of the in-contact residuals (one per correlation length of the baseline noise): fewer
+runs than chance by more than 3.29 standard deviations (two-sided p = 0.001) is structure ..."""
+SYSTEMATIC_LIMIT = 0.02
+"""... and it is flagged when the smoothed residual's rms is also above this fraction of the largest fitted force."""
+
+# makers whose afmformats reader recomputes the force from the raw signal with a user's calibration
+_RECALIBRATING_READERS = ("JPK Instruments", "AFM workshop", "NT-MDT Spectrum Instruments")
+_NTMDT = "NT-MDT Spectrum Instruments"
 
 
 class CurveError(ValueError):
@@ -74,14 +131,22 @@ class FitSettings:
     baseline_tilt: bool = False
     nucleus_size_ratio: float | None = None
     stiffness_ratio: float | None = None
+    spring_constant: float | None = None  # N/m; None = the file's
+    sensitivity: float | None = None  # m/V; None = the file's
+    bead_radius: float | None = None  # m, R_b of a spherical probe (recorded)
 
     def __post_init__(self):
         if not (math.isfinite(self.radius) and self.radius > 0):
             raise ParameterError("radius", f"must be > 0, got {self.radius}")
         if not (math.isfinite(self.poisson_ratio) and -1 < self.poisson_ratio < 0.5):
             raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {self.poisson_ratio}")
-        if self.geometry != "parallel-plates":
-            raise ParameterError("geometry", f"only parallel-plates is supported, got {self.geometry!r}")
+        geometry = GEOMETRIES.get(str(self.geometry).strip().lower())
+        if geometry is None:
+            raise ParameterError("geometry", f"must be parallel-plates (or plates) or sphere-indenter, got "
+                                             f"{self.geometry!r}")
+        if geometry == "sphere-indenter":
+            raise ParameterError("geometry", SPHERE_INDENTER_UNAVAILABLE.split(": ", 1)[1])
+        object.__setattr__(self, "geometry", geometry)
         if self.model not in ("master", "hertz", "both"):
             raise ParameterError("model", f"must be master, hertz or both, got {self.model!r}")
         if not 0 < self.delta_max <= 0.75:
@@ -101,6 +166,10 @@ class FitSettings:
                 raise ParameterError("nucleus_size_ratio", f"must be in (0, 1), got {self.nucleus_size_ratio}")
             if not (math.isfinite(self.stiffness_ratio) and self.stiffness_ratio > 0):
                 raise ParameterError("stiffness_ratio", f"must be > 0, got {self.stiffness_ratio}")
+        for name in ("spring_constant", "sensitivity", "bead_radius"):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise ParameterError(name, f"must be > 0, got {value}")
 
 
 def parse_length(value, parameter: str) -> float:
@@ -109,55 +178,81 @@ def parse_length(value, parameter: str) -> float:
     return magnitude
 
 
+def parse_spring_constant(value, parameter: str = "spring_constant") -> float:
+    """A spring constant in N/m from '0.05N/m', '50 mN/m' or a bare number (N/m)."""
+    return parse_quantity(value, "N/m", parameter)[0]
+
+
+def parse_sensitivity(value, parameter: str = "sensitivity") -> float:
+    """A deflection sensitivity in m/V from '50nm/V' or a bare number (nm/V)."""
+    return parse_quantity(value, "m/V", parameter)[0]
+
+
 # ---------------------------------------------------------------- reading
 
 
-def read_curves(path: Path) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """``[(name, displacement_m, force_N), ...]`` of the approach segment(s) in ``path``.
+@dataclass
+class Curve:
+    """One approach curve: ``displacement`` (m, towards the sample: the tip's for an instrument file) and
+    ``force`` (N), with where it came from and the calibration it was read with."""
 
-    Plain CSV/TSV with the columns ``displacement`` and ``force``; otherwise (or if those columns are absent
-    and afmformats can read the file) afmformats' formats: the approach segment, displacement = -tip position
-    (piezo height minus cantilever deflection), so it increases towards the sample.
-    """
+    name: str
+    displacement: np.ndarray
+    force: np.ndarray
+    source: str = ""
+    index: int = 0
+    piezo_displacement: np.ndarray | None = None  # m, -(height (measured)): before the deflection is removed
+    instrument: str = ""
+    format: str = "plain CSV"
+    spring_constant: float = float("nan")  # N/m
+    sensitivity: float = float("nan")  # m/V (NT-MDT: m/nA)
+    calibration: str = "file"
+    position: str = "displacement column"
+
+    def info(self) -> dict:
+        """The columns fits.csv records about the curve's reading."""
+        return {"source": self.source, "curve_index": self.index, "instrument": self.instrument,
+                "format": self.format, "spring_constant": self.spring_constant, "sensitivity": self.sensitivity,
+                "calibration": self.calibration, "position": self.position}
+
+
+def read_curves(path: Path, spring_constant: float | None = None, sensitivity: float | None = None) -> list[Curve]:
+    """Every approach curve in ``path`` (see the module docstring): elastocell's plain CSV, or afmformats'
+    formats with the tip position; ``spring_constant`` (N/m) and ``sensitivity`` (m/V) override or supply the
+    file's calibration. Raises CurveError naming the file (with afmformats' own error for its formats)."""
     path = Path(path)
     if not path.exists():
         raise CurveError(f"{path}: no such file")
-    if path.suffix.lower() in PLAIN_SUFFIXES:
-        plain = _read_plain(path)
-        if plain is not None:
-            return [(path.stem, *plain)]
-    try:
-        import afmformats
-    except ImportError:
-        afmformats = None
-    if afmformats is None or path.suffix.lower() not in afmformats.supported_extensions:
-        if path.suffix.lower() in PLAIN_SUFFIXES:
+    suffix = path.suffix.lower()
+    if suffix in PLAIN_SUFFIXES and _looks_plain(path):
+        if spring_constant is not None or sensitivity is not None:
+            raise CurveError(f"{path}: a plain CSV holds force and displacement, no detector signal: "
+                             "--spring-constant and --sensitivity do not apply to it")
+        displacement, force = _read_plain(path)
+        return [Curve(path.stem, displacement, force, source=str(path))]
+    import afmformats  # noqa: F401  (a dependency; imported here because it takes 0.5 s)
+
+    if suffix not in afmformats.supported_extensions:
+        if suffix in PLAIN_SUFFIXES:
             raise CurveError(f"{path}: missing column(s) 'displacement' and/or 'force' (plain CSV needs both)")
-        hint = "" if afmformats is not None else " (install afmformats for AFM file formats)"
-        raise CurveError(f"{path}: unsupported file type {path.suffix!r}{hint}")
+        raise CurveError(f"{path}: unsupported file type {path.suffix!r} (plain CSV, or afmformats' "
+                         f"{', '.join(afmformats.supported_extensions)})")
+    return _read_afmformats(path, spring_constant, sensitivity)
+
+
+def _looks_plain(path: Path) -> bool:
+    """Whether the first line that is not blank or a ``#`` comment names the columns displacement and force."""
     try:
-        datasets = afmformats.load_data(path, modality="force-distance")
-    except (Exception, afmformats.errors.AFMFileFormatError, afmformats.errors.MissingMetaDataError) as error:
-        # afmformats raises many types for foreign files, some derived from BaseException
-        if path.suffix.lower() in PLAIN_SUFFIXES:
-            raise CurveError(f"{path}: missing column(s) 'displacement' and/or 'force' (plain CSV needs both)") from None
-        raise CurveError(f"{path}: afmformats cannot read it ({type(error).__name__}: {error})") from None
-    curves = []
-    for index, data in enumerate(datasets):
-        segment = data.appr
-        columns = set(data.columns)
-        if "tip position" in columns:
-            displacement = -np.asarray(segment["tip position"], dtype=float)
-        elif "height (measured)" in columns:
-            displacement = -np.asarray(segment["height (measured)"], dtype=float)
-        else:
-            raise CurveError(f"{path}: curve {index} has no tip position or height column")
-        force = np.asarray(segment["force"], dtype=float)
-        name = path.stem if len(datasets) == 1 else f"{path.stem}_{index:04d}"
-        curves.append((name, displacement, force))
-    if not curves:
-        raise CurveError(f"{path}: no force-distance curve in the file")
-    return curves
+        with open(path, encoding="utf-8") as handle:
+            for _, line in zip(range(200), handle, strict=False):
+                text = line.strip()
+                if not text or text.startswith("#"):
+                    continue
+                names = {token.strip("\"' ").lower() for token in re.split(r"[,;\t ]+", text)}
+                return {"displacement", "force"} <= names
+    except (UnicodeDecodeError, OSError):
+        return False
+    return False
 
 
 def _read_plain(path: Path):
@@ -167,15 +262,142 @@ def _read_plain(path: Path):
         table = pd.read_csv(path, sep=None, engine="python", comment="#")
     except Exception as error:
         raise CurveError(f"{path}: cannot read as CSV ({type(error).__name__}: {error})") from None
-    columns = {str(c).strip().lower(): c for c in table.columns}
+    columns = {str(c).strip().strip("\"'").lower(): c for c in table.columns}
     if "displacement" not in columns or "force" not in columns:
-        return None
+        raise CurveError(f"{path}: missing column(s) 'displacement' and/or 'force' (plain CSV needs both)")
     try:
         displacement = pd.to_numeric(table[columns["displacement"]], errors="raise").to_numpy(float)
         force = pd.to_numeric(table[columns["force"]], errors="raise").to_numpy(float)
     except (ValueError, TypeError):
         raise CurveError(f"{path}: non-numeric values in 'displacement' or 'force'") from None
     return displacement, force
+
+
+def _afmformats_error(path: Path, error: BaseException) -> CurveError:
+    import afmformats
+
+    message = f"{path}: afmformats cannot read it ({type(error).__name__}: {error})"
+    if isinstance(error, afmformats.errors.MissingMetaDataError) or "sensitivity" in str(error) \
+            or "spring constant" in str(error):
+        message += "; give --spring-constant and --sensitivity"
+    if path.suffix.lower() in PLAIN_SUFFIXES:
+        message += "; not elastocell's plain CSV either (missing column(s) 'displacement' and/or 'force')"
+    return CurveError(message)
+
+
+def _load_afmformats(path: Path, meta_override: dict):
+    """afmformats.load_data without its logged tracebacks (its own exception is raised, and reported)."""
+    import afmformats
+
+    logger = logging.getLogger("afmformats")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL + 1)
+    try:
+        return afmformats.load_data(path, meta_override=meta_override, modality="force-distance")
+    finally:
+        logger.setLevel(level)
+
+
+def _read_afmformats(path: Path, spring_constant: float | None, sensitivity: float | None) -> list[Curve]:
+    import warnings
+
+    import afmformats
+
+    try:
+        recipe = afmformats.formats.get_recipe(path, modality="force-distance")
+        maker = recipe["maker"]
+    except BaseException as error:  # afmformats raises many types for foreign files
+        if isinstance(error, (KeyboardInterrupt, SystemExit)):
+            raise
+        raise _afmformats_error(path, error) from None
+    overridden = spring_constant is not None or sensitivity is not None
+    recalibrates = maker in _RECALIBRATING_READERS
+    override = {}
+    if recalibrates:
+        if spring_constant is not None:
+            override["spring constant"] = spring_constant
+        if sensitivity is not None:  # NT-MDT's signal is in nA and afmformats takes m/A: nm/nA = 1e9 * (m/nA)
+            override["sensitivity"] = sensitivity * (1e9 if maker == _NTMDT else 1.0)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            datasets = _load_afmformats(path, override)
+    except BaseException as error:
+        if isinstance(error, (KeyboardInterrupt, SystemExit)):
+            raise
+        raise _afmformats_error(path, error) from None
+    curves = []
+    for index, data in enumerate(datasets):
+        name = path.stem if len(datasets) == 1 else f"{path.stem}_{index:04d}"
+        try:
+            curves.append(_afmformats_curve(data, name, str(path), index, maker, spring_constant, sensitivity,
+                                            overridden and not recalibrates))
+        except CurveError as error:
+            curves.append(CurveError(f"{path}: curve {index}: {error}"))
+    if not curves:
+        raise CurveError(f"{path}: no force-distance curve in the file")
+    if all(isinstance(curve, CurveError) for curve in curves):  # the file's calibration, not one curve
+        raise CurveError(str(curves[0]).replace(f"{path}: curve 0: ", f"{path}: ", 1))
+    return curves
+
+
+def _afmformats_curve(data, name: str, source: str, index: int, maker: str, spring_constant, sensitivity,
+                      rescale: bool) -> Curve:
+    """One afmformats dataset as a Curve (tip position; calibration overridden or supplied)."""
+    metadata = data.metadata
+    columns = set(data.columns)
+    file_k = metadata.get("spring constant")
+    file_s = metadata.get("sensitivity")
+    segment = data.appr
+    if "force" not in columns:
+        raise CurveError("no force column")
+    force = np.asarray(segment["force"], dtype=float)
+    if "height (measured)" in columns:
+        height, position = np.asarray(segment["height (measured)"], dtype=float), "tip"
+    elif "height (piezo)" in columns:
+        height, position = np.asarray(segment["height (piezo)"], dtype=float), "tip (from the piezo's set height)"
+    else:
+        height, position = None, ""
+    calibration = "file"
+    k, s = file_k, file_s
+    if rescale:  # the reader does not recompute: the signal from the file's calibration, F = k s signal
+        k = spring_constant if spring_constant is not None else file_k
+        s = sensitivity if sensitivity is not None else file_s
+        missing = [label for label, value in (("spring constant", file_k), ("sensitivity", file_s)) if not value]
+        if missing:
+            raise CurveError(f"the file has no {' or '.join(missing)} to recover the detector signal from, so "
+                             "--spring-constant/--sensitivity cannot rescale its force")
+        force = force * (k / file_k) * (s / file_s)
+        calibration = "rescaled by elastocell from the file's calibration (signal = F/(k_file s_file))"
+    elif spring_constant is not None or sensitivity is not None:
+        calibration = "recomputed by afmformats from the raw signal"
+    if maker == _NTMDT and s:
+        s = s * 1e-9  # afmformats' m/A back to m per nA
+    if "tip position" in data.columns_innate and not rescale and spring_constant is None:
+        tip = np.asarray(segment["tip position"], dtype=float)
+        position = "tip (the file's tip position)"
+    else:
+        if height is None:
+            raise CurveError("no height column")
+        if not k:
+            raise CurveError("no spring constant in the file: the tip position (piezo height minus the deflection "
+                             "F/k) needs one; give --spring-constant")
+        tip = height + force / k  # nanite's compute_tip_position: piezo height minus deflection
+    piezo = -height if height is not None else None
+    displacement = -tip
+    # the approach ends where the piezo turns (some readers put the whole curve in the approach segment)
+    reach = piezo if piezo is not None else displacement
+    finite = np.isfinite(reach)
+    if finite.any():
+        turn = int(np.nanargmax(np.where(finite, reach, -np.inf)))
+        displacement, force = displacement[:turn + 1], force[:turn + 1]
+        piezo = piezo[:turn + 1] if piezo is not None else None
+    instrument = str(metadata.get("instrument") or metadata.get("software") or maker)
+    return Curve(name, displacement, force, source=source, index=index, piezo_displacement=piezo,
+                 instrument=instrument, format=str(metadata.get("format", maker)),
+                 spring_constant=float(k) if k else float("nan"), sensitivity=float(s) if s else float("nan"),
+                 calibration=calibration, position=position + " = piezo height - deflection"
+                 if "file's" not in position else position)
 
 
 def _clean(name: str, displacement: np.ndarray, force: np.ndarray):
@@ -204,21 +426,104 @@ class Baseline:
 
 
 def fit_baseline(displacement: np.ndarray, force: np.ndarray, fraction: float = 0.2, tilt: bool = False) -> Baseline:
-    """Force offset (and, with ``tilt``, slope) of the first ``fraction`` of the approach, and its noise."""
+    """Force offset (and, with ``tilt``, slope) of the first ``fraction`` of the approach, and its noise
+    (1.4826 x the median absolute deviation of the residuals; their standard deviation if that is 0, as on a
+    coarsely quantised signal)."""
     n = max(5, int(round(fraction * len(displacement))))
     if tilt:
         slope, intercept = np.polyfit(displacement[:n], force[:n], 1)
     else:
         slope, intercept = 0.0, float(np.mean(force[:n]))
     residual = force[:n] - (slope * displacement[:n] + intercept)
-    sigma = float(np.sqrt(np.sum(residual**2) / max(n - (2 if tilt else 1), 1)))
+    sigma = 1.4826 * float(np.median(np.abs(residual - np.median(residual))))
+    if not sigma > 0:
+        sigma = float(np.sqrt(np.sum(residual**2) / max(n - (2 if tilt else 1), 1)))
     return Baseline(float(slope), float(intercept), sigma, n)
 
 
-def estimate_contact_point(displacement: np.ndarray, force: np.ndarray, fraction: float = 0.2,
-                           threshold: float = 5.0, name: str = "curve", tilt: bool = False) -> tuple[float, Baseline]:
-    """First guess of the contact point: the last point whose baseline-corrected force is below
-    ``threshold`` times the baseline noise (see the module docstring). Returns ``(contact, baseline)``."""
+@dataclass
+class ContactEstimate:
+    """The contact point's first guess (change point), the rise region that bounds it, and the baseline."""
+
+    contact: float
+    lower: float  # m: the rise region [lower, upper]
+    upper: float  # m: the noise exit, where the force has left the baseline noise for good
+    baseline: Baseline
+    level: float  # N: threshold * sigma
+    exponent: float  # p of the change-point model
+
+
+def _change_point(x: np.ndarray, y: np.ndarray, low: float, high: float, tilt: bool) -> tuple[float, float]:
+    """``c`` (and ``p``) of the least-squares piecewise model ``y = b (+ s x) + a max(x - c, 0)^p`` (a >= 0),
+    ``c`` in [low, high], ``p`` in 1..2.5: candidates on a grid of 160 (on bin means of at most 2000 points),
+    refined three times (41 candidates around the best, on every point)."""
+    exponents = (1.0, 1.25, 1.5, 1.75, 2.0, 2.5)
+    scale = max(float(x[-1] - x[0]), 1e-300)
+    u = (x - x[0]) / scale  # a well-conditioned abscissa
+    lo, hi = (low - x[0]) / scale, (high - x[0]) / scale
+    if len(u) > 4000:  # the coarse pass on bin means: the shape, at a fraction of the cost
+        groups = len(u) // 2000 + 1
+        cut = len(u) // groups * groups
+        coarse = u[:cut].reshape(-1, groups).mean(axis=1), y[:cut].reshape(-1, groups).mean(axis=1)
+    else:
+        coarse = u, y
+
+    def scan(uu, yy, candidates):
+        # the power-law term is zero before the earliest candidate: sums over those points are the baseline's
+        first = int(np.searchsorted(uu, candidates.min(), side="right"))
+        tail_u, tail_y = uu[first:], yy[first:]
+        sums = {"1": float(len(uu)), "x": float(uu.sum()), "xx": float(uu @ uu), "y": float(yy.sum()),
+                "xy": float(uu @ yy), "yy": float(yy @ yy)}
+        t = np.maximum(tail_u[None, :] - candidates[:, None], 0.0)
+        log_t = np.full_like(t, -np.inf)
+        np.log(t, out=log_t, where=t > 0)
+        best = (math.inf, None, None)
+        for p in exponents:
+            g = np.exp(p * log_t)
+            g_sum, gg, gy = g.sum(axis=1), np.einsum("ij,ij->i", g, g), g @ tail_y
+            m = len(candidates)
+            if tilt:
+                gx = g @ tail_u
+                gram = np.empty((m, 3, 3))
+                gram[:, 0, 0], gram[:, 0, 1], gram[:, 1, 1] = sums["1"], sums["x"], sums["xx"]
+                gram[:, 0, 2], gram[:, 1, 2], gram[:, 2, 2] = g_sum, gx, gg
+                rhs = np.stack([np.full(m, sums["y"]), np.full(m, sums["xy"]), gy], axis=1)
+            else:
+                gram = np.empty((m, 2, 2))
+                gram[:, 0, 0], gram[:, 0, 1], gram[:, 1, 1] = sums["1"], g_sum, gg
+                rhs = np.stack([np.full(m, sums["y"]), gy], axis=1)
+            k = gram.shape[1]
+            for i in range(k):
+                for j in range(i):
+                    gram[:, i, j] = gram[:, j, i]
+            usable = gg > 0
+            gram[~usable] = np.eye(k)
+            coefficients = np.linalg.solve(gram, rhs[..., None])[..., 0]
+            ssr = sums["yy"] - np.sum(coefficients * rhs, axis=1)
+            ssr[~usable | (coefficients[:, -1] < 0) | ~np.isfinite(ssr)] = np.inf  # the force rises after contact
+            i = int(np.argmin(ssr))
+            if ssr[i] < best[0]:
+                best = (float(ssr[i]), float(candidates[i]), p)
+        return best
+
+    candidates = np.linspace(lo, hi, 160)
+    _, c, p = scan(*coarse, candidates)
+    if c is None:
+        return high, 1.5
+    step = candidates[1] - candidates[0]
+    for _ in range(3):
+        candidates = np.linspace(max(lo, c - 2 * step), min(hi, c + 2 * step), 41)
+        step = candidates[1] - candidates[0]
+        _, refined, exponent = scan(u, y, candidates)
+        if refined is not None:
+            c, p = refined, exponent
+    return float(x[0] + c * scale), float(p)
+
+
+def estimate_contact(displacement: np.ndarray, force: np.ndarray, fraction: float = 0.2, threshold: float = 5.0,
+                     name: str = "curve", tilt: bool = False) -> ContactEstimate:
+    """The contact point's first guess and its rise region (steps 1-4 of the module docstring); displacement
+    sorted and increasing. Raises CurveError ("no contact") when the force never leaves the baseline noise."""
     baseline = fit_baseline(displacement, force, fraction, tilt)
     corrected = force - baseline(displacement)
     level = threshold * baseline.sigma
@@ -228,16 +533,26 @@ def estimate_contact_point(displacement: np.ndarray, force: np.ndarray, fraction
     if len(below) == 0 or below[-1] >= len(displacement) - 3 or corrected[-1] <= level:
         raise CurveError(f"{name}: no contact found (the force never rises above {threshold:g} sigma of the "
                          f"baseline, sigma = {baseline.sigma:.3g} N)")
-    crossing = below[-1]
-    contact = float(displacement[crossing])
-    # extrapolate F^(2/3), linear in (displacement - contact) near contact (Hertz), back to zero force
-    after = np.arange(crossing + 1, len(displacement))
-    window = after[corrected[after] <= level + 0.05 * (corrected.max() - level)][:50]
-    if len(window) >= 3:
-        slope, intercept = np.polyfit(displacement[window], np.cbrt(corrected[window]) ** 2, 1)
-        if slope > 0:
-            contact = float(np.clip(-intercept / slope, displacement[0], contact))
-    return contact, baseline
+    peak = float(corrected.max())
+    # the noise exit: after it the force stays above the noise and above RISE_FRACTION of its largest value
+    crossing = int(np.nonzero(corrected <= max(level, RISE_FRACTION * peak))[0][-1])
+    upper = float(displacement[min(crossing + 1, len(displacement) - 1)])
+    above = np.nonzero(corrected >= 0.3 * peak)[0]
+    end = max(int(above[0]) if len(above) else len(displacement) - 1, crossing + 10)
+    end = min(end, len(displacement) - 1)
+    contact, exponent = _change_point(displacement[:end + 1], corrected[:end + 1], float(displacement[0]), upper,
+                                      tilt)
+    contact = min(contact, upper)
+    spacing = float(np.median(np.diff(displacement))) if len(displacement) > 1 else 0.0
+    lower = max(float(displacement[0]), contact - max(upper - contact, 5 * spacing))
+    return ContactEstimate(contact, lower, upper, baseline, level, exponent)
+
+
+def estimate_contact_point(displacement: np.ndarray, force: np.ndarray, fraction: float = 0.2,
+                           threshold: float = 5.0, name: str = "curve", tilt: bool = False) -> tuple[float, Baseline]:
+    """First guess of the contact point (the change point of :func:`estimate_contact`) and the baseline."""
+    estimate = estimate_contact(displacement, force, fraction, threshold, name, tilt)
+    return estimate.contact, estimate.baseline
 
 
 # ---------------------------------------------------------------- least squares
@@ -249,19 +564,71 @@ def _model_function(model: str, curve: MasterCurve | None, poisson_ratio: float)
     return lambda delta: hertz_force(np.maximum(delta, 0.0), poisson_ratio)
 
 
+def _lag_correlation(values: np.ndarray, lag: int) -> float:
+    if len(values) <= lag + 2:
+        return float("nan")
+    centred = values - values.mean()
+    denominator = float(np.sum(centred**2))
+    return float(np.sum(centred[:-lag] * centred[lag:]) / denominator) if denominator > 0 else float("nan")
+
+
+def residual_structure(contact_residuals: np.ndarray, baseline_residuals: np.ndarray, force_scale: float) -> dict:
+    """Structure in the residuals of the points in contact, judged against the baseline noise's own colour.
+
+    ``residual_lag1``/``residual_lag1_baseline``: lag-1 autocorrelations. ``residual_decorrelation``: the
+    baseline noise's correlation length (the first lag, up to 50, where its autocorrelation falls below 0.2).
+    ``residual_runs_z``: the Wald-Wolfowitz runs test on the signs of the in-contact residuals taken one per
+    correlation length (negative: fewer runs than chance, a systematic misfit). ``residual_systematic``: the rms
+    of the in-contact residuals smoothed over a twentieth of the contact region (at least a correlation length),
+    over ``force_scale`` (the largest fitted force)."""
+    contact_residuals = np.asarray(contact_residuals, float)
+    baseline_residuals = np.asarray(baseline_residuals, float)
+    step = 1
+    if len(baseline_residuals) >= 20:
+        for lag in range(1, min(50, len(baseline_residuals) // 4) + 1):
+            step = lag
+            if not _lag_correlation(baseline_residuals, lag) >= 0.2:
+                break
+    signs = np.sign(contact_residuals[::step])
+    signs = signs[signs != 0]
+    n_plus, n_minus = int(np.sum(signs > 0)), int(np.sum(signs < 0))
+    n = n_plus + n_minus
+    z = float("nan")
+    if n_plus and n_minus and n > 2:
+        runs = 1 + int(np.sum(signs[1:] != signs[:-1]))
+        mean = 2.0 * n_plus * n_minus / n + 1
+        variance = 2.0 * n_plus * n_minus * (2.0 * n_plus * n_minus - n) / (n**2 * (n - 1))
+        z = (runs - mean) / math.sqrt(variance) if variance > 0 else float("nan")
+    elif n > 2:
+        z = -math.inf  # every residual on one side
+    window = max(step, len(contact_residuals) // 20, 1)
+    smooth = np.convolve(contact_residuals, np.ones(window) / window, mode="valid") if len(contact_residuals) else \
+        np.zeros(1)
+    return {"residual_lag1": _lag_correlation(contact_residuals, 1),
+            "residual_lag1_baseline": _lag_correlation(baseline_residuals, 1),
+            "residual_decorrelation": step, "residual_runs_z": z,
+            "residual_systematic": float(np.sqrt(np.mean(smooth**2))) / force_scale if force_scale > 0 else
+            float("nan")}
+
+
 def fit_model(displacement: np.ndarray, force: np.ndarray, radius: float, f, delta_max: float,
               contact_guess: float, fit_contact: bool = True, sigma: float = float("nan"), bootstrap: int = 0,
-              seed: int = 0) -> dict:
+              seed: int = 0, contact_bounds: tuple[float, float] | None = None) -> dict:
     """Least-squares fit of ``force = b + E R^2 f((displacement - c)/(2R))``: E, the force offset b (residual
-    baseline, informed by the points before contact) and, if ``fit_contact``, the contact point c.
+    baseline, informed by the points before contact) and, if ``fit_contact``, the contact point c, within
+    ``contact_bounds`` when given (the rise region).
 
-    Every point with ``(displacement - c)/(2R) <= delta_max`` is used (before contact f = 0).
+    Every point with ``(displacement - c)/(2R) <= delta_max`` is used (before contact f = 0). Raises CurveError
+    when fewer than 3 points are in contact or none carries a force above the baseline.
     """
     from scipy import stats
     from scipy.optimize import least_squares
 
     index_contact = 1 if fit_contact else None
     index_offset = 2 if fit_contact else 1
+    low, high = contact_bounds if fit_contact and contact_bounds is not None else (-math.inf, math.inf)
+    if high <= low:  # a region of one point: a sliver, so that the solver has an interval
+        low, high = low - 1e-9 * radius, high + 1e-9 * radius
 
     def unpack(parameters, modulus_scale, contact0, force_scale):
         modulus = parameters[0] * modulus_scale
@@ -276,23 +643,33 @@ def fit_model(displacement: np.ndarray, force: np.ndarray, radius: float, f, del
         def residual(parameters):
             return (predict(parameters, modulus_scale, contact0, force_scale, d) - y) / force_scale
 
-        lower = [1e-8] + [-np.inf] * (len(start) - 1)
-        return least_squares(residual, start, jac="3-point", bounds=(lower, [np.inf] * len(start)),
+        lower = [MODULUS_FLOOR] + [-np.inf] * (len(start) - 1)
+        upper = [np.inf] * len(start)
+        if fit_contact:
+            lower[1], upper[1] = (low - contact0) / radius, (high - contact0) / radius
+        start = np.clip(start, lower, upper)
+        return least_squares(residual, start, jac="3-point", bounds=(lower, upper),
                              xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=400)
 
-    contact, previous = contact_guess, None
+    contact, previous = float(np.clip(contact_guess, low, high)), None
     for _ in range(6):  # select the points with the current contact and fit, until the selection settles
         mask = (displacement - contact) / (2 * radius) <= delta_max + 1e-12
         if previous is not None and np.array_equal(mask, previous):
             break
         previous = mask
         d, y = displacement[mask], force[mask]
-        if (d > contact).sum() < 3:
+        touching = d > contact
+        if touching.sum() < 3:
             raise CurveError("fewer than 3 points in contact below delta_max")
+        peak = float(y[touching].max())
+        if not peak > 0:
+            raise CurveError("no force above the baseline in contact below delta_max")
         contact0 = contact
         force_scale = max(float(np.abs(y).max()), 1e-300)
         delta_last = (d[-1] - contact0) / (2 * radius)
-        modulus_scale = max(float(y[-1]), 1e-300) / (radius**2 * float(f(np.array([delta_last]))[0]))
+        modulus_scale = peak / (radius**2 * float(f(np.array([delta_last]))[0]))
+        if not (math.isfinite(modulus_scale) and modulus_scale > 0):
+            raise CurveError("the model carries no force over the points in contact")
         start = np.zeros(index_offset + 1)
         start[0] = 1.0
         result = solve(d, y, modulus_scale, contact0, force_scale, start)
@@ -310,17 +687,29 @@ def fit_model(displacement: np.ndarray, force: np.ndarray, radius: float, f, del
         modulus_std, contact_std = float("nan"), float("nan")
     t = float(stats.t.ppf(0.975, dof))
     predicted = predict(result.x, modulus_scale, contact0, force_scale, d)
+    touching = d > contact
+    structure = residual_structure(-residuals[touching], -residuals[~touching],
+                                   float(np.max(np.abs(predicted[touching] - offset))))
+    # correlated noise carries less information than its number of points: the AR(1) effective sample size
+    # n (1 - rho)/(1 + rho), rho the lag-1 autocorrelation of the baseline's residuals, widens the interval
+    rho = structure["residual_lag1_baseline"]
+    rho = min(max(rho, 0.0), 0.999) if math.isfinite(rho) and (~touching).sum() >= 20 else 0.0
+    inflation = math.sqrt((1.0 + rho) / (1.0 - rho))
+    modulus_std, contact_std = modulus_std * inflation, contact_std * inflation
     out = {
         "youngs_modulus": modulus, "youngs_modulus_std": modulus_std,
         "youngs_modulus_ci_low": modulus - t * modulus_std, "youngs_modulus_ci_high": modulus + t * modulus_std,
         "contact_point": contact, "contact_point_std": contact_std, "force_offset": offset,
         "delta_max": float((d.max() - contact) / (2 * radius)), "n_points": n,
-        "n_points_in_contact": int((d > contact).sum()),
+        "n_points_in_contact": int(touching.sum()),
         "chi_square": ssr / sigma**2 if sigma > 0 else float("nan"),
         "reduced_chi_square": ssr / sigma**2 / dof if sigma > 0 else float("nan"),
         "rms_residual": math.sqrt(ssr / n), "converged": bool(result.success),
+        "modulus_at_floor": bool(result.x[0] <= 1.001 * MODULUS_FLOOR),
+        "contact_bounds": (low, high) if fit_contact else None,
         "fitted_points": (d, y - offset, predicted - offset),
     }
+    out.update(structure, noise_correlation_inflation=inflation)
     if bootstrap:
         rng = np.random.default_rng(seed)
         moduli = []
@@ -333,41 +722,101 @@ def fit_model(displacement: np.ndarray, force: np.ndarray, radius: float, f, del
     return out
 
 
+MODULUS_FLOOR = 1e-8
+"""The solver's lower bound on E over its scale (the modulus that puts the largest force on the last point):
+an E there is no measurement and is flagged and written as NaN."""
+
+
+def check_fit(fit: dict, region: tuple[float, float] | None = None) -> list[str]:
+    """The reasons (empty: accepted) why ``fit`` (a :func:`fit_model` result) cannot be trusted; see the module
+    docstring. ``region``: the rise region the contact point must lie in (default: the fit's bounds). Values that
+    are no result are set to NaN in ``fit``."""
+    reasons = []
+    nan = float("nan")
+    modulus = fit["youngs_modulus"]
+    low, high = fit["youngs_modulus_ci_low"], fit["youngs_modulus_ci_high"]
+    if not (math.isfinite(modulus) and modulus > 0) or fit.get("modulus_at_floor"):
+        reasons.append("E is no measurement (at the solver's floor, zero or not finite)")
+        fit["youngs_modulus"] = modulus = nan
+        fit["youngs_modulus_ci_low"] = fit["youngs_modulus_ci_high"] = low = high = nan
+    else:
+        if not (math.isfinite(low) and math.isfinite(high)):
+            reasons.append("no finite confidence interval")
+        elif low <= 0:
+            reasons.append(f"interval reaches below zero ({low:.3g} Pa)")
+            fit["youngs_modulus_ci_low"] = low = nan
+        if math.isfinite(low) and math.isfinite(high) and high - low > modulus:
+            reasons.append(f"interval wider than E ({low:.3g} to {high:.3g} Pa for {modulus:.3g} Pa)")
+        elif not math.isfinite(low) and math.isfinite(high) and high > 2 * modulus:
+            reasons.append(f"interval wider than E (up to {high:.3g} Pa for {modulus:.3g} Pa)")
+    region = region or fit.get("contact_bounds")
+    if region is not None and all(map(math.isfinite, region)):
+        lower, upper = region
+        contact = fit["contact_point"]
+        tolerance = 1e-3 * max(upper - lower, 0.0) + 1e-15
+        if not lower - tolerance <= contact <= upper + tolerance:
+            reasons.append(f"contact point {contact * 1e6:.4g} um outside the region where the force leaves the "
+                           f"baseline noise ({lower * 1e6:.4g} to {upper * 1e6:.4g} um)")
+        elif fit.get("contact_bounds") is not None and (contact <= lower + tolerance or contact >= upper - tolerance):
+            side = "before the rise" if contact <= lower + tolerance else "after the force left the noise"
+            reasons.append(f"contact point on the edge of the rise region ({side}): the model does not follow the "
+                           "curve's onset")
+    if fit["n_points_in_contact"] < MIN_POINTS_IN_CONTACT:
+        reasons.append(f"{fit['n_points_in_contact']} points in contact (fewer than {MIN_POINTS_IN_CONTACT})")
+    z, systematic = fit.get("residual_runs_z", nan), fit.get("residual_systematic", nan)
+    if z < RUNS_Z_LIMIT and systematic > SYSTEMATIC_LIMIT:
+        reasons.append(f"structured residuals (runs test z = {z:.3g}, systematic misfit {100 * systematic:.3g} % "
+                       "of the force): the model does not describe the curve")
+    if not fit.get("converged", True):
+        reasons.append("the least-squares fit did not converge")
+    return reasons
+
+
 def fit_curve(name: str, displacement, force, settings: FitSettings, curve: MasterCurve | None = None) -> dict:
-    """Fit one curve; returns a dict (fits.csv row plus ``_plot`` data)."""
+    """Fit one curve; returns a dict (fits.csv row plus ``_plot`` data), ``flag`` empty when every check of
+    :func:`check_fit` passed. Raises CurveError when nothing can be fitted (too few points, no contact)."""
     displacement, force = _clean(name, np.asarray(displacement, float), np.asarray(force, float))
     start = time.perf_counter()
-    try:
-        guess, baseline = estimate_contact_point(displacement, force, settings.baseline_fraction,
-                                                 settings.threshold, name, settings.baseline_tilt)
-    except CurveError:
-        if settings.contact_point is None:
-            raise
-        baseline = fit_baseline(displacement, force, settings.baseline_fraction, settings.baseline_tilt)
-    corrected = force - baseline(displacement)
     fit_contact = settings.contact_point is None
-    contact0 = guess if fit_contact else settings.contact_point
+    try:
+        estimate = estimate_contact(displacement, force, settings.baseline_fraction, settings.threshold, name,
+                                    settings.baseline_tilt)
+    except CurveError:
+        if fit_contact:
+            raise
+        estimate = None
+    baseline = estimate.baseline if estimate is not None else fit_baseline(
+        displacement, force, settings.baseline_fraction, settings.baseline_tilt)
+    corrected = force - baseline(displacement)
+    contact0 = estimate.contact if fit_contact else settings.contact_point
+    region = (estimate.lower, estimate.upper) if estimate is not None else None
     if curve is None and settings.model in ("master", "both"):
         curve = load_master_curve(settings.poisson_ratio, settings.material)
-    row = {"file": name, "radius": settings.radius, "poisson_ratio": settings.poisson_ratio}
-    fits = {}
+    row = {"file": name, "flag": "", "radius": settings.radius, "poisson_ratio": settings.poisson_ratio,
+           "geometry": settings.geometry,
+           "bead_radius": settings.bead_radius if settings.bead_radius is not None else float("nan")}
+    fits, flags = {}, {}
     for model in ("master", "hertz"):
         if settings.model not in (model, "both"):
             continue
         try:
             fits[model] = fit_model(displacement, corrected, settings.radius,
                                     _model_function(model, curve, settings.poisson_ratio), settings.delta_max,
-                                    contact0, fit_contact, baseline.sigma, settings.bootstrap, settings.seed)
+                                    contact0, fit_contact, baseline.sigma, settings.bootstrap, settings.seed,
+                                    contact_bounds=region if fit_contact else None)
         except CurveError as error:
             raise CurveError(f"{name}: {error}") from None
-    primary = fits["master"] if "master" in fits else fits["hertz"]
+        flags[model] = check_fit(fits[model], region)
+    primary = "master" if "master" in fits else "hertz"
     for key in ("youngs_modulus", "youngs_modulus_ci_low", "youngs_modulus_ci_high", "contact_point",
                 "delta_max", "youngs_modulus_std", "contact_point_std", "chi_square", "reduced_chi_square",
                 "rms_residual", "n_points", "n_points_in_contact", "converged", "youngs_modulus_bootstrap_ci_low",
-                "youngs_modulus_bootstrap_ci_high"):
-        if key in primary:
-            row[key] = primary[key]
-    row["model"] = "master" if "master" in fits else "hertz"
+                "youngs_modulus_bootstrap_ci_high", "residual_runs_z", "residual_systematic", "residual_lag1",
+                "residual_lag1_baseline", "residual_decorrelation", "noise_correlation_inflation"):
+        if key in fits[primary]:
+            row[key] = fits[primary][key]
+    row["flag"] = "; ".join(flags[primary])
+    row["model"] = primary
     hertz = fits.get("hertz")
     nan = float("nan")
     row["youngs_modulus_hertz"] = hertz["youngs_modulus"] if hertz else nan
@@ -375,7 +824,10 @@ def fit_curve(name: str, displacement, force, settings: FitSettings, curve: Mast
     row["youngs_modulus_hertz_ci_high"] = hertz["youngs_modulus_ci_high"] if hertz else nan
     row["contact_point_hertz"] = hertz["contact_point"] if hertz else nan
     row["chi_square_hertz"] = hertz["chi_square"] if hertz else nan
+    row["flag_hertz"] = "; ".join(flags["hertz"]) if hertz else ""
     row["contact_point_initial_guess"] = contact0
+    row["contact_region_low"] = region[0] if region else nan
+    row["contact_region_high"] = region[1] if region else nan
     row["baseline_sigma"] = baseline.sigma
     if "master" in fits and curve is not None:
         row["master_curve_relative_error"] = float(curve.relative_error_at(fits["master"]["delta_max"]))
@@ -383,8 +835,50 @@ def fit_curve(name: str, displacement, force, settings: FitSettings, curve: Mast
         row.update(heterogeneous_moduli(row, settings.nucleus_size_ratio, settings.stiffness_ratio,
                                         settings.poisson_ratio))
     row["fit_time_s"] = time.perf_counter() - start
-    row["_plot"] = {"displacement": displacement, "force": corrected, "fits": fits, "radius": settings.radius}
+    row["_plot"] = {"displacement": displacement, "force": corrected, "fits": fits, "radius": settings.radius,
+                    "region": region}
     return row
+
+
+def hertz_sphere_force(indentation, poisson_ratio: float = 0.48, bead_radius: float = 1.0):
+    """Hertz's force per unit E of a rigid sphere of radius R_b indenting a half-space by d:
+    ``F/E = 4/3 sqrt(R_b) d^(3/2) / (1 - nu^2)`` (nanite's ``hertz_para``; Sneddon's exact sphere differs by
+    -d/(10 R_b) at first order)."""
+    d = np.maximum(np.asarray(indentation, float), 0.0)
+    return 4.0 / (3.0 * (1.0 - poisson_ratio**2)) * math.sqrt(bead_radius) * d**1.5
+
+
+def fit_hertz_sphere(displacement, force, bead_radius: float, poisson_ratio: float = 0.48,
+                     contact_point: float | None = None, indentation_max: float | None = None,
+                     baseline_fraction: float = 0.2, threshold: float = 5.0, name: str = "curve") -> dict:
+    """The sphere-indenter geometry's Hertz estimate: E of ``F = b + E hertz_sphere_force(x - c)`` fitted by
+    least squares (E, the offset b and, unless ``contact_point`` is given, c within the rise region) over the
+    points up to ``indentation_max`` past contact (default: all). Same baseline, contact estimate, interval and
+    checks as :func:`fit_curve`; returns the fit's dict with ``flag``."""
+    displacement, force = _clean(name, np.asarray(displacement, float), np.asarray(force, float))
+    fit_contact = contact_point is None
+    try:
+        estimate = estimate_contact(displacement, force, baseline_fraction, threshold, name)
+    except CurveError:
+        if fit_contact:
+            raise
+        estimate = None
+    baseline = estimate.baseline if estimate else fit_baseline(displacement, force, baseline_fraction)
+    region = (estimate.lower, estimate.upper) if estimate else None
+    # F = E R_b^2 f(u) with u = d / (2 R_b): f(u) = 4/(3(1-nu^2)) (2u)^(3/2)
+    factor = 4.0 / (3.0 * (1.0 - poisson_ratio**2)) * 2.0**1.5
+
+    def f(u):
+        return factor * np.maximum(u, 0.0) ** 1.5
+
+    span = indentation_max if indentation_max is not None else float(displacement[-1] - displacement[0])
+    fit = fit_model(displacement, force - baseline(displacement), bead_radius, f, span / (2 * bead_radius),
+                    estimate.contact if fit_contact else contact_point, fit_contact, baseline.sigma,
+                    contact_bounds=region if fit_contact else None)
+    fit["flag"] = "; ".join(check_fit(fit, region))
+    fit["baseline_sigma"] = baseline.sigma
+    fit["indentation_max"] = fit.pop("delta_max") * 2 * bead_radius
+    return fit
 
 
 def heterogeneous_moduli(row: dict, size_ratio: float, stiffness_ratio: float, poisson_ratio: float = 0.48) -> dict:
@@ -408,26 +902,49 @@ def heterogeneous_moduli(row: dict, size_ratio: float, stiffness_ratio: float, p
 
 # ---------------------------------------------------------------- plots and files
 
+WARNING_COLOR = "#d62728"
+
 
 def plot_fit(path: Path, row: dict) -> None:
-
+    """The curve, its fits and residuals; a flagged curve in :data:`WARNING_COLOR` with its reasons."""
     data = row["_plot"]
     radius = data["radius"]
+    flagged = bool(row.get("flag"))
     figure, (top, bottom) = plt.subplots(2, 1, figsize=(6.4, 6), sharex=True, height_ratios=[3, 1],
                                          constrained_layout=True)
     micro = 1e6
-    top.plot(data["displacement"] * micro, data["force"] * 1e9, ".", ms=2, color="0.5", label="data (baseline removed)")
-    styles = {"master": ("C0", "master curve"), "hertz": ("C3", "Hertz")}
+    top.plot(data["displacement"] * micro, data["force"] * 1e9, ".", ms=2,
+             color="#f4a582" if flagged else "0.5", label="data (baseline removed)")
+    styles = {"master": ("C0", "master curve"), "hertz": ("C2", "Hertz")}
     for model, fit in data["fits"].items():
         d, y, predicted = fit["fitted_points"]
         color, label = styles[model]
-        top.plot(d * micro, predicted * 1e9, "-", color=color,
-                 label=f"{label}: E = {fit['youngs_modulus']:.4g} Pa "
-                       f"[{fit['youngs_modulus_ci_low']:.4g}, {fit['youngs_modulus_ci_high']:.4g}]")
+        top.plot(d * micro, predicted * 1e9, "-", color=WARNING_COLOR if flagged and model == row.get("model")
+                 else color, label=f"{label}: E = {fit['youngs_modulus']:.4g} Pa "
+                                   f"[{fit['youngs_modulus_ci_low']:.4g}, {fit['youngs_modulus_ci_high']:.4g}]")
         top.axvline(fit["contact_point"] * micro, color=color, lw=0.8, ls=":")
         bottom.plot(d * micro, (y - predicted) * 1e9, ".", ms=2, color=color, label=label)
+    region = data.get("region")
+    if region is not None:
+        top.axvspan(region[0] * micro, region[1] * micro, color="0.85", alpha=0.5, lw=0, label="rise region")
+        # show the contact and what follows it, with as much baseline before it
+        x = data["displacement"]
+        start = min([region[0]] + [fit["contact_point"] for fit in data["fits"].values()])
+        left = max(float(x[0]), start - max(float(x[-1]) - start, region[1] - region[0]))
+        top.set_xlim(left * micro, float(x[-1]) * micro + 0.02 * (float(x[-1]) - left) * micro)
+        visible = x >= left
+        if visible.any():
+            low, high = float(data["force"][visible].min()), float(data["force"][visible].max())
+            top.set_ylim((low - 0.05 * (high - low)) * 1e9, (high + 0.05 * (high - low)) * 1e9)
     top.set_ylabel("force (nN)")
-    top.set_title(f"{row['file']}: R = {radius * micro:.3g} um, delta up to {row['delta_max']:.3f}")
+    title = f"{row['file']}: R = {radius * micro:.3g} um, delta up to {row.get('delta_max', float('nan')):.3f}"
+    if flagged:
+        title = f"{row['file']}: FLAGGED\n" + "\n".join(_wrap(row["flag"], 90))
+    top.set_title(title, fontsize=8 if flagged else None, color=WARNING_COLOR if flagged else "black")
+    if flagged:
+        for spine in top.spines.values():
+            spine.set_edgecolor(WARNING_COLOR)
+            spine.set_linewidth(1.5)
     top.legend(fontsize=8)
     bottom.axhline(0, color="k", lw=0.6)
     bottom.set_xlabel("displacement (um)")
@@ -438,8 +955,14 @@ def plot_fit(path: Path, row: dict) -> None:
     plt.close(figure)
 
 
+def _wrap(text: str, width: int) -> list[str]:
+    import textwrap
+
+    return textwrap.wrap(text, width)[:4]
+
+
 CONTRACT_COLUMNS = ["file", "youngs_modulus", "youngs_modulus_ci_low", "youngs_modulus_ci_high", "contact_point",
-                    "delta_max", "youngs_modulus_hertz"]
+                    "delta_max", "youngs_modulus_hertz", "flag"]
 
 
 def expand_paths(paths) -> list[Path]:
@@ -469,25 +992,43 @@ plots: 38.8 s against 19.1 s; 40 files with plots: 36.6 s against 17.1 s), so on
 only on a cluster with free cores (``--scheduler``) or with ``--workers``."""
 
 
+def _flagged_row(name: str, message: str, curve: Curve | None, settings: FitSettings) -> dict:
+    """The fits.csv row of a curve that could not be fitted: NaN values, the reason as its flag."""
+    nan = float("nan")
+    row = {"file": name, "youngs_modulus": nan, "youngs_modulus_ci_low": nan, "youngs_modulus_ci_high": nan,
+           "contact_point": nan, "delta_max": nan, "youngs_modulus_hertz": nan, "flag": message,
+           "radius": settings.radius, "poisson_ratio": settings.poisson_ratio, "geometry": settings.geometry,
+           "bead_radius": settings.bead_radius if settings.bead_radius is not None else nan}
+    if curve is not None:
+        row["_plot"] = {"displacement": np.asarray(curve.displacement, float), "force": np.asarray(curve.force, float),
+                        "fits": {}, "radius": settings.radius, "region": None}
+    return row
+
+
 def _fit_path(path: Path, settings: FitSettings, curve: MasterCurve | None, plot_directory: Path | None) -> list:
-    """Fit every curve of one file: ``[(name, row or None, error message or None), ...]`` in file order;
-    ``[(None, None, message)]`` when the file cannot be read. Plots go to ``plot_directory/<name>.png``."""
+    """Fit every curve of one file: ``[(name, row, None), ...]`` in file order (a curve that cannot be fitted is a
+    row with its reason as the flag; one failing curve does not stop the others); ``[(None, None, message)]``
+    when the file cannot be read. Plots go to ``plot_directory/<name>.png``."""
     out = []
     try:
-        curves = read_curves(path)
+        curves = read_curves(path, settings.spring_constant, settings.sensitivity)
     except CurveError as error:
         return [(None, None, str(error))]
-    for name, displacement, force in curves:
-        try:
-            row = fit_curve(name, displacement, force, settings, curve)
-        except CurveError as error:
-            message = str(error)
-            if message.startswith(f"{name}: "):
-                message = message[len(name) + 2:]
-            out.append((name, None, message if str(path) in message else f"{path}: {message}"))
-            continue
-        row["source"] = str(path)
-        if plot_directory is not None:
+    for index, item in enumerate(curves):
+        if isinstance(item, CurveError):  # a curve of a map afmformats could not convert
+            name = f"{path.stem}_{index:04d}" if len(curves) > 1 else path.stem
+            row, info = _flagged_row(name, str(item), None, settings), {"source": str(path), "curve_index": index}
+        else:
+            name, info = item.name, item.info()
+            try:
+                row = fit_curve(name, item.displacement, item.force, settings, curve)
+            except CurveError as error:
+                message = str(error)
+                if message.startswith(f"{name}: "):
+                    message = message[len(name) + 2:]
+                row = _flagged_row(name, message, item, settings)
+        row.update(info)
+        if plot_directory is not None and "_plot" in row:
             plot_fit(plot_directory / f"{name}.png", row)
         out.append((name, row, None))
     return out
@@ -519,7 +1060,10 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
               scheduler: str | None = None, workers: int | None = None, dask: bool | None = None) -> dict:
     """Fit every curve of every file; write ``out/fits.csv``, ``out/<curve>.png``, ``out/fit_settings.json``.
 
-    Returns ``{"rows": [...], "errors": [(file, message), ...], "wall_time_s": ..., "execution": ...}``.
+    ``fits.csv`` has one row per curve (a file that cannot be read: one row with ``flag`` "unreadable" and its
+    ``error``); ``flag`` is empty for an accepted curve. Returns ``{"rows": [...], "accepted": n,
+    "errors": [(file, message), ...], "wall_time_s": ..., "execution": ...}``; ``rows`` holds every curve's row,
+    flagged ones included.
     Execution: with ``scheduler`` (a Dask address) or ``workers`` (local cluster of that many processes), or
     with at least :data:`DASK_AUTO_MIN_FILES` files (150 with plots, 1200 without) on a machine with 2+ cores,
     one Dask task per file (:func:`elastocell.simulation.distributed.run_tasks`); otherwise a plain loop in this process.
@@ -529,7 +1073,6 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
     on a file system the workers share (the tasks write the plots).
     """
     import pandas as pd
-
 
     check_execution(scheduler, workers)
     start = time.perf_counter()
@@ -581,20 +1124,17 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
             if name is None:  # the file could not be read
                 errors.append((str(path), message))
                 continue
-            unique, counter = name, 1  # a curve that failed keeps its name reserved too
+            unique, counter = name, 1
             while unique in used_names:
                 unique = f"{name}_{counter}"
                 counter += 1
             used_names.add(unique)
-            if row is None:
-                errors.append((str(path), message))
-                continue
             row["file"] = unique
             if plots and use_dask:
                 source = out / f".plots-{index:06d}" / f"{name}.png"
                 if source.exists():
                     source.replace(out / f"{unique}.png")
-            elif plots:
+            elif plots and "_plot" in row:
                 plot_fit(out / f"{unique}.png", row)
             rows.append(row)
         if use_dask and plots:
@@ -603,12 +1143,14 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
                 for leftover in folder.iterdir():
                     leftover.unlink()
                 folder.rmdir()
+    accepted = sum(1 for row in rows if not row.get("flag"))
     table = [{k: v for k, v in row.items() if k != "_plot"} for row in rows]
-    table += [{"file": Path(f).stem, "source": f, "error": message} for f, message in errors]
+    table += [{"file": Path(f).stem, "source": f, "flag": "unreadable", "error": message} for f, message in errors]
     frame = pd.DataFrame(table)
     for column in CONTRACT_COLUMNS:
         if column not in frame:
             frame[column] = np.nan
+    frame["flag"] = frame["flag"].fillna("").astype(str)
     frame = frame[CONTRACT_COLUMNS + [c for c in frame.columns if c not in CONTRACT_COLUMNS]]
     replace_atomically(out / "fits.csv", lambda temporary: frame.to_csv(temporary, index=False, float_format="%.8g"))
     versions = software_versions()
@@ -619,13 +1161,27 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
     except ImportError:
         pass
     wall = time.perf_counter() - start
+    curve_keys = ("file", "source", "curve_index", "instrument", "format", "spring_constant", "sensitivity",
+                  "calibration", "position", "flag")
     write_json(out / "fit_settings.json", {
         "settings": asdict(settings), "files": [str(p) for p in files],
+        "curves": [{key: row.get(key) for key in curve_keys if key in row} for row in rows],
+        "units": {"radius": "m", "bead_radius": "m", "contact_point": "m", "spring_constant": "N/m",
+                  "sensitivity": "m/V (NT-MDT: m/nA)", "youngs_modulus": "Pa"},
         "master_curve": (curve.metadata | {"poisson_ratio": curve.poisson_ratio, "material": curve.material,
                                            "hertz_blend_below": curve.hertz_blend_below}) if curve else None,
-        "delta_definition": "delta = (displacement - contact_point) / (2 R) = 1 - h/(2R)",
-        "contact_point_estimator": "baseline line on the first baseline_fraction of the approach; first guess the "
-                                   "last point below threshold*sigma; refined with E by least squares",
+        "delta_definition": "delta = (displacement - contact_point) / (2 R) = 1 - h/(2R); for an instrument file "
+                            "displacement = -(tip position), tip position = height (measured) + force / k "
+                            "(piezo height minus cantilever deflection)",
+        "contact_point_estimator": "baseline (mean, or line with baseline_tilt) on the first baseline_fraction of the "
+                                   "approach, noise 1.4826 MAD; noise exit: the last point below threshold*sigma; "
+                                   "change point of a flat-then-power-law model (p 1..2.5) up to 30 % of the "
+                                   "largest force; refined with E by least squares inside the rise region "
+                                   "[c - max(exit - c, 5 spacings), exit]",
+        "checks": {"min_points_in_contact": MIN_POINTS_IN_CONTACT, "runs_z_limit": RUNS_Z_LIMIT,
+                   "systematic_limit": SYSTEMATIC_LIMIT, "modulus_floor": MODULUS_FLOOR,
+                   "interval": "finite, low > 0, high - low <= E", "contact": "inside the rise region, not on "
+                   "its edge"},
         "heterogeneous_conversion": None if settings.nucleus_size_ratio is None else (
             "E_c = E_eff / (1 + (gamma - 1) lambda^3), E_n = gamma E_c (volume average, spherical centred nucleus). "
             "Measured (equivalent-modulus study, full compression, p2 meshes; README): the best homogeneous modulus "
@@ -635,9 +1191,11 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
             "median error 7.7 %), the Hashin-Shtrikman upper bound (columns *_hashin_shtrikman_upper) for gamma >= "
             "10 (errors -9 % and +16 % at gamma 10 and 20)."),
         "execution": execution, "dask_auto_min_files": DASK_AUTO_MIN_FILES, "n_curves": len(rows),
-        "n_errors": len(errors), "wall_time_s": wall, "software": versions,
+        "n_accepted": accepted, "n_flagged": len(rows) - accepted, "n_unreadable": len(errors),
+        "wall_time_s": wall, "software": versions,
     })
-    return {"rows": rows, "errors": errors, "wall_time_s": wall, "files": files, "execution": execution}
+    return {"rows": rows, "accepted": accepted, "errors": errors, "wall_time_s": wall, "files": files,
+            "execution": execution}
 
 
 # ---------------------------------------------------------------- shear flow: D -> Ca -> mu, E
