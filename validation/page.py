@@ -66,6 +66,10 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                    "python validation/fit.py --curves 200 --coverage 50"),
         "mastercurves.py": ("The shipped master curves", "python validation/mastercurves.py"),
     }),
+    "afm": ("AFM fits of real instrument files against nanite", {
+        "afm_nanite.py": ("elastocell's Hertz-sphere estimate beside nanite's fit, same curves, same contact point",
+                          "python validation/afm_nanite.py"),
+    }),
     "studies": ("Studies on Dask", {
         "studies.py": ("Wall time of the studies", "python validation/studies.py --run --workers 2"),
         "dask_scaling.py": ("Speed-up of a sweep through Dask", "python validation/dask_scaling.py --duration 10"),
