@@ -1203,6 +1203,7 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
             "10 (errors -9 % and +16 % at gamma 10 and 20)."),
         "execution": execution, "dask_auto_min_files": DASK_AUTO_MIN_FILES, "n_curves": len(rows),
         "n_accepted": accepted, "n_flagged": len(rows) - accepted, "n_unreadable": len(errors),
+        "n_errors": len(errors),  # the name earlier outputs used for n_unreadable
         "wall_time_s": wall, "software": versions,
     })
     return {"rows": rows, "accepted": accepted, "errors": errors, "wall_time_s": wall, "files": files,
