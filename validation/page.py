@@ -49,17 +49,18 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     "shear": ("Cell in shear flow", {
         "shear.py": ("Small-deformation theory, resolution, and the cost of a coupled step",
                      "python validation/shear.py --only split homogeneous resolution --resolution 6 "
-                     "--resolutions 4 6 --capillary-numbers 0.05 0.1 --duration 3"),
+                     "--resolutions 4 6 8 --duration 4"),
     }),
     "pipe": ("Cell in pipe flow", {
         "pipe.py": ("Poiseuille flow, the centred cell, and the cost of a coupled step",
-                    "python validation/pipe.py --only poiseuille --only mlups --only reference --duration 4"),
+                    "python validation/pipe.py"),
         "pipe_shape.py": ("Where the cell takes the bullet shape",
-                          "python validation/pipe_shape.py --ratios 2 3 --cell-capillary 0.5 --duration 8"),
+                          "python validation/pipe_shape.py --ratios 2 4 --cell-capillary 0.5"),
     }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",
-                         "python validation/lut_dclab.py --radii 6 --moduli 2,5 --duration 8"),
+                         "python validation/lut_dclab.py --radii 6 --moduli 2,5 --duration 8 --workers 2 "
+                         "--out /tmp/lut-dclab"),
     }),
     "fit": ("Fits of AFM curves and master curves", {
         "fit.py": ("Accuracy, Hertz's bias, interval coverage and cost of the AFM fit",
@@ -146,7 +147,7 @@ def _cell(value, spec: str | None) -> str:
 def markdown_table(rows: list[dict], columns: list[str] | None = None, formats: dict | None = None) -> str:
     columns = columns or list(rows[0])
     formats = formats or {}
-    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    lines = ["| " + " | ".join(str(c).replace("|", "\\|") for c in columns) + " |", "|" + "---|" * len(columns)]
     for row in rows:
         lines.append("| " + " | ".join(_cell(row.get(c), formats.get(c)).replace("|", "\\|") for c in columns) + " |")
     return "\n".join(lines)
