@@ -158,13 +158,14 @@ def build_mesh(cell: CellParameters, use_cache: bool = True) -> CellMesh:
 
 
 def _reinstall_signal_handlers() -> None:
-    """Give the operating system back Python's handlers of SIGINT and SIGTERM (gmsh's initialize installs its
-    own at the C level, so that a stop signal would kill the process without the run writing what it has)."""
+    """Give the operating system back Python's handlers of SIGINT, SIGTERM and SIGPIPE (gmsh's initialize installs
+    its own at the C level: a stop signal would kill the process without the run writing what it has, and a write
+    to a closed socket, e.g. to a Dask worker that died, would kill it instead of raising BrokenPipeError)."""
     import signal
 
     if threading.current_thread() is not threading.main_thread():
         return
-    for number in (signal.SIGINT, signal.SIGTERM):
+    for number in (signal.SIGINT, signal.SIGTERM, signal.SIGPIPE):  # SIGPIPE: Python ignores it, gmsh kills
         handler = signal.getsignal(number)
         if handler is not None:
             signal.signal(number, handler)
