@@ -63,7 +63,9 @@ def output_directory(out, parameter: str = "out"):
             other = _read_holder(lock)
             same_host = other.get("host") == holder["host"]
             dead = same_host and isinstance(other.get("pid"), int) and not _process_alive(other["pid"])
-            silent = _seconds_since_heartbeat(lock) > STALE_AFTER  # its node died, or it was frozen
+            # another host's lock: judged by its heartbeat (its node may have died); on this host by its pid only,
+            # since a long compiled step that holds the GIL can delay the heartbeat of a live run
+            silent = not same_host and _seconds_since_heartbeat(lock) > STALE_AFTER
             if dead or silent:
                 reason = "which no longer runs" if dead else f"silent for more than {STALE_AFTER:.0f} s"
                 warnings.warn(f"{out}: taking over the lock of process {other.get('pid', '?')} on "
