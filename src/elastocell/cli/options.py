@@ -226,6 +226,18 @@ OPTIONS: dict[str, Opt] = _declare(
     Opt("dtype", Precision, Precision.float32, "Population storage precision."),
     Opt("no_cell", bool, False, "Skip the run with an immersed cell.", shown="off"),
     Opt("threads", int | None, None, "Numba threads.", shown="all"),
+    # ---------------------------------------------------------------- indent (and fit afm --geometry sphere-indenter)
+    Opt("cell_shape", str, "sphere", "sphere (a suspended cell resting on the dish) | cap (an adherent cell: a "
+        "spherical cap of base radius --radius and apex height --cap-height bonded to the dish) | layer (a tissue "
+        "section or gel of thickness --layer-thickness bonded to the dish)."),
+    Opt("indenter_radius", str, REQUIRED, "R_b, the radius of the spherical indenter (bead).", quantity="m",
+        scale=RADIUS_SCALE),
+    Opt("cap_height", str | None, None, "H, apex height of the cap (--cell-shape cap).", quantity="m",
+        scale=RADIUS_SCALE, shown="--radius: a hemisphere"),
+    Opt("layer_thickness", str | None, None, "h, thickness of the layer (--cell-shape layer).", quantity="m",
+        scale=RADIUS_SCALE, shown="required with --cell-shape layer"),
+    Opt("depth_max", float, 0.3, "Final indentation depth (indenter displacement after first contact).",
+        units="R, the cell radius (the layer: R_b)"),
     # ---------------------------------------------------------------- mastercurve
     Opt("no_cache", bool, False, "Recompute even if shipped or cached.", shown="off"),
     # ---------------------------------------------------------------- fit afm
