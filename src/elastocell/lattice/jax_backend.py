@@ -51,6 +51,8 @@ class LatticeTables:
     def __init__(self, params: LatticeParams | None, dtype=None):
         if params is None:  # unflattening
             return
+        if params.rheology is not None:
+            raise ValueError("the JAX backend has a Newtonian medium only: run a power-law medium on backend 'numba'")
         nx, ny, nz = params.shape
         self.omega_plus = float(1.0 / params.relaxation_time_plus)
         self.omega_minus = float(1.0 / params.relaxation_time_minus)

@@ -70,7 +70,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from elastocell.lattice.rheology import local_relaxation_time
 from elastocell.lattice.stencil import OPPOSITE, VELOCITIES, WEIGHTS
+
+_local_tau = njit(cache=True, inline="always", error_model="numpy")(local_relaxation_time)
 
 # indices into the ``consts`` array (all in the storage dtype)
 K_OMEGA_PLUS = 0  # 1/tau+
@@ -86,7 +89,15 @@ K_THREE = 9
 K_NINE_HALVES = 10
 K_THREE_HALVES = 11
 K_NINE = 12
-N_CONSTS = 13
+# medium (see ``lattice.rheology``): model 0 Newtonian (the rates above), 1 power law (rates per node)
+K_MODEL = 13
+K_FLOW_INDEX = 14  # n
+K_THREE_K = 15  # 3 K (lattice units)
+K_TAU_MIN = 16
+K_TAU_MAX = 17
+K_MAGIC = 18  # TRT Lambda; 0 for BGK (tau- = tau+)
+K_THIRD = 19
+N_CONSTS = 20
 
 BLOCK = 128
 """Nodes per block of a z-line (compile-time constant row spacing of the buffer)."""
@@ -102,7 +113,9 @@ R_UF = 25  # 3 u.F
 R_FX = 26  # force density F = g + field
 R_FY = 27
 R_FZ = 28
-N_ROWS = 29
+R_OMEGA_PLUS = 29  # per-node 1/tau+ (power-law medium only)
+R_OMEGA_MINUS = 30  # per-node 1/tau-
+N_ROWS = 31
 BUFFER_LENGTH = N_ROWS * BLOCK
 
 FASTMATH = {"contract", "arcp", "reassoc", "nsz"}
@@ -127,9 +140,20 @@ SCATTER_ORDER = np.array(
 )
 
 
-def make_consts(omega_plus, omega_minus, body_force, dtype):
-    """Pack the scalar constants of the kernels into an array of the storage dtype."""
+def make_consts(omega_plus, omega_minus, body_force, dtype, rheology=None, magic=0.0):
+    """Pack the scalar constants of the kernels into an array of the storage dtype.
+
+    ``rheology``: None (Newtonian: omega+- everywhere) or a :class:`~elastocell.lattice.rheology.PowerLaw`, whose
+    tau+ each node computes from its own strain rate; ``magic`` the TRT Lambda then (0: BGK)."""
     k = np.zeros(N_CONSTS, dtype=np.float64)
+    if rheology is not None:
+        k[K_MODEL] = 1.0
+        k[K_FLOW_INDEX] = rheology.flow_index
+        k[K_THREE_K] = 3.0 * rheology.consistency
+        k[K_TAU_MIN] = rheology.relaxation_time_min
+        k[K_TAU_MAX] = rheology.relaxation_time_max
+        k[K_MAGIC] = magic
+    k[K_THIRD] = 1.0 / 3.0
     k[K_OMEGA_PLUS] = omega_plus
     k[K_OMEGA_MINUS] = omega_minus
     k[K_SOURCE_PLUS] = 1.0 - 0.5 * omega_plus
@@ -243,8 +267,12 @@ def _collide_block(buf, nb, weights, cvel, consts):
     """TRT/BGK collision with Guo forcing of the nb nodes held in buf, in place.
 
     buf rows 0..18 hold f~_i = f_i - w_i (pre-collision on entry, post-collision on
-    exit); rows R_FX..R_FZ must hold the force density F.
+    exit); rows R_FX..R_FZ must hold the force density F. A power-law medium (``consts[K_MODEL]`` 1) takes
+    the rates of each node from its strain rate (:func:`_collide_block_local_rates`).
     """
+    if consts[K_MODEL] != 0:
+        _collide_block_local_rates(buf, nb, weights, cvel, consts)
+        return
     half = consts[K_HALF]
     three = consts[K_THREE]
     nine_halves = consts[K_NINE_HALVES]
@@ -287,6 +315,98 @@ def _collide_block(buf, nb, weights, cvel, consts):
             src_asym = w * three * cf
             post_sym = f_sym + omega_p * (feq_sym - f_sym) + source_p * src_sym
             post_asym = f_asym + omega_m * (feq_asym - f_asym) + source_m * src_asym
+            buf[row_i + k] = post_sym + post_asym
+            buf[row_o + k] = post_sym - post_asym
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _local_rates_block(buf, nb, consts):
+    """Per-node relaxation rates of a power-law medium (``lattice.rheology``) into rows R_OMEGA_PLUS/MINUS.
+
+    Needs the moments rows (``_moments_block``). Pi = sum_i c_i c_i (f_i - f^eq_i) + (u F + F u)/2 from the
+    pair sums f_i + f_opp(i) (only they carry second moments), m = 3 sqrt(2 Pi:Pi)/(2 rho), tau+ the clamped
+    root of gdot tau(gdot) = m (in float64), tau- = 1/2 + Lambda/(tau+ - 1/2) (TRT) or tau+ (BGK, Lambda 0)."""
+    half = consts[K_HALF]
+    third = consts[K_THIRD]
+    n = np.float64(consts[K_FLOW_INDEX])
+    three_k = np.float64(consts[K_THREE_K])
+    tau_min = np.float64(consts[K_TAU_MIN])
+    tau_max = np.float64(consts[K_TAU_MAX])
+    magic = np.float64(consts[K_MAGIC])
+    B = BLOCK
+    for k in range(nb):
+        s1 = buf[1 * B + k] + buf[2 * B + k]  # (+-1, 0, 0)
+        s3 = buf[3 * B + k] + buf[4 * B + k]  # (0, +-1, 0)
+        s5 = buf[5 * B + k] + buf[6 * B + k]  # (0, 0, +-1)
+        s7 = buf[7 * B + k] + buf[8 * B + k]  # +-(1, 1, 0)
+        s9 = buf[9 * B + k] + buf[10 * B + k]  # +-(1, -1, 0)
+        s11 = buf[11 * B + k] + buf[12 * B + k]  # +-(1, 0, 1)
+        s13 = buf[13 * B + k] + buf[14 * B + k]  # +-(1, 0, -1)
+        s15 = buf[15 * B + k] + buf[16 * B + k]  # +-(0, 1, 1)
+        s17 = buf[17 * B + k] + buf[18 * B + k]  # +-(0, 1, -1)
+        drho = buf[R_DRHO * B + k]
+        rho = buf[R_RHO * B + k]
+        ux = buf[R_UX * B + k]
+        uy = buf[R_UY * B + k]
+        uz = buf[R_UZ * B + k]
+        fx = buf[R_FX * B + k]
+        fy = buf[R_FY * B + k]
+        fz = buf[R_FZ * B + k]
+        iso = third * drho  # sum c c (f^eq - w) = (rho - 1)/3 delta + rho u u
+        pxx = s1 + s7 + s9 + s11 + s13 - iso - rho * ux * ux + ux * fx
+        pyy = s3 + s7 + s9 + s15 + s17 - iso - rho * uy * uy + uy * fy
+        pzz = s5 + s11 + s13 + s15 + s17 - iso - rho * uz * uz + uz * fz
+        pxy = s7 - s9 - rho * ux * uy + half * (ux * fy + uy * fx)
+        pxz = s11 - s13 - rho * ux * uz + half * (ux * fz + uz * fx)
+        pyz = s15 - s17 - rho * uy * uz + half * (uy * fz + uz * fy)
+        pp = np.float64(pxx * pxx + pyy * pyy + pzz * pzz + 2.0 * (pxy * pxy + pxz * pxz + pyz * pyz))
+        m = 1.5 * np.sqrt(2.0 * pp) / np.float64(rho)
+        tau = _local_tau(m, three_k, n, tau_min, tau_max)
+        tau_m = tau if magic == 0.0 else 0.5 + magic / (tau - 0.5)
+        buf[R_OMEGA_PLUS * B + k] = 1.0 / tau
+        buf[R_OMEGA_MINUS * B + k] = 1.0 / tau_m
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _collide_block_local_rates(buf, nb, weights, cvel, consts):
+    """The collision of ``_collide_block`` with the relaxation rates of each node (power-law medium)."""
+    half = consts[K_HALF]
+    one = consts[K_ONE]
+    three = consts[K_THREE]
+    nine_halves = consts[K_NINE_HALVES]
+    nine = consts[K_NINE]
+    B = BLOCK
+    _moments_block(buf, nb, consts)
+    _local_rates_block(buf, nb, consts)
+    w0 = weights[0]
+    for k in range(nb):
+        f = buf[k]
+        omega_p = buf[R_OMEGA_PLUS * B + k]
+        feq = w0 * (buf[R_DRHO * B + k] - buf[R_RHO * B + k] * buf[R_USQ * B + k])
+        buf[k] = f + omega_p * (feq - f) - (one - half * omega_p) * w0 * buf[R_UF * B + k]
+    for i in range(1, 19, 2):
+        w = weights[i]
+        cx = cvel[i, 0]
+        cy = cvel[i, 1]
+        cz = cvel[i, 2]
+        row_i = i * B
+        row_o = (i + 1) * B
+        for k in range(nb):
+            omega_p = buf[R_OMEGA_PLUS * B + k]
+            omega_m = buf[R_OMEGA_MINUS * B + k]
+            fi = buf[row_i + k]
+            fo = buf[row_o + k]
+            rho = buf[R_RHO * B + k]
+            cu = cx * buf[R_UX * B + k] + cy * buf[R_UY * B + k] + cz * buf[R_UZ * B + k]
+            cf = cx * buf[R_FX * B + k] + cy * buf[R_FY * B + k] + cz * buf[R_FZ * B + k]
+            f_sym = half * (fi + fo)
+            f_asym = half * (fi - fo)
+            feq_sym = w * (buf[R_DRHO * B + k] + rho * (nine_halves * cu * cu - buf[R_USQ * B + k]))
+            feq_asym = w * three * rho * cu
+            src_sym = w * (nine * cu * cf - buf[R_UF * B + k])
+            src_asym = w * three * cf
+            post_sym = f_sym + omega_p * (feq_sym - f_sym) + (one - half * omega_p) * src_sym
+            post_asym = f_asym + omega_m * (feq_asym - f_asym) + (one - half * omega_m) * src_asym
             buf[row_i + k] = post_sym + post_asym
             buf[row_o + k] = post_sym - post_asym
 

@@ -13,6 +13,7 @@ from typing import Literal
 
 import numpy as np
 
+from elastocell.lattice.rheology import PowerLaw
 from elastocell.lattice.stability import DEFAULT_VELOCITY_LIMIT, SOUND_SPEED
 
 DEFAULT_MAGIC = 3.0 / 16.0
@@ -76,6 +77,10 @@ class LatticeParams:
     velocity_limit : float
         Guard on lattice speeds |u| (dx/dt) accepted for walls and initial fields
         (default 0.05, Mach ~ 0.087); must be in (0, c_s).
+    rheology : PowerLaw, optional
+        A shear-thinning medium: every node relaxes with the tau+ of its own strain rate
+        (:mod:`elastocell.lattice.rheology`); ``relaxation_time`` is then the reference tau (the initial
+        state, the stability report). None (default): Newtonian, tau everywhere.
     """
 
     shape: tuple[int, int, int]
@@ -88,6 +93,7 @@ class LatticeParams:
     solid: np.ndarray | None = field(default=None, repr=False)
     body_force: tuple[float, float, float] = (0.0, 0.0, 0.0)
     velocity_limit: float = DEFAULT_VELOCITY_LIMIT
+    rheology: PowerLaw | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -179,6 +185,9 @@ class LatticeParams:
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ValueError(f"body_force must be three finite floats (gx, gy, gz), got {self.body_force!r}")
         set_(self, "body_force", tuple(float(c) for c in g))
+        # --- medium
+        if self.rheology is not None and not isinstance(self.rheology, PowerLaw):
+            raise ValueError(f"rheology must be None (Newtonian) or a PowerLaw, got {self.rheology!r}")
 
     # ------------------------------------------------------------------ derived
     @property

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from elastocell.lattice.params import LatticeParams
+from elastocell.lattice.rheology import stress_norm
 from elastocell.lattice.stencil import OPPOSITE, SOUND_SPEED_SQUARED, VELOCITIES, WEIGHTS, Q
 
 
@@ -33,6 +34,12 @@ def reference_collide(f: np.ndarray, params: LatticeParams, force: np.ndarray) -
     source = w * ((cf - uf) / cs2 + cu * cf / cs2**2)
     omega_p = 1.0 / params.relaxation_time_plus
     omega_m = 1.0 / params.relaxation_time_minus
+    if params.rheology is not None:  # power law: tau+ of each node from Pi = sum c c (f - feq) + (uF + Fu)/2
+        pi_neq = np.einsum("ia,ib,i...->ab...", c, c, f - feq) + 0.5 * (
+            np.einsum("a...,b...->ab...", u, force) + np.einsum("a...,b...->ab...", force, u))
+        tau = params.rheology.relaxation_time(stress_norm(pi_neq, rho))
+        tau_m = tau if params.collision == "bgk" else 0.5 + params.magic / (tau - 0.5)
+        omega_p, omega_m = 1.0 / tau, 1.0 / tau_m
     opp = OPPOSITE
     f_sym, f_asym = 0.5 * (f + f[opp]), 0.5 * (f - f[opp])
     e_sym, e_asym = 0.5 * (feq + feq[opp]), 0.5 * (feq - feq[opp])

@@ -90,6 +90,8 @@ class Lattice:
             1.0 / params.relaxation_time_minus,
             params.body_force,
             self.dtype,
+            params.rheology,
+            0.0 if params.collision == "bgk" else params.magic,
         )
         self._weights, self._cvel, self._cint, self._opp = kernels.stencil_tables(self.dtype)
         # bounce-back correction for a population j leaving a wall: 2 w_j rho_w (c_j.u_w)/c_s^2
