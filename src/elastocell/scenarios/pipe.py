@@ -35,10 +35,12 @@ progress bar, atomic checkpoints whose resumed series equals the uninterrupted o
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from pydantic import model_validator
@@ -49,8 +51,10 @@ from elastocell.coupling.immersed import ImmersedCell, immersed_cell
 from elastocell.coupling.markers import FlowError
 from elastocell.coupling.stability import shear_rate_limits
 from elastocell.lattice import Lattice, LatticeParams
+from elastocell.lattice.rheology import DEFAULT_TAU_RANGE, PowerLaw, slab_flow_rate, slab_velocity
 from elastocell.parameters.cell import require
 from elastocell.parameters.flow import FlowLatticeParameters, check_capillary_number
+from elastocell.parameters.medium import Medium, medium
 from elastocell.parameters.units import ParameterError
 from elastocell.simulation.output import save_time_series_figure, time_series_figure
 from elastocell.simulation.runner import FlowRun, StopCriteria, window_verdict
@@ -99,23 +103,122 @@ def poiseuille_flow_rate(body_force: float, viscosity: float, radius: float) -> 
     return math.pi * body_force * radius**4 / (8.0 * viscosity)
 
 
+CHANNEL_SHAPES = ("cylinder", "square", "rectangle")
+"""Cross-sections of the channel: a staircase cylinder, or a duct whose plane walls lie half-way between nodes."""
+
+
+def duct_nodes(half_width: float, half_height: float) -> tuple[int, int]:
+    """Fluid nodes across a duct of half-width a (y) and half-height b (z), in dx: 2a and 2b rounded to whole
+    nodes (>= 2), so that the half-way walls lie at +-(nodes/2) from the axis."""
+    return max(2, int(round(2.0 * half_width))), max(2, int(round(2.0 * half_height)))
+
+
+def duct_shape(half_width: float, half_height: float, length: int) -> tuple[int, int, int]:
+    """Lattice shape of a duct: the fluid nodes of :func:`duct_nodes` and one solid layer on every side."""
+    wy, wz = duct_nodes(half_width, half_height)
+    return (int(length), wy + 2, wz + 2)
+
+
+def duct_solid(shape: tuple[int, int, int]) -> np.ndarray:
+    """Solid mask of a duct: the outermost layer of nodes in y and z (walls half-way to the first fluid node)."""
+    solid = np.zeros(shape, dtype=bool)
+    solid[:, [0, -1], :] = True
+    solid[:, :, [0, -1]] = True
+    return solid
+
+
+def channel_geometry(channel: str, half_width: float, aspect_ratio: float, length: int):
+    """(shape, solid, half-width, half-height) of a channel: ``channel`` in :data:`CHANNEL_SHAPES`; for a duct the
+    half-width a (dx) along y and the height 2b = aspect_ratio 2a along z, both rounded to whole nodes (the
+    returned half-width and half-height are the lattice's own); a cylinder has radius ``half_width``."""
+    if channel == "cylinder":
+        shape = channel_shape(half_width, length)
+        return shape, channel_solid(shape, half_width), float(half_width), float(half_width)
+    if channel not in CHANNEL_SHAPES:
+        raise ParameterError("channel_shape", f"must be one of {', '.join(CHANNEL_SHAPES)}, got {channel!r}")
+    shape = duct_shape(half_width, aspect_ratio * half_width, length)
+    return shape, duct_solid(shape), (shape[1] - 2) / 2.0, (shape[2] - 2) / 2.0
+
+
+DUCT_TERMS = 60
+"""Odd terms of the duct series (their sum converges like 1/i^3 at the walls, exponentially inside)."""
+
+
+def duct_velocity(y, z, body_force: float, viscosity: float, half_width: float, half_height: float):
+    """Newtonian flow through a rectangular duct |y| < a, |z| < b driven by G (White, Viscous Fluid Flow, eq. 3-48):
+    u = 16 a^2 G/(eta pi^3) sum_{i odd} (-1)^((i-1)/2) [1 - cosh(i pi z/2a)/cosh(i pi b/2a)] cos(i pi y/2a)/i^3."""
+    y, z = np.broadcast_arrays(np.asarray(y, dtype=float), np.asarray(z, dtype=float))
+    a, b = half_width, half_height
+    inside = (np.abs(y) <= a) & (np.abs(z) <= b)
+    u = np.zeros(y.shape)
+    for i in range(1, 2 * DUCT_TERMS, 2):
+        k = i * math.pi / (2 * a)
+        # cosh(kz)/cosh(kb) written with exponentials of non-positive arguments (no overflow)
+        ratio = (np.exp(k * (np.abs(z) - b)) + np.exp(-k * (np.abs(z) + b))) / (1 + math.exp(-2 * k * b))
+        u += (-1) ** ((i - 1) // 2) * (1 - ratio) * np.cos(k * y) / i**3
+    return np.where(inside, 16 * a * a * body_force / (viscosity * math.pi**3) * u, 0.0)
+
+
+def duct_flow_rate(body_force: float, viscosity: float, half_width: float, half_height: float) -> float:
+    """Q = 4 b a^3 G/(3 eta) [1 - 192 a/(pi^5 b) sum_{i odd} tanh(i pi b/2a)/i^5] (White, eq. 3-49)."""
+    a, b = half_width, half_height
+    series = sum(math.tanh(i * math.pi * b / (2 * a)) / i**5 for i in range(1, 2 * DUCT_TERMS, 2))
+    return 4 * b * a**3 * body_force / (3 * viscosity) * (1 - 192 * a / (math.pi**5 * b) * series)
+
+
+def duct_centre_factor(aspect_ratio: float) -> float:
+    """kappa = u_max eta/(G a^2) of a Newtonian duct of height/width ``aspect_ratio`` (1/4 would be the cylinder's)."""
+    return float(duct_velocity(0.0, 0.0, 1.0, 1.0, 1.0, aspect_ratio))
+
+
 def empty_channel(radius: float, length: int = 4, relaxation_time: float = 1.0, body_force: float = 1e-6,
-                  dtype: str = "float64", initialize: bool = True) -> Lattice:
-    """Lattice of an empty channel of radius ``radius`` (dx) driven by ``body_force`` along x; with
-    ``initialize`` the fluid starts from the closed-form Poiseuille profile (the staircase walls then
-    relax it to the lattice's own steady state in a few hundred steps)."""
-    shape = channel_shape(radius, length)
-    solid = channel_solid(shape, radius)
+                  dtype: str = "float64", initialize: bool = True, channel: str = "cylinder",
+                  aspect_ratio: float = 1.0, rheology: PowerLaw | None = None) -> Lattice:
+    """Lattice of an empty channel driven by ``body_force`` along x: a cylinder of radius ``radius`` (dx) or a
+    duct (``channel`` "square"/"rectangle") of half-width ``radius`` and height/width ``aspect_ratio``; with
+    ``initialize`` the fluid starts from the Newtonian closed form at the viscosity of ``relaxation_time`` (the
+    lattice then relaxes it to its own steady state). ``rheology``: a power-law medium (None: Newtonian)."""
+    shape, solid, a, b = channel_geometry(channel, radius, aspect_ratio, length)
     viscosity = (relaxation_time - 0.5) / 3.0
-    u_max = body_force * radius**2 / (4.0 * viscosity)
+    profile = newtonian_profile(shape, channel, body_force, viscosity, a, b)
     lattice = Lattice(LatticeParams(shape, relaxation_time=relaxation_time, dtype=dtype, solid=solid,
-                                    body_force=(body_force, 0.0, 0.0),
-                                    velocity_limit=min(0.5, max(0.05, 1.5 * u_max))))
+                                    body_force=(body_force, 0.0, 0.0), rheology=rheology,
+                                    velocity_limit=min(0.5, max(0.05, 1.5 * float(profile.max())))))
     if initialize:
         velocity = np.zeros((3,) + shape)
-        velocity[0] = poiseuille_velocity(radial_distance(shape), body_force, viscosity, radius)[None]
+        velocity[0] = profile[None]
         lattice.initialize(velocity=velocity)
     return lattice
+
+
+def newtonian_profile(shape, channel: str, body_force: float, viscosity: float, half_width: float,
+                      half_height: float) -> np.ndarray:
+    """The Newtonian closed form u_x on the cross-section (ny, nz) of a channel lattice (0 outside)."""
+    if channel == "cylinder":
+        return poiseuille_velocity(radial_distance(shape), body_force, viscosity, half_width)
+    ay, az = channel_axis(shape)
+    y = np.arange(shape[1])[:, None] - ay
+    z = np.arange(shape[2])[None, :] - az
+    return duct_velocity(y, z, body_force, viscosity, half_width, half_height)
+
+
+def steady_profile(shape, solid: np.ndarray, body_force: float, relaxation_time: float,
+                   rheology: PowerLaw | None, channel: str, half_width: float, half_height: float,
+                   dtype: str = "float64", tolerance: float = 1e-7) -> np.ndarray:
+    """The lattice's own steady u_x on the cross-section (ny, nz): one node-thick periodic slice of the channel
+    relaxed from the Newtonian closed form (a few thousand steps on ny nz nodes; any medium and cross-section)."""
+    viscosity = (relaxation_time - 0.5) / 3.0
+    profile = newtonian_profile(shape, channel, body_force, viscosity, half_width, half_height)
+    limit = min(0.5, max(0.05, 3.0 * float(profile.max())))
+    section = (1, shape[1], shape[2])
+    lattice = Lattice(LatticeParams(section, relaxation_time=relaxation_time, dtype=dtype,
+                                    solid=solid[:1], body_force=(body_force, 0.0, 0.0), rheology=rheology,
+                                    velocity_limit=limit))
+    velocity = np.zeros((3,) + section)
+    velocity[0] = profile[None]
+    lattice.initialize(velocity=velocity)
+    relax_to_steady(lattice, tolerance)
+    return np.where(solid[0], 0.0, lattice.velocity()[0, 0])
 
 
 def flow_rate(lattice: Lattice) -> float:
@@ -172,6 +275,50 @@ def poiseuille_error(radius: float, relaxation_time: float = 1.0, body_force: fl
     }
 
 
+def duct_error(half_width: float, aspect_ratio: float = 1.0, relaxation_time: float = 1.0,
+               body_force: float = 1e-6, dtype: str = "float64", tolerance: float = 1e-8) -> dict:
+    """Steady empty duct (Newtonian) against the series of :func:`duct_velocity` / :func:`duct_flow_rate` at
+    the lattice's own half-width and half-height: relative flow-rate error, profile L2 and max errors (units of
+    the closed form's centre speed), steps."""
+    shape, solid, a, b = channel_geometry("rectangle", half_width, aspect_ratio, 1)
+    u = steady_profile(shape, solid, body_force, relaxation_time, None, "rectangle", a, b, dtype, tolerance)
+    viscosity = (relaxation_time - 0.5) / 3.0
+    exact = newtonian_profile(shape, "rectangle", body_force, viscosity, a, b)
+    fluid = ~solid[0]
+    u_max = float(exact.max())
+    return {"half_width": a, "half_height": b,
+            "flow_rate_error": float(u.sum()) / duct_flow_rate(body_force, viscosity, a, b) - 1.0,
+            "profile_l2_error": float(np.sqrt(((u - exact)[fluid] ** 2).sum() / (exact[fluid] ** 2).sum())),
+            "profile_max_error": float(np.abs(u - exact)[fluid].max() / u_max)}
+
+
+def power_law_slab_error(nodes: int, flow_index: float, wall_shear_rate: float = 1e-3,
+                         relaxation_time: float = 1.0, dtype: str = "float64", tolerance: float = 1e-9,
+                         tau_range: tuple[float, float] = DEFAULT_TAU_RANGE) -> dict:
+    """A power-law liquid between plates (``nodes`` fluid nodes across, half-way walls at rest, periodic in x and
+    z) driven to the wall shear rate ``wall_shear_rate`` (1/dt) where its viscosity is that of
+    ``relaxation_time``, against :func:`~elastocell.lattice.rheology.slab_velocity`: relative flow-rate error,
+    profile L2 and max errors (units of the closed form's centre speed), the range of local tau."""
+    h = nodes / 2.0
+    nu_wall = (relaxation_time - 0.5) / 3.0
+    rheology = PowerLaw.matching(flow_index, nu_wall, wall_shear_rate, relaxation_time_min=tau_range[0],
+                                 relaxation_time_max=tau_range[1])
+    body_force = nu_wall * wall_shear_rate / h  # wall stress K gdot_w^n = G h
+    lattice = Lattice(LatticeParams((1, nodes, 1), relaxation_time=relaxation_time, dtype=dtype,
+                                    wall_velocity=(0.0, 0.0), body_force=(body_force, 0.0, 0.0), rheology=rheology))
+    y = np.arange(nodes) - (nodes - 1) / 2.0
+    exact = slab_velocity(y, body_force, rheology.consistency, flow_index, h)
+    velocity = np.zeros((3, 1, nodes, 1))
+    velocity[0, 0, :, 0] = exact
+    lattice.initialize(velocity=velocity)
+    steps = relax_to_steady(lattice, tolerance, chunk=max(200, int(h * h / nu_wall)))
+    u = lattice.velocity()[0, 0, :, 0]
+    q_exact = slab_flow_rate(body_force, rheology.consistency, flow_index, h)
+    return {"nodes": nodes, "flow_index": flow_index, "flow_rate_error": float(u.sum()) / q_exact - 1.0,
+            "profile_l2_error": float(np.sqrt(((u - exact) ** 2).sum() / (exact**2).sum())),
+            "profile_max_error": float(np.abs(u - exact).max() / exact.max()), "steps": steps}
+
+
 # =========================================================================== scenario parameters
 DEFAULT_CAPILLARY_NUMBER_WALL = 0.2
 """Ca_w of the reference runs (validation/pipe.py): the local Ca at the cell's edge, Ca_w R/R_ch = 0.1 at the
@@ -206,6 +353,15 @@ class PipeFlowParameters(FlowLatticeParameters):
     dtype: LB storage precision.
     backend: compute engine: "numba" (fused compiled CPU kernels, the fastest on a CPU) or "jax" (the same
         physics in JAX on its default device: a GPU when JAX has CUDA/ROCm, else the CPU).
+    channel_shape: "cylinder" (radius R_ch), "square" or "rectangle" (a duct of width W = 2 R_ch along y, the
+        start offset's direction, and height H = channel_aspect_ratio W along z; half-way bounce-back walls, W
+        and H rounded to whole lattice nodes). For a duct R_ch is the half-width and Ca_w = G R_ch/(2 mu_ref) is
+        the mean wall shear stress over mu_ref for the square (G A/P).
+    channel_aspect_ratio: H/W of a rectangle (1 for the square).
+    medium: "newtonian" or a shear-thinning power law: "0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS" at
+        ``temperature`` (degC, default 23; :mod:`elastocell.parameters.medium`), or "power-law" with ``flow_index``.
+        The power law's consistency is set so that its viscosity at the nominal wall shear rate gdot_w is the
+        lattice's eta = (tau - 1/2)/3: only n changes the flow, and Ca_w keeps its meaning with that viscosity.
     """
 
     capillary_number_wall: float
@@ -213,6 +369,11 @@ class PipeFlowParameters(FlowLatticeParameters):
     start_offset: float = 0.0
     lattice_wall_shear_rate: float | None = None
     max_steps_per_time: float = 1.0e6
+    channel_shape: Literal["cylinder", "square", "rectangle"] = "cylinder"
+    channel_aspect_ratio: float = 1.0
+    medium: str = "newtonian"
+    temperature: float | None = None
+    flow_index: float | None = None
 
     @model_validator(mode="after")
     def _check(self) -> PipeFlowParameters:
@@ -227,17 +388,37 @@ class PipeFlowParameters(FlowLatticeParameters):
         require(math.isfinite(offset) and 0 <= offset < 1 - 1 / ratio, "start_offset",
                 f"r0/R_ch must be in [0, {1 - 1 / ratio:.4g}) at R_ch/R = {ratio:g} (r0 + R < R_ch: the cell "
                 f"inside the channel), got {offset}")
-        check_channel_fit(self.resolution, ratio, offset, self.kernel)
+        aspect = self.channel_aspect_ratio
+        require(math.isfinite(aspect) and 0.2 <= aspect <= 5, "channel_aspect_ratio",
+                f"H/W must be in [0.2, 5], got {aspect}")
+        require(self.channel_shape != "square" or aspect == 1.0, "channel_aspect_ratio",
+                f"a square channel has H/W = 1, got {aspect}: use channel_shape rectangle")
+        require(self.channel_shape != "cylinder" or aspect == 1.0, "channel_aspect_ratio",
+                f"a cylinder has no aspect ratio (got {aspect}): use channel_shape rectangle")
+        fluid = pipe_medium(self)
+        require(fluid.is_newtonian or self.backend == "numba", "medium",
+                f"{fluid.name} runs on backend numba only (the JAX backend has a Newtonian medium)")
+        check_channel_fit(self.resolution, ratio, offset, self.kernel,
+                          aspect if self.channel_shape != "cylinder" else 1.0)
         if self.lattice_wall_shear_rate is not None:
             rate = self.lattice_wall_shear_rate
             require(math.isfinite(rate) and rate > 0, "lattice_wall_shear_rate", f"must be > 0 (1/dt), got {rate}")
         return self
 
 
+def pipe_medium(params) -> Medium:
+    """The :class:`~elastocell.parameters.medium.Medium` of pipe parameters (medium, temperature, flow_index)."""
+    return medium(params.medium, params.temperature, params.flow_index)
+
+
 def check_channel_fit(resolution: float, channel_radius_ratio: float, start_offset: float,
-                      kernel: str = "trilinear") -> None:
-    """Raise ParameterError unless the undeformed cell at r0 keeps the kernel's reach + 1 dx from the wall."""
+                      kernel: str = "trilinear", aspect_ratio: float = 1.0) -> None:
+    """Raise ParameterError unless the undeformed cell at r0 keeps the kernel's reach + 1 dx from the wall
+    (a duct of height/width ``aspect_ratio``: from the nearer wall pair when centred)."""
     radius = float(resolution)
+    if aspect_ratio < 1.0 and (channel_radius_ratio * aspect_ratio - 1) * radius < ibm.kernel_half_width(kernel) + 1:
+        raise ParameterError("channel_aspect_ratio", f"H/W = {aspect_ratio:g} puts the centred cell within the "
+                             "kernel's reach + 1 dx of the top and bottom walls: raise it or channel_radius_ratio")
     channel_radius = channel_radius_ratio * radius
     half_width = ibm.kernel_half_width(kernel)
     margin = half_width + 1.0
@@ -285,6 +466,9 @@ class PipeUnits:
     min_node_spacing: float
     limits: dict = field(default_factory=dict)
     limiting: str = ""
+    channel: str = "cylinder"
+    channel_half_height: float = 0.0
+    rheology: PowerLaw | None = None
 
     @property
     def steps_per_time(self) -> float:
@@ -306,7 +490,8 @@ class PipeUnits:
             "radius", "channel_radius", "relaxation_time", "viscosity", "wall_shear_rate", "body_force",
             "centre_speed", "youngs_modulus", "reference_shear_modulus", "reynolds_number",
             "channel_reynolds_number", "start_offset", "stiffness_mobility", "stability_number",
-            "min_node_spacing", "limiting")}  # fmt: skip
+            "min_node_spacing", "limiting", "channel", "channel_half_height")}  # fmt: skip
+        out["flow_index"] = 1.0 if self.rheology is None else self.rheology.flow_index
         out["shape"] = list(self.shape)
         out["axis"] = list(self.axis)
         out["steps_per_time"] = self.steps_per_time
@@ -323,13 +508,19 @@ def pipe_lattice_units(cell, params: PipeFlowParameters) -> PipeUnits:
     C0 c(tau) c(d) (as :func:`elastocell.scenarios.shear.shear_lattice_units`), with E_c from Ca_w:
     mu_ref = eta gdot_w/Ca_w, E_c = 2 (1 + nu_p) mu_ref/(mu_ref/mu_c). Then G = 2 eta gdot_w/R_ch.
     Raises ParameterError when the channel cannot hold the cell with the kernel's reach to spare."""
-    check_channel_fit(params.resolution, params.channel_radius_ratio, params.start_offset, params.kernel)
+    duct = params.channel_shape != "cylinder"
+    check_channel_fit(params.resolution, params.channel_radius_ratio, params.start_offset, params.kernel,
+                      params.channel_aspect_ratio if duct else 1.0)
     radius = float(params.resolution)
-    channel_radius = params.channel_radius_ratio * radius
+    length = int(round(params.box_length * radius))
+    shape, _, channel_radius, half_height = channel_geometry(params.channel_shape, params.channel_radius_ratio * radius,
+                                                             params.channel_aspect_ratio, length)
+    # centre speed of the Newtonian channel: gdot_w R_ch/2 (cylinder), 2 kappa gdot_w a (duct)
+    velocity_length = 4.0 * duct_centre_factor(half_height / channel_radius) * channel_radius if duct else channel_radius
     tau = params.relaxation_time
     ca = params.capillary_number_wall
     rates = shear_rate_limits(cell, radius, tau, ca, params.kernel, params.reynolds_number,
-                              params.velocity_limit, channel_radius)
+                              params.velocity_limit, velocity_length)
     viscosity, modulus_per_rate, limits = rates.viscosity, rates.modulus_per_rate, rates.limits
     stiffness_mobility, spacing = rates.stiffness_mobility, rates.spacing
     if params.lattice_wall_shear_rate is None:
@@ -348,11 +539,14 @@ def pipe_lattice_units(cell, params: PipeFlowParameters) -> PipeUnits:
             f"Ca_w = {ca} needs {1 / rate:.3g} LB steps per unit time 1/gdot_w (limited by {limiting}), more than "
             f"max_steps_per_time = {params.max_steps_per_time:.3g}: raise capillary_number_wall or lower resolution",
         )
-    length = int(round(params.box_length * radius))
-    shape = channel_shape(channel_radius, length)
     youngs_modulus = modulus_per_rate * rate
     body_force = 2.0 * viscosity * rate / channel_radius
-    centre_speed = rate * channel_radius / 2.0
+    centre_speed = rate * velocity_length / 2.0
+    fluid = pipe_medium(params)
+    rheology = None if fluid.is_newtonian else PowerLaw.matching(fluid.flow_index, viscosity, rate)
+    if rheology is not None:  # the empty channel's own centre speed
+        centre_speed = float(channel_profile(shape, params.channel_shape, channel_radius, half_height, body_force,
+                                             tau, rheology).max())
     return PipeUnits(
         radius=radius,
         channel_radius=channel_radius,
@@ -372,20 +566,40 @@ def pipe_lattice_units(cell, params: PipeFlowParameters) -> PipeUnits:
         min_node_spacing=spacing,
         limits=limits,
         limiting=limiting,
+        channel=params.channel_shape,
+        channel_half_height=half_height,
+        rheology=rheology,
     )
+
+
+@functools.lru_cache(maxsize=8)
+def channel_profile(shape, channel: str, half_width: float, half_height: float, body_force: float,
+                    relaxation_time: float, rheology: PowerLaw | None) -> np.ndarray:
+    """The steady u_x (ny, nz) of the empty channel on its lattice (:func:`steady_profile`, float64; cached)."""
+    solid = channel_geometry(channel, half_width, half_height / half_width, 1)[1]
+    out = steady_profile((1,) + tuple(shape[1:]), solid, body_force, relaxation_time, rheology, channel, half_width,
+                         half_height)
+    out.setflags(write=False)
+    return out
 
 
 def pipe_setup(cell, params: PipeFlowParameters, units: PipeUnits | None = None) -> ImmersedCell:
     """Channel lattice (Poiseuille profile already established) and the immersed cell at its start."""
     units = pipe_lattice_units(cell, params) if units is None else units
     shape = units.shape
+    _, solid, a, b = channel_geometry(units.channel, units.channel_radius,
+                                      units.channel_half_height / units.channel_radius, shape[0])
     lattice_params = LatticeParams(
-        shape, relaxation_time=units.relaxation_time, dtype=params.dtype,
-        solid=channel_solid(shape, units.channel_radius), body_force=(units.body_force, 0.0, 0.0),
+        shape, relaxation_time=units.relaxation_time, dtype=params.dtype, solid=solid,
+        body_force=(units.body_force, 0.0, 0.0), rheology=units.rheology,
         velocity_limit=max(params.velocity_limit, units.centre_speed) * 1.2)
     velocity = np.zeros((3,) + shape)
-    velocity[0] = poiseuille_velocity(radial_distance(shape), units.body_force, units.viscosity,
-                                      units.channel_radius)[None]
+    if units.channel == "cylinder" and units.rheology is None:
+        velocity[0] = poiseuille_velocity(radial_distance(shape), units.body_force, units.viscosity,
+                                          units.channel_radius)[None]
+    else:  # the lattice's own steady empty channel
+        velocity[0] = channel_profile(shape, units.channel, a, b, units.body_force, units.relaxation_time,
+                                      units.rheology)[None]
     return immersed_cell(params.backend, lattice_params, velocity, cell, units, params.kernel)
 
 
@@ -489,9 +703,14 @@ class PipeRun(FlowRun):
     def _check_walls(self) -> None:
         units, system = self.units, self.system
         ay, az = units.axis
-        r = np.hypot(system.positions[:, 1] - ay, system.positions[:, 2] - az)
-        reach = units.channel_radius - ibm.kernel_half_width(self.params.kernel) - 0.5
-        if r.max() > reach:
+        margin = ibm.kernel_half_width(self.params.kernel) + 0.5
+        dy, dz = system.positions[:, 1] - ay, system.positions[:, 2] - az
+        if units.channel == "cylinder":
+            near = np.hypot(dy, dz).max() > units.channel_radius - margin
+        else:
+            near = (np.abs(dy).max() > units.channel_radius - margin
+                    or np.abs(dz).max() > units.channel_half_height - margin)
+        if near:
             raise FlowError(f"the cell reached the wall at time {self.time:.3g}/gdot_w (within the kernel support): "
                             "raise channel_radius_ratio or lower start_offset")
 
@@ -515,6 +734,8 @@ class PipeRun(FlowRun):
         out = {"capillary_number_wall": self.params.capillary_number_wall,
                "channel_radius_ratio": self.params.channel_radius_ratio,
                "start_offset": self.params.start_offset, "equivalent": bool(self.cell.is_equivalent),
+               "channel_shape": self.params.channel_shape, "channel_aspect_ratio": self.params.channel_aspect_ratio,
+               **pipe_medium(self.params).as_dict(),
                "transient_time": transient, "stationary_records": int(keep.sum())}
         for name in ("strain_axial", "strain_radial", "strain_transverse", "deformation", "projected_area",
                      "axial_velocity", "radial_position", "volume_change", "local_capillary_number"):

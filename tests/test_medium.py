@@ -1,0 +1,201 @@
+"""Shear-thinning medium and rectangular channels: kernels against the NumPy reference, closed forms, presets.
+
+References: the power-law slab profile u(y) and flow rate (closed form, lattice.rheology), the Newtonian duct
+series (White, Viscous Fluid Flow, eqs. 3-48/3-49), Kozicki et al.'s square-duct relation for power-law liquids
+(exact at n = 1, an approximation otherwise), dclab's MC-PBS viscosity. Figures vs resolution:
+validation/medium.py -> docs/validation/medium.md.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from elastocell.body.cell import Cell
+from elastocell.lattice import Lattice, LatticeParams
+from elastocell.lattice.reference import reference_collide, reference_step
+from elastocell.lattice.rheology import PowerLaw, local_relaxation_time
+from elastocell.parameters.cell import cell_parameters
+from elastocell.parameters.medium import KOZICKI_SQUARE, mc_pbs, medium
+from elastocell.parameters.units import ParameterError
+from elastocell.scenarios.pipe import (
+    PipeFlowParameters,
+    channel_geometry,
+    channel_profile,
+    duct_error,
+    duct_flow_rate,
+    pipe_lattice_units,
+    power_law_slab_error,
+    run_pipe,
+)
+
+
+# ----------------------------------------------------------------------------------------- kernels
+@pytest.mark.parametrize("collision", ["trt", "bgk"])
+def test_power_law_kernels_equal_the_reference_step(collision):
+    """Reference: the NumPy step with the same per-node tau (float64). Measured max difference 3e-16."""
+    rng = np.random.default_rng(1)
+    shape = (5, 6, 7)
+    solid = np.zeros(shape, bool)
+    solid[:, :, 0] = True
+    solid[2, 3, 4] = True
+    params = LatticeParams(shape, relaxation_time=0.9, collision=collision, dtype="float64", solid=solid,
+                           body_force=(1e-4, 2e-5, 0.0), wall_velocity=(0.01, -0.01),
+                           rheology=PowerLaw.matching(0.6, 0.1, 1e-3))
+    lattice = Lattice(params)
+    lattice.initialize(velocity=rng.normal(0, 0.01, (3,) + shape))
+    force = rng.normal(0, 1e-4, (3,) + shape)
+    lattice.set_force_density(force)
+    f = lattice.populations.copy()
+    post = reference_collide(f, params, force + np.asarray(params.body_force).reshape(3, 1, 1, 1))
+    assert np.ptp(post - f) > 0  # the step changes the populations
+    for _ in range(3):
+        f = reference_step(f, params, force)
+        lattice.step(1)
+    assert np.abs(lattice.populations - f)[:, ~solid].max() < 1e-13
+
+
+def test_local_tau_spans_the_law_and_is_clamped():
+    """tau from the Newton solve equals the root of 3K gdot^n + gdot/2 = m (bisection); the clamp holds."""
+    law = PowerLaw(0.5, 0.01, 0.52, 10.0)
+    m = np.logspace(-8, 0, 40)
+    tau = law.relaxation_time(m)
+    gdot = m / tau
+    inside = (tau > 0.52) & (tau < 10.0)
+    assert inside.sum() > 10 and (~inside).sum() > 0  # both regimes are exercised
+    residual = 3 * law.consistency * gdot[inside] ** law.flow_index + gdot[inside] / 2 - m[inside]
+    assert np.abs(residual / m[inside]).max() < 1e-6
+    assert tau.min() >= 0.52 and tau.max() <= 10.0
+    assert local_relaxation_time(np.array(0.0), 0.03, 0.5, 0.52, 10.0) == 10.0  # fluid at rest: tau_max
+
+
+def test_newtonian_jax_refuses_a_power_law():
+    pytest.importorskip("jax")
+    from elastocell.lattice.jax_backend import JaxLattice
+
+    with pytest.raises(ValueError, match="numba"):
+        JaxLattice(LatticeParams((2, 2, 2), relaxation_time=1.0, rheology=PowerLaw(0.6, 0.1)))
+
+
+# ----------------------------------------------------------------------------------------- closed forms
+@pytest.mark.parametrize("flow_index", [1.0, 0.6])
+def test_power_law_slab_against_the_closed_form(flow_index):
+    """Slab of 16 nodes, half-way walls. Measured: n = 1 profile exact to 4e-11 (TRT magic 3/16), flow rate
+    +0.20 % (the node sum of a parabola); n = 0.6 profile L2 0.41 %, flow rate -0.21 %, second order in dx
+    (8 nodes: 1.7 %, -0.83 %; 32: 0.10 %, -0.05 %)."""
+    err = power_law_slab_error(16, flow_index)
+    assert abs(err["flow_rate_error"]) < 0.003
+    assert err["profile_l2_error"] < (1e-8 if flow_index == 1.0 else 0.006)
+    coarse = power_law_slab_error(8, flow_index)
+    assert abs(coarse["flow_rate_error"]) > 3 * abs(err["flow_rate_error"])  # converges (~4x per doubling)
+
+
+def test_newtonian_square_duct_against_the_series():
+    """Series of White eqs. 3-48/3-49. Measured: a = 4 dx flow rate +1.41 %, profile L2 0.40 %; a = 8 dx
+    +0.37 %, 0.088 % (second order)."""
+    err = duct_error(8.0)
+    assert abs(err["flow_rate_error"]) < 0.005
+    assert err["profile_l2_error"] < 0.0012
+    assert duct_flow_rate(1.0, 1.0, 1.0, 1.0) / 16 == pytest.approx(0.035144, rel=1e-4)  # Q eta/(G W^4)
+
+
+def test_power_law_square_duct_flow_rate_against_kozicki():
+    """Kozicki et al. (1966): Q = a^3 (G a/(2K))^(1/n)/(b + a_k/n) for a square of half-width a (approximate for
+    n != 1). Measured LB (n = 0.6): Q/Q_kozicki - 1 = +5.13 % at a = 8 dx, +5.09 % at 16 dx: the lattice has
+    converged, the 5 % is the approximation's (and the tau clamp's, see validation/medium.py)."""
+    n, a = 0.6, 8.0
+    shape, _, a, b = channel_geometry("square", a, 1.0, 1)
+    nu, rate = 1.0 / 6.0, 1e-3
+    law = PowerLaw.matching(n, nu, rate)
+    g = 2 * nu * rate / a
+    q = channel_profile(shape, "square", a, b, g, 1.0, law).sum()
+    ak, bk = KOZICKI_SQUARE
+    q_kozicki = a**3 * (g * a / (2 * law.consistency)) ** (1 / n) / (bk + ak / n)
+    assert q / q_kozicki - 1 == pytest.approx(0.051, abs=0.01)
+
+
+# ----------------------------------------------------------------------------------------- presets
+def test_mc_pbs_presets_match_dclab():
+    """Reference: dclab's get_viscosity_mc_pbs_buyukurganci_2022 (mPa s) at dclab's own wall shear rate."""
+    viscosity = pytest.importorskip("dclab.features.emodulus.viscosity")
+    for name, dclab_name in (("0.49%MC-PBS", "0.49% MC-PBS"), ("0.59%MC-PBS", "0.59% MC-PBS"),
+                             ("0.83%MC-PBS", "0.83% MC-PBS")):
+        for temperature in (22.0, 23.0, 30.0):
+            fluid = mc_pbs(name, temperature)
+            rate = viscosity.shear_rate_square_channel(0.04, 20.0, fluid.flow_index)
+            expected = viscosity.get_viscosity_mc_pbs_buyukurganci_2022(dclab_name, 20.0, 0.04, temperature)
+            assert fluid.viscosity(rate) * 1e3 == pytest.approx(expected, rel=1e-12)
+    assert 0.5 < mc_pbs("0.59%MC-PBS", 23).flow_index < 0.7
+    assert medium("0.59% MC-PBS").name == "0.59%MC-PBS"
+
+
+@pytest.mark.parametrize(("args", "parameter"), [
+    (("ketchup",), "medium"), (("0.59%MC-PBS", 150.0), "temperature"), (("newtonian", None, 0.5), "flow_index"),
+    (("power-law",), "flow_index"), (("power-law", None, 5.0), "flow_index"),
+])
+def test_impossible_media_are_refused(args, parameter):
+    with pytest.raises(ParameterError) as info:
+        medium(*args)
+    assert info.value.parameter == parameter
+
+
+def test_preset_outside_its_fit_warns():
+    with pytest.warns(UserWarning, match="extrapolated"):
+        mc_pbs("0.49%MC-PBS", 40.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mc_pbs("0.49%MC-PBS", 23.0)
+
+
+# ----------------------------------------------------------------------------------------- pipe scenario
+SMALL = dict(resolution=4, channel_radius_ratio=2.5, box_length=6)
+
+
+@pytest.fixture(scope="module")
+def cell():
+    return Cell.from_parameters(cell_parameters(nucleus="none", element="p1", mesh_size=0.6, pole_size=0.6))
+
+
+@pytest.mark.parametrize(("options", "parameter"), [
+    (dict(channel_shape="square", channel_aspect_ratio=2.0), "channel_aspect_ratio"),
+    (dict(channel_shape="rectangle", channel_aspect_ratio=0.3), "channel_aspect_ratio"),
+    (dict(medium="0.59%MC-PBS", backend="jax"), "medium"),
+    (dict(medium="honey"), "medium"),
+])
+def test_pipe_refuses_impossible_channels_and_media(options, parameter):
+    with pytest.raises(ValueError, match=f"{parameter}: "):
+        PipeFlowParameters(capillary_number_wall=0.5, **SMALL, **options)
+
+
+def test_square_channel_units_follow_the_duct_series(cell):
+    """The empty square channel's lattice flow rate against the series at the same G (measured +1.1 % at
+    a = 10 dx, the lattice's second-order error) and the centre speed 2 kappa gdot_w a (kappa = 0.2947)."""
+    params = PipeFlowParameters(capillary_number_wall=0.5, channel_shape="square", **SMALL)
+    units = pipe_lattice_units(cell, params)
+    a = units.channel_radius
+    assert units.channel_half_height == a == 10.0
+    profile = channel_profile(units.shape, "square", a, a, units.body_force, units.relaxation_time, None)
+    q = duct_flow_rate(units.body_force, units.viscosity, a, a)
+    assert profile.sum() / q - 1 == pytest.approx(0.0, abs=0.02)
+    assert units.centre_speed == pytest.approx(2 * 0.29468 * units.wall_shear_rate * a, rel=1e-4)
+    assert profile.max() / units.centre_speed == pytest.approx(1.0, abs=0.01)
+
+
+def test_cell_in_a_square_channel_of_mc_pbs(cell):
+    """A centred cell in a square channel of 0.59 % MC-PBS: stays on the axis, moves downstream and is
+    stretched along the flow (eps_x > 1) in 2/gdot_w; the empty channel's centre speed is below the Newtonian
+    one at the same G and wall viscosity (shear thinning flattens the profile: measured 0.79)."""
+    newtonian = pipe_lattice_units(cell, PipeFlowParameters(capillary_number_wall=0.5, channel_shape="square",
+                                                            **SMALL))
+    params = PipeFlowParameters(capillary_number_wall=0.5, channel_shape="square", medium="0.59%MC-PBS", **SMALL)
+    result = run_pipe(cell, params, duration=2.0, record_interval=0.5)
+    s = result.summary
+    assert result.units.rheology is not None and s["flow_index"] == pytest.approx(mc_pbs("0.59%MC-PBS").flow_index)
+    assert 0.6 < result.units.centre_speed / newtonian.centre_speed < 0.95
+    assert s["radial_position"] < 0.01
+    assert s["axial_position" if "axial_position" in s else "axial_velocity_mean"] > 0
+    assert s["strain_axial_mean"] > 1.0
+    assert math.isfinite(s["volume_change_max_abs"]) and s["volume_change_max_abs"] < 0.05
