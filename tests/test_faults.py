@@ -8,6 +8,7 @@ import os
 import subprocess
 import sys
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -327,6 +328,74 @@ def test_a_lock_whose_holder_went_silent_is_taken_over(tmp_path):
     with pytest.warns(UserWarning, match="silent for more than"):
         with output_directory(tmp_path):
             assert json.loads(lock.read_text())["pid"] == os.getpid()
+
+
+def test_two_runs_taking_over_the_same_stale_lock_do_not_both_hold_it(tmp_path, monkeypatch):
+    """Two runs that judged the same lock stale (its process is gone; both judged before either acted): one takes
+    it over, the other is refused, and the winner's fresh lock stays (a second run that unlinks the lock it
+    judged would remove the winner's fresh lock, and both would run)."""
+    import threading
+
+    from elastocell.simulation import directory
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    lock = tmp_path / LOCK_NAME
+    lock.write_text(json.dumps({"pid": dead.pid, "host": os.uname().nodename, "command": "x"}))
+    judged, local, alive = threading.Barrier(2, timeout=10), threading.local(), directory._process_alive
+
+    def process_alive(pid):  # both threads judge the stale lock before either acts; one acts 0.2 s later
+        answer = alive(pid)
+        if not getattr(local, "judged", False):
+            local.judged = True
+            if judged.wait() == 0:
+                time.sleep(0.2)
+        return answer
+
+    monkeypatch.setattr(directory, "_process_alive", process_alive)
+    entered, refused = [], []
+
+    def take():
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                with output_directory(tmp_path):
+                    entered.append(json.loads(lock.read_text())["pid"])
+                    time.sleep(0.5)  # hold it while the other run looks
+        except ParameterError:
+            refused.append(True)
+
+    threads = [threading.Thread(target=take) for _ in range(2)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert entered == [os.getpid()] and refused == [True]
+    assert not lock.exists() and not list(tmp_path.glob("*takeover*"))
+
+
+def test_a_sweep_task_waits_for_the_lock_of_its_dead_node_to_go_stale(tmp_path, monkeypatch):
+    """A study or LUT task rescheduled after its node died meets that node's lock, still touched seconds ago: it
+    waits until the lock is stale and takes it over, instead of being recorded failed. A lock of a live run on
+    this host is still refused after that wait."""
+    from elastocell.simulation import directory
+    from elastocell.simulation.runner import resume_or_restart
+
+    monkeypatch.setattr(directory, "HEARTBEAT", 0.1)
+    monkeypatch.setattr(directory, "STALE_AFTER", 0.6)
+
+    def simulate(out, resume, **options):
+        with output_directory(out):
+            return {"resume": resume, **options}
+
+    (tmp_path / LOCK_NAME).write_text(json.dumps({"pid": 1, "host": "another-node", "command": "x"}))
+    start = time.monotonic()
+    with pytest.warns(UserWarning, match="silent for more than"):
+        assert resume_or_restart(simulate, tmp_path, mesh_size=0.5) == {"resume": True, "mesh_size": 0.5}
+    assert time.monotonic() - start >= 0.6
+    with output_directory(tmp_path):  # this process is alive: its lock never goes stale
+        with pytest.raises(ParameterError, match="in use by process"):
+            resume_or_restart(simulate, tmp_path)
 
 
 @pytest.mark.slow

@@ -41,6 +41,7 @@ from elastocell.coupling.immersed import ImmersedCell
 from elastocell.coupling.markers import FlowError
 from elastocell.files import parameter_hash
 from elastocell.parameters.units import ParameterError
+from elastocell.simulation.directory import waiting_while_in_use
 
 TYPICAL_UPDATE_RATE = 2.5e7
 """Lattice updates per second of the fused CPU kernels on a 2-core machine (the order ``validation/lattice.py``
@@ -452,14 +453,17 @@ def resume_or_restart(simulate: Callable, out: Path, **options) -> dict:
     """``simulate(out=out, resume=True, **options)`` for a sweep's run directory (keyed by its options): continue
     from the checkpoint if it is there and compatible, otherwise (a checkpoint an older elastocell or another
     backend wrote) delete it and run from the start. ``--resume`` on the command line refuses such a checkpoint
-    instead, because the user asked for that run to continue."""
+    instead, because the user asked for that run to continue.
+
+    A directory held by another run that looks alive is waited for (:func:`waiting_while_in_use`): on a
+    cluster it is the lock of this same run on a node that died, until that lock goes stale."""
     try:
-        return simulate(out=out, resume=True, **options)
+        return waiting_while_in_use(simulate, out=out, resume=True, **options)
     except ParameterError as error:
         if error.parameter != "resume":
             raise
     (Path(out) / "checkpoint.npz").unlink(missing_ok=True)
-    return simulate(out=out, resume=False, **options)
+    return waiting_while_in_use(simulate, out=out, resume=False, **options)
 
 
 
