@@ -27,6 +27,11 @@ def pipe(
     channel_radius_ratio: float | None = None,
     start_offset: float | None = None,
     resolution: float | None = None,
+    channel_shape: str | None = None,
+    channel_aspect_ratio: float | None = None,
+    medium: str | None = None,
+    temperature: float | None = None,
+    flow_index: float | None = None,
     duration: float = 10.0,
     resume: bool = False,
     progress: bool = True,
@@ -45,6 +50,9 @@ def pipe(
 
     capillary_number_wall: Ca_w = G R_ch/(2 mu_c) (mu_eff with ``equivalent``). cell: CellParameters or the
     CELL OPTIONS of ``cell_parameters`` (default mesh: uniform p1 with edges of 2 dx, as shear flow).
+    channel_shape: "cylinder" (default), "square" or "rectangle" (width 2 R_ch, height channel_aspect_ratio times
+    the width). medium: "newtonian" (default), "0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS" (at ``temperature``
+    degC) or "power-law" (with ``flow_index``); see :class:`PipeFlowParameters`.
     duration: units of 1/gdot_w. resume: continue from ``out/checkpoint.npz`` if it exists.
     stationary_tolerance: stop once the running mean of ``stationary_observable`` ("strain_axial" or
     "deformation") over the last unit of time changes by less than this fraction of it (see
@@ -56,7 +64,9 @@ def pipe(
 
     flow_options = dict(flow_options or {})
     for name, value in (("channel_radius_ratio", channel_radius_ratio), ("start_offset", start_offset),
-                        ("resolution", resolution)):
+                        ("resolution", resolution), ("channel_shape", channel_shape),
+                        ("channel_aspect_ratio", channel_aspect_ratio), ("medium", medium),
+                        ("temperature", temperature), ("flow_index", flow_index)):
         if value is not None:
             flow_options[name] = value
     params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)
@@ -97,7 +107,8 @@ def pipe(
         write_json(out / "summary.json", summary)
         warn_if_not_stationary(summary, out)
         plot_pipe(out / "pipe.png", run.arrays(), summary,
-                  title=f"{label}, Ca_w = {capillary_number_wall:g}, R_ch/R = {params.channel_radius_ratio:g}, "
+                  title=f"{label}, {params.channel_shape} channel, {params.medium}, Ca_w = {capillary_number_wall:g}, "
+                        f"R_ch/R = {params.channel_radius_ratio:g}, "
                         f"r0/R_ch = {params.start_offset:g}, R/dx = {params.resolution:g}")
         if vtk is not None:
             vtk.close(run)

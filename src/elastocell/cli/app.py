@@ -208,7 +208,10 @@ def equivalent_command(cell: dict, as_json: bool):
 @user_errors
 @takes("out", "capillary_number_wall", FLOW_CELL,
        opt("equivalent", help="Simulate the homogeneous equivalent (Ca_w with mu_eff)."),
-       "channel_radius_ratio", "start_offset", "resolution",
+       "channel_radius_ratio", "start_offset", "resolution", "channel_shape",
+       opt("channel_width", help="Width W of a square or rectangular channel, with a physical --radius: sets "
+           "--channel-radius-ratio to W/(2R)."), "channel_height", "channel_aspect_ratio", "medium", "temperature",
+       "flow_index",
        opt("duration", default=10.0, units="1/gdot_w, gdot_w the wall shear rate"), "pressure_gradient",
        "wall_clock",
        opt("stationary_tolerance", help="Stop when the running mean of --stationary-observable over 1/gdot_w "
@@ -219,10 +222,13 @@ def equivalent_command(cell: dict, as_json: bool):
        opt("vtk_interval", help="Time between VTK snapshots.", units="1/gdot_w"),
        "resume", "backend", "quiet")
 def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent: bool, channel_radius_ratio: float,
-         start_offset: float, resolution: float, duration: float, pressure_gradient: str | None,
+         start_offset: float, resolution: float, channel_shape, channel_width: str | None, channel_height: str | None,
+         channel_aspect_ratio: float | None, medium: str, temperature: float | None, flow_index: float | None,
+         duration: float, pressure_gradient: str | None,
          wall_clock: float | None, stationary_tolerance: float | None, stationary_observable, record_interval: float,
          checkpoint_every: int, vtk_interval: float, resume: bool, backend, quiet: bool):
-    """A cell in pressure-driven flow through a cylindrical capillary: migration and bullet shape."""
+    """A cell in pressure-driven flow through a cylindrical or square/rectangular channel, in a Newtonian or
+    shear-thinning (MC-PBS) medium: migration and bullet shape."""
     from elastocell.api.pipe import (
         pipe as run,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
@@ -237,6 +243,8 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
     )
 
     cell = _cell(_uniform_flow_mesh(cell, resolution))
+    shape, channel_radius_ratio, channel_aspect_ratio = _pipe_channel(cell, channel_shape, channel_width, channel_height,
+                                                                      channel_aspect_ratio, channel_radius_ratio)
     if pressure_gradient is not None:
         if capillary_number_wall is not None:
             raise ParameterError("capillary_number_wall", "give --capillary-number-wall or --pressure-gradient, not both")
@@ -255,7 +263,8 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
     if capillary_number_wall is None:
         raise ParameterError("capillary_number_wall", "required (or --pressure-gradient)")
     flow_options = {"channel_radius_ratio": channel_radius_ratio, "start_offset": start_offset, "resolution": resolution,
-                    "backend": backend.value}
+                    "backend": backend.value, "channel_shape": shape, "channel_aspect_ratio": channel_aspect_ratio,
+                    "medium": medium, "temperature": temperature, "flow_index": flow_index}
     PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)  # validate early
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                  stationary_observable=stationary_observable.value, unit="units of 1/gdot_w")
@@ -274,6 +283,31 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
                    f"+- {summary['strain_radial_std']:.1e}, r/R_ch {summary['radial_position_initial']:.3f} -> "
                    f"{summary['radial_position']:.3f}, t = {summary['duration']:.2f}/gdot_w in "
                    f"{summary['wall_time_s']:.1f} s -> {out}")
+
+
+def _pipe_channel(cell, shape, width: str | None, height: str | None, aspect: float | None,
+                  radius_ratio: float) -> tuple[str, float, float]:
+    """(channel_shape, channel_radius_ratio, channel_aspect_ratio) of the pipe options: the shape given or inferred
+    (square with --channel-width, rectangle with a different height or an aspect ratio, else cylinder)."""
+    if height is not None and width is None:
+        raise ParameterError("channel_height", "needs --channel-width (the height is relative to the width)")
+    if width is not None:
+        if not cell.radius_is_physical:
+            raise ParameterError("channel_width", "needs a physical --radius (e.g. 8um) to set R_ch/R = W/(2R)")
+        w, _ = parse_quantity(width, "m", "channel_width")
+        h = w if height is None else parse_quantity(height, "m", "channel_height")[0]
+        if not (w > 0 and h > 0):
+            raise ParameterError("channel_width", f"width and height must be > 0, got {width}, {height}")
+        if aspect is not None and abs(aspect - h / w) > 1e-9:
+            raise ParameterError("channel_aspect_ratio", "give --channel-height or --channel-aspect-ratio, not both")
+        radius_ratio, aspect = w / (2.0 * cell.radius), h / w
+    name = shape.value if shape is not None else (
+        "rectangle" if aspect not in (None, 1.0) else "square" if width is not None else "cylinder")
+    if name == "cylinder" and (width is not None or aspect not in (None, 1.0)):
+        raise ParameterError("channel_shape", "a cylinder has no --channel-width/height/aspect: use --channel-radius-ratio")
+    if name == "square" and aspect not in (None, 1.0):
+        raise ParameterError("channel_shape", f"square needs H = W (H/W = {aspect:g}): use --channel-shape rectangle")
+    return name, radius_ratio, 1.0 if aspect is None else float(aspect)
 
 
 bench_app = typer.Typer(no_args_is_help=True, help="Measure this machine: lattice-Boltzmann throughput.")

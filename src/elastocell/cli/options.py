@@ -49,6 +49,12 @@ class Precision(str, Enum):
     float64 = "float64"
 
 
+class ChannelShape(str, Enum):
+    cylinder = "cylinder"
+    square = "square"
+    rectangle = "rectangle"
+
+
 class StationaryObservable(str, Enum):
     strain_axial = "strain_axial"
     deformation = "deformation"
@@ -219,6 +225,19 @@ OPTIONS: dict[str, Opt] = _declare(
     Opt("start_offset", float, 0.0, "r0/R_ch, initial distance of the cell from the axis.", units="R_ch"),
     Opt("pressure_gradient", str | None, None, "G, with a physical --radius and --youngs-modulus instead of "
         "--capillary-number-wall.", quantity="Pa/m", shown="none: give --capillary-number-wall"),
+    Opt("channel_shape", ChannelShape | None, None, "Cross-section: cylinder | square | rectangle (a duct of width "
+        "W = 2 R_ch and height H, plane walls; RT-DC chips are square).",
+        shown="square with --channel-width, rectangle with a different --channel-height, else cylinder"),
+    Opt("channel_aspect_ratio", float | None, None, "H/W of a rectangular channel.", units=_DIMENSIONLESS,
+        shown="1, or --channel-height/--channel-width"),
+    Opt("channel_height", str | None, None, "Height H of a rectangular channel (with --channel-width).",
+        quantity="m", shown="--channel-width: a square"),
+    Opt("medium", str, "newtonian", "Suspending medium: newtonian | 0.49%MC-PBS | 0.59%MC-PBS | 0.83%MC-PBS (RT-DC "
+        "buffers: shear-thinning power laws of Buyukurganci et al. 2022, as dclab) | power-law (with --flow-index)."),
+    Opt("temperature", float | None, None, "Temperature of an MC-PBS medium (fit: 22-37 degC).", units="degC",
+        shown="23"),
+    Opt("flow_index", float | None, None, "Power-law index n of --medium power-law (eta ~ shear_rate^(n-1)).",
+        units=_DIMENSIONLESS, shown="none"),
     Opt("stationary_observable", StationaryObservable, StationaryObservable.strain_axial,
         "Observable of the stationary stop: strain_axial | deformation."),
     # ---------------------------------------------------------------- bench lattice
