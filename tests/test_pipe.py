@@ -250,6 +250,14 @@ def test_checkpoint_fingerprint_ignores_field_order_and_a_sweep_restarts_a_stale
         (["--capillary-number-wall", "0.2", "--start-offset", "0.45"], "--start-offset"),
         ([], "--capillary-number-wall"),
         (["--capillary-number-wall", "0.2", "--stationary-tolerance", "0"], "--stationary-tolerance"),
+        (["--capillary-number-wall", "0.2", "--channel-shape", "square", "--channel-aspect-ratio", "2"],
+         "--channel-shape"),
+        (["--capillary-number-wall", "0.2", "--channel-width", "20um"], "--channel-width"),
+        (["--capillary-number-wall", "0.2", "--radius", "6um", "--channel-height", "20um"], "--channel-height"),
+        (["--capillary-number-wall", "0.2", "--medium", "honey"], "--medium"),
+        (["--capillary-number-wall", "0.2", "--medium", "0.59%MC-PBS", "--temperature", "150"], "--temperature"),
+        (["--capillary-number-wall", "0.2", "--medium", "0.59%MC-PBS", "--backend", "jax"], "--medium"),
+        (["--capillary-number-wall", "0.2", "--medium", "power-law"], "--flow-index"),
     ],
 )
 def test_cli_refuses_impossible_input_in_one_line(tmp_path, arguments, option):
