@@ -261,3 +261,41 @@ def test_a_damaged_or_foreign_shear_master_curve_is_reported_once_and_computed_a
         warnings.simplefilter("error")
         assert np.allclose(compute_shear_master_curve(0.47).table["deformation"], first.table["deformation"],
                            rtol=1e-9)
+
+
+def test_shear_runs_in_a_shared_work_directory_are_reused_only_when_made_from_the_same_parameters(
+        cache, tmp_path, monkeypatch):
+    """Two curves computed in one ``work_directory`` (its run directories are named by Ca and R/dx only): the
+    second curve's runs are made again, with a warning, not read from the first curve's summaries; a curve
+    computed again reads all its own runs back."""
+    import json
+
+    import elastocell.inverse.mastercurve_shear as mastercurve_shear
+
+    calls = []
+
+    def shear(out, resume=False, progress=True, **options):
+        calls.append((options["poisson_ratio"], options["capillary_number"], options["resolution"]))
+        summary = {"taylor_deformation_mean": 1.25 * options["capillary_number"] * (1.48 - options["poisson_ratio"]),
+                   "inclination_deg_mean": 40.0, "tank_treading_frequency": 0.4, "taylor_deformation_std": 1e-4,
+                   "volume_change_max_abs": 1e-5, "duration_strain": options["duration"], "mesh": {"n_nodes": 10}}
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "summary.json").write_text(json.dumps(summary))
+        return summary
+
+    monkeypatch.setattr(mastercurve_shear, "shear", shear)
+    work = tmp_path / "work"
+    grid = {"capillary_numbers": (0.05, 0.1, 0.2), "resolutions": (4, 6), "duration": 1.0, "work_directory": work}
+    first = mastercurve_shear.compute_shear_master_curve(0.47, **grid)
+    assert len(calls) == 6
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        other = mastercurve_shear.compute_shear_master_curve(0.40, **grid)
+    assert len(calls) == 12 and {call[0] for call in calls[6:]} == {0.40}
+    assert sum("made from other parameters" in str(w.message) for w in record) == 6
+    assert np.allclose(other.table["deformation_rdx6"] / first.table["deformation_rdx6"], 1.08 / 1.01)
+    mastercurve_shear.cache_path(0.40, "neo-hookean", grid["capillary_numbers"], grid["resolutions"], 1.0).unlink()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        again = mastercurve_shear.compute_shear_master_curve(0.40, **grid)  # from the runs' summaries
+    assert len(calls) == 12 and np.array_equal(again.table["deformation"], other.table["deformation"])

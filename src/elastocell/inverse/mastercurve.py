@@ -66,8 +66,28 @@ FORMAT_VERSION = 1
 changes."""
 
 
+class CurveFile:
+    """A curve stored as CSV text (``files.curve_csv_text``: one ``# {json}`` metadata line, then the table): a
+    subclass gives ``_csv() -> (metadata, columns)`` and the classmethod ``_from_table(metadata, table)``."""
+
+    def to_csv(self, path) -> None:
+        write_curve_csv(Path(path), *self._csv())
+
+    def csv_text(self) -> str:
+        """The CSV file's text (what :meth:`to_csv` writes)."""
+        return curve_csv_text(*self._csv())
+
+    @classmethod
+    def from_csv(cls, path):
+        return cls._from_table(*read_curve_csv(path))
+
+    @classmethod
+    def from_csv_text(cls, text: str):
+        return cls._from_table(*parse_curve_csv(text))
+
+
 @dataclass
-class MasterCurve:
+class MasterCurve(CurveFile):
     """f(delta) = F/(E R^2) of a homogeneous sphere between parallel plates.
 
     delta, force: the tabulated curve (fine mesh), starting at delta = 0; error: |fine - default mesh|.
@@ -146,18 +166,6 @@ class MasterCurve:
     def to_csv(self, path: Path, force_default_mesh: np.ndarray | None = None) -> None:
         write_curve_csv(Path(path), *self._csv(force_default_mesh))
 
-    def csv_text(self) -> str:
-        """The CSV file's text (what :meth:`to_csv` writes)."""
-        return curve_csv_text(*self._csv())
-
-    @classmethod
-    def from_csv(cls, path) -> MasterCurve:
-        return cls._from_table(*read_curve_csv(path))
-
-    @classmethod
-    def from_csv_text(cls, text: str) -> MasterCurve:
-        return cls._from_table(*parse_curve_csv(text))
-
     @classmethod
     def _from_table(cls, metadata: dict, table: dict) -> MasterCurve:
         return cls(delta=table["delta"], force=table["force_per_E_R2"], error=table["error"],
@@ -192,18 +200,38 @@ def cache_path(poisson_ratio: float, material: str = "neo-hookean", meshes: dict
                element: str = "p2") -> Path:
     """The cache entry of a computed curve: named by the hash of its :func:`curve_parameters` and
     :data:`FORMAT_VERSION`."""
-    digest = parameter_hash(curve_parameters(poisson_ratio, material, meshes, steps, element),
-                            format_version=FORMAT_VERSION)[:16]
-    return cache_directory() / f"mastercurve-compression-{digest}.csv"
+    return curve_cache_path("compression", curve_parameters(poisson_ratio, material, meshes, steps, element),
+                            FORMAT_VERSION)
 
 
 def read_cached(poisson_ratio: float, material: str = "neo-hookean", meshes: dict | None = None, steps: int = STEPS,
                 element: str = "p2") -> MasterCurve | None:
     """The cached curve of these inputs, verified (None: none, or one that was damaged or made from other
     parameters, reported in a warning and removed)."""
-    parameters = curve_parameters(poisson_ratio, material, meshes, steps, element)
-    return read_cache_entry(cache_path(poisson_ratio, material, meshes, steps, element), "compression master curve",
-                            parameters, FORMAT_VERSION, lambda payload: MasterCurve.from_csv_text(payload.decode()))
+    return read_cached_curve(MasterCurve, "compression", curve_parameters(poisson_ratio, material, meshes, steps,
+                                                                          element), FORMAT_VERSION)
+
+
+# -------------------------------------------------------------------- the cache of computed curves (both kinds)
+def curve_cache_path(kind: str, parameters: dict, format_version: int) -> Path:
+    """The cache entry of a ``kind`` ("compression", "shear") master curve made from ``parameters``: named by
+    their hash (``files.parameter_hash``) with the curve's format version."""
+    digest = parameter_hash(parameters, format_version=format_version)[:16]
+    return cache_directory() / f"mastercurve-{kind}-{digest}.csv"
+
+
+def read_cached_curve(curve_class: type[CurveFile], kind: str, parameters: dict, format_version: int):
+    """The verified cache entry (``files.read_cache_entry``) of the ``kind`` curve made from ``parameters``, as a
+    ``curve_class``; None when there is none (or it was damaged or made from other parameters: reported and
+    removed)."""
+    return read_cache_entry(curve_cache_path(kind, parameters, format_version), f"{kind} master curve", parameters,
+                            format_version, lambda payload: curve_class.from_csv_text(payload.decode()))
+
+
+def write_cached_curve(curve: CurveFile, kind: str, parameters: dict, format_version: int) -> None:
+    """Store ``curve`` as the cache entry of the ``kind`` curve made from ``parameters``."""
+    write_cache_entry(curve_cache_path(kind, parameters, format_version), curve.csv_text().encode(),
+                      f"{kind} master curve", parameters, format_version)
 
 
 def shipped_file(name: str):
@@ -212,9 +240,14 @@ def shipped_file(name: str):
     return resource if resource.is_file() else None
 
 
+def shipped_curve(curve_class: type[CurveFile], name: str):
+    """The packaged curve file ``name`` as a ``curve_class``, or None."""
+    resource = shipped_file(name)
+    return None if resource is None else curve_class.from_csv(resource)
+
+
 def shipped(poisson_ratio: float, material: str = "neo-hookean") -> MasterCurve | None:
-    resource = shipped_file(shipped_name(poisson_ratio, material))
-    return None if resource is None else MasterCurve.from_csv(resource)
+    return shipped_curve(MasterCurve, shipped_name(poisson_ratio, material))
 
 
 def shipped_or_cached(shipped_curve, cached: Callable[[], object], kind: str, poisson_ratio: float, material: str,
@@ -255,9 +288,8 @@ def compute_master_curve(poisson_ratio: float = 0.48, material: str = "neo-hooke
     check_inputs(poisson_ratio, material)
     meshes = meshes or MESHES
     parameters = curve_parameters(poisson_ratio, material, meshes, steps, element)
-    path = cache_path(poisson_ratio, material, meshes, steps, element)
     if use_cache:
-        cached = read_cached(poisson_ratio, material, meshes, steps, element)
+        cached = read_cached_curve(MasterCurve, "compression", parameters, FORMAT_VERSION)
         if cached is not None:
             return cached
     scenario: CompressionParameters = parameters["compression"]
@@ -286,5 +318,5 @@ def compute_master_curve(poisson_ratio: float = 0.48, material: str = "neo-hooke
                   "elastocell_version": __version__, "software": software_versions()})
     curve.force_default_mesh = default
     if use_cache:
-        write_cache_entry(path, curve.csv_text().encode(), "compression master curve", parameters, FORMAT_VERSION)
+        write_cached_curve(curve, "compression", parameters, FORMAT_VERSION)
     return curve

@@ -47,19 +47,17 @@ import numpy as np
 
 from elastocell.api.resolved import resolved_parameters
 from elastocell.api.shear import shear
-from elastocell.files import (
-    cache_directory,
-    curve_csv_text,
-    parameter_hash,
-    parse_curve_csv,
-    read_cache_entry,
-    read_curve_csv,
-    software_versions,
-    write_cache_entry,
-    write_curve_csv,
+from elastocell.files import parameter_hash, software_versions, write_json
+from elastocell.inverse.mastercurve import (
+    CurveFile,
+    curve_cache_path,
+    read_cached_curve,
+    shipped_curve,
+    shipped_or_cached,
+    write_cached_curve,
 )
-from elastocell.inverse.mastercurve import shipped_file, shipped_or_cached
 from elastocell.parameters.units import ParameterError
+from elastocell.simulation.runner import resume_or_restart
 from elastocell.version import __version__
 
 SHIPPED_POISSON_RATIOS = (0.48,)
@@ -92,7 +90,7 @@ def richardson(fine, coarse, ratio: float, order: float = CONVERGENCE_ORDER):
 
 
 @dataclass
-class ShearMasterCurve:
+class ShearMasterCurve(CurveFile):
     """Stationary D, inclination (degrees) and tank-treading frequency (x shear rate) against Ca.
 
     ``table``: the CSV columns (at least :data:`COLUMNS`; raw per-resolution columns ``<name>_rdx<R>`` too).
@@ -190,21 +188,6 @@ class ShearMasterCurve:
         names = list(COLUMNS) + [k for k in self.table if k not in COLUMNS]
         return metadata, {k: self.table[k] for k in names}
 
-    def to_csv(self, path) -> None:
-        write_curve_csv(Path(path), *self._csv())
-
-    def csv_text(self) -> str:
-        """The CSV file's text (what :meth:`to_csv` writes)."""
-        return curve_csv_text(*self._csv())
-
-    @classmethod
-    def from_csv(cls, path) -> ShearMasterCurve:
-        return cls._from_table(*read_curve_csv(path))
-
-    @classmethod
-    def from_csv_text(cls, text: str) -> ShearMasterCurve:
-        return cls._from_table(*parse_curve_csv(text))
-
     @classmethod
     def _from_table(cls, metadata: dict, table: dict) -> ShearMasterCurve:
         return cls(table=table, poisson_ratio=float(metadata["poisson_ratio"]),
@@ -238,24 +221,20 @@ def cache_path(poisson_ratio: float, material: str = "neo-hookean", capillary_nu
                resolutions=RESOLUTIONS, duration: float = DURATION) -> Path:
     """The cache entry of a computed curve: named by the hash of its :func:`curve_parameters` and
     :data:`FORMAT_VERSION`."""
-    digest = parameter_hash(curve_parameters(poisson_ratio, material, capillary_numbers, resolutions, duration),
-                            format_version=FORMAT_VERSION)[:16]
-    return cache_directory() / f"mastercurve-shear-{digest}.csv"
+    return curve_cache_path("shear", curve_parameters(poisson_ratio, material, capillary_numbers, resolutions,
+                                                      duration), FORMAT_VERSION)
 
 
 def read_cached(poisson_ratio: float, material: str = "neo-hookean", capillary_numbers=CAPILLARY_NUMBERS,
                 resolutions=RESOLUTIONS, duration: float = DURATION) -> ShearMasterCurve | None:
     """The cached curve of these inputs, verified (None: none, or one that was damaged or made from other
     parameters, reported in a warning and removed)."""
-    parameters = curve_parameters(poisson_ratio, material, capillary_numbers, resolutions, duration)
-    return read_cache_entry(cache_path(poisson_ratio, material, capillary_numbers, resolutions, duration),
-                            "shear master curve", parameters, FORMAT_VERSION,
-                            lambda payload: ShearMasterCurve.from_csv_text(payload.decode()))
+    return read_cached_curve(ShearMasterCurve, "shear", curve_parameters(poisson_ratio, material, capillary_numbers,
+                                                                         resolutions, duration), FORMAT_VERSION)
 
 
 def shipped(poisson_ratio: float, material: str = "neo-hookean") -> ShearMasterCurve | None:
-    resource = shipped_file(shipped_name(poisson_ratio, material))
-    return None if resource is None else ShearMasterCurve.from_csv(resource)
+    return shipped_curve(ShearMasterCurve, shipped_name(poisson_ratio, material))
 
 
 def load_shear_master_curve(poisson_ratio: float = 0.48, material: str = "neo-hookean") -> ShearMasterCurve:
@@ -265,23 +244,41 @@ def load_shear_master_curve(poisson_ratio: float = 0.48, material: str = "neo-ho
                              "shear", poisson_ratio, material, "about 20 min on one core", SHIPPED_POISSON_RATIOS)
 
 
+RUN_KEY_FILE = "curve_run.json"
+"""Written beside a finished run's summary.json: the hash of the run's resolved parameters, checked before the
+summary is reused."""
+
+
 def _run_one(poisson_ratio: float, material: str, ca: float, resolution: float, duration: float,
              directory: Path, use_cache: bool) -> dict:
-    """One shear run (or its summary.json from an earlier, finished run with the same inputs)."""
+    """One shear run, or its summary.json from an earlier, finished run made from the same resolved parameters
+    (``parameter_hash`` of ``resolved_parameters("shear", options)``, in :data:`RUN_KEY_FILE`). A summary made
+    from other parameters (a ``work_directory`` shared by two curves) or without a key is reported and the run
+    made again; an unfinished run continues from its checkpoint when the checkpoint matches."""
 
-    summary_path = directory / "summary.json"
+    options = _run_options(poisson_ratio, material, ca, resolution, duration)
+    key = parameter_hash(resolved_parameters("shear", options), format_version=FORMAT_VERSION)
+    summary_path, key_path = directory / "summary.json", directory / RUN_KEY_FILE
     if use_cache and summary_path.exists():
         try:
             summary = json.loads(summary_path.read_text())
             finished = summary.get("duration_strain", 0.0) >= duration - 1e-9
+            recorded = json.loads(key_path.read_text()).get("parameter_hash") if key_path.exists() else None
         except (OSError, ValueError, AttributeError, TypeError) as error:
             warnings.warn(f"{summary_path} is not used ({type(error).__name__}: {error}); the run is made again",
                           stacklevel=2)
-            finished = False
-        if finished:
-            return summary
-    summary = shear(directory, resume=use_cache, progress=False,
-                    **_run_options(poisson_ratio, material, ca, resolution, duration))
+        else:
+            if recorded == key and finished:
+                return summary
+            if recorded is not None or finished:  # an interrupted run has no key yet: it continues silently
+                warnings.warn(f"{summary_path} is not used (made from other parameters than this run's, or without "
+                              f"their hash in {RUN_KEY_FILE}); the run is made again", stacklevel=2)
+    key_path.unlink(missing_ok=True)
+    if use_cache:  # a checkpoint of other parameters does not match its fingerprint: the run starts afresh
+        summary = resume_or_restart(shear, directory, progress=False, **options)
+    else:
+        summary = shear(directory, resume=False, progress=False, **options)
+    write_json(key_path, {"parameter_hash": key})
     (directory / "checkpoint.npz").unlink(missing_ok=True)  # ~20 MB a run; a finished run is read from its summary
     return summary
 
@@ -292,8 +289,9 @@ def compute_shear_master_curve(poisson_ratio: float = 0.48, material: str = "neo
     """Run the shear scenario over the Ca grid at the two resolutions and tabulate the Richardson extrapolation.
 
     Every run writes its usual directory under ``work_directory`` (default: the cache directory, keyed like
-    the curve), so an interrupted computation resumes: finished runs are read back from their summary.json,
-    an unfinished one continues from its checkpoint. ``progress(ca, resolution, summary)`` is called after
+    the curve), so an interrupted computation resumes: finished runs made from the same parameters are read back
+    from their summary.json (others are made again, :func:`_run_one`), an unfinished one continues from its
+    checkpoint. ``progress(ca, resolution, summary)`` is called after
     each run. The curve is cached (``use_cache``) under :func:`cache_path`.
     """
 
@@ -303,13 +301,12 @@ def compute_shear_master_curve(poisson_ratio: float = 0.48, material: str = "neo
     if len(resolutions) != 2:
         raise ParameterError("resolution", f"needs exactly two resolutions (coarse, fine), got {resolutions}")
     parameters = curve_parameters(poisson_ratio, material, capillary_numbers, resolutions, duration)
-    path = cache_path(poisson_ratio, material, capillary_numbers, resolutions, duration)
     if use_cache:
-        cached = read_cached(poisson_ratio, material, capillary_numbers, resolutions, duration)
+        cached = read_cached_curve(ShearMasterCurve, "shear", parameters, FORMAT_VERSION)
         if cached is not None:
             return cached
     if work_directory is None:
-        work_directory = path.with_suffix("")
+        work_directory = curve_cache_path("shear", parameters, FORMAT_VERSION).with_suffix("")
     work_directory = Path(work_directory)
     raw = {r: {name: [] for name in OBSERVABLES} for r in resolutions}
     runs = []
@@ -357,7 +354,7 @@ def compute_shear_master_curve(poisson_ratio: float = 0.48, material: str = "neo
                            "theory": SMALL_CA_DEFORMATION_SLOPE},
         "runs": runs, "elastocell_version": __version__, "software": software_versions()})
     if use_cache:
-        write_cache_entry(path, curve.csv_text().encode(), "shear master curve", parameters, FORMAT_VERSION)
+        write_cached_curve(curve, "shear", parameters, FORMAT_VERSION)
     return curve
 
 
