@@ -61,6 +61,10 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "pipe_shape.py": ("Where the cell takes the bullet shape",
                           "python validation/pipe_shape.py --ratios 2 4 --cell-capillary 0.5"),
     }),
+    "medium": ("Shear-thinning medium and rectangular channels", {
+        "medium.py": ("Power-law slab, rectangular duct and the cost of the power-law collision",
+                      "python validation/medium.py --baseline-kernels /tmp/kernels_before.py"),
+    }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",
                          "python validation/lut_dclab.py --radii 6 --moduli 2,5 --duration 8 --workers 2 "
