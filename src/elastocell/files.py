@@ -186,6 +186,15 @@ def parameter_hash(*parts, format_version: int) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+def array_digest(*arrays) -> str:
+    """sha256 (hex) of the bytes of ``arrays`` in order (C order, their own dtypes): what a checkpoint's
+    fingerprint adds for the mesh and moduli a run was made with."""
+    digest = hashlib.sha256()
+    for array in arrays:
+        digest.update(np.ascontiguousarray(array).tobytes())
+    return digest.hexdigest()
+
+
 # =========================================================================== the verified cache
 def cache_directory() -> Path:
     """Where meshes and other reusable results are cached (``ELASTOCELL_CACHE`` overrides; else

@@ -23,7 +23,6 @@ wall guard, VTK slice and summary.
 
 from __future__ import annotations
 
-import hashlib
 import math
 import os
 import signal
@@ -39,7 +38,7 @@ import numpy as np
 
 from elastocell.coupling.immersed import ImmersedCell
 from elastocell.coupling.markers import FlowError
-from elastocell.files import parameter_hash
+from elastocell.files import array_digest, parameter_hash
 from elastocell.parameters.units import ParameterError
 from elastocell.simulation.directory import waiting_while_in_use
 
@@ -384,14 +383,12 @@ class FlowRun:
         resolved flow parameters and cell parameters (mesh settings and quadrature degree included), the law,
         whether the body is the homogeneous equivalent, the lattice units, the steps per record, and the sha256
         of the mesh, the element moduli and the material constants the run was made with."""
-        arrays = hashlib.sha256()
-        for array in (self.cell.mesh.nodes, self.cell.mesh.elements,
-                      np.asarray(self.cell.youngs_moduli, dtype=np.float64),
-                      np.asarray(self.cell.material_parameters, dtype=np.float64)):
-            arrays.update(np.ascontiguousarray(array).tobytes())
+        arrays = array_digest(self.cell.mesh.nodes, self.cell.mesh.elements,
+                              np.asarray(self.cell.youngs_moduli, dtype=np.float64),
+                              np.asarray(self.cell.material_parameters, dtype=np.float64))
         return parameter_hash(self.params, self.cell.parameters, {
             "law": self.cell.law.name, "equivalent": bool(self.cell.is_equivalent), "units": self.units.as_dict(),
-            "steps_per_record": int(self.steps_per_record), "arrays": arrays.hexdigest()},
+            "steps_per_record": int(self.steps_per_record), "arrays": arrays},
             format_version=CHECKPOINT_VERSION)
 
     def save(self, path: str | Path) -> None:
