@@ -40,7 +40,7 @@ from elastocell.parameters.cell import CellParameters, NucleusParameters, Parame
 from elastocell.parameters.units import ParameterError
 
 CYTOPLASM, NUCLEUS = 0, 1
-AXISYMMETRIC_MESH_FORMAT_VERSION = 1
+AXISYMMETRIC_MESH_FORMAT_VERSION = 2
 """Version of what a cached meridian mesh holds and how it is made from its parameters."""
 
 TRIANGLE6_PERMUTATION_FLIP = np.array([0, 2, 1, 5, 4, 3])
@@ -91,16 +91,85 @@ class MeridianMeshParameters(ParameterModel):
                                        for name in ("mesh_size", "surface_size", "pole_size", "interface_size")})
 
 
-def meridian_nucleus(cell: CellParameters) -> tuple[float, float, float] | None:
+CELL_SHAPES = ("sphere", "cap", "layer")
+
+
+class MeridianGeometry(ParameterModel):
+    """The body whose meridian section is meshed (lengths in the mesh's unit).
+
+    shape: ``sphere`` (the unit half-disk, centre at the origin: a suspended cell of radius 1, resting on a
+    dish at z = -1), ``cap`` (a spherical cap bonded to a dish at z = 0: base radius 1, apex (0, ``height``)) or
+    ``layer`` (the rectangle [0, ``width``] x [0, ``height``] bonded to a dish at z = 0; its unit is the indenter
+    radius R_b). The cap's sphere has radius (1 + H^2) / (2 H) and its centre at z = H - (1 + H^2) / (2 H).
+    height: H of the cap, thickness of the layer (unused by the sphere).
+    width: lateral extent of the layer (None: :func:`layer_width` of its thickness).
+    """
+
+    shape: str = "sphere"
+    height: float = 1.0
+    width: float | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> MeridianGeometry:
+        require(self.shape in CELL_SHAPES, "cell_shape", f"must be one of {', '.join(CELL_SHAPES)}, got {self.shape!r}")
+        limits = {"cap": ("cap_height", 0.05, 2.0), "layer": ("layer_thickness", 0.05, 200.0)}
+        if self.shape in limits:
+            name, low, high = limits[self.shape]
+            unit = "R" if self.shape == "cap" else "R_b"
+            require(low <= self.height <= high, name, f"must be in [{low:g}, {high:g}] (units of {unit}), got "
+                                                      f"{self.height:g}")
+        if self.width is not None:
+            require(self.width >= 2 * self.height and self.width >= 4, "layer_width",
+                    f"must be >= max(2 h, 4) (units of R_b), got {self.width:g}")
+        return self
+
+    @property
+    def top(self) -> float:
+        """z of the apex (the point the indenter touches first)."""
+        return 1.0 if self.shape == "sphere" else self.height
+
+    @property
+    def bottom(self) -> float:
+        """z of the lowest point (on the dish)."""
+        return -1.0 if self.shape == "sphere" else 0.0
+
+    @property
+    def cap_sphere(self) -> tuple[float, float]:
+        """(radius, centre z) of the cap's sphere."""
+        radius = (1 + self.height**2) / (2 * self.height)
+        return radius, self.height - radius
+
+    @property
+    def layer_extent(self) -> float:
+        return self.width if self.width is not None else layer_width(self.height)
+
+
+def layer_width(thickness: float) -> float:
+    """Default lateral extent of a layer of ``thickness`` (units of R_b): 5 h + 10, beyond which doubling it
+    changes the force by less than 0.1 % (``validation/indentation.py`` measures it)."""
+    return 5 * thickness + 10
+
+
+NUCLEUS_MARGIN = 0.02
+"""Smallest distance (units of R) between the nucleus of a cap and the cap's surface or base."""
+
+
+def meridian_nucleus(cell: CellParameters, geometry: MeridianGeometry | None = None) -> tuple[float, float, float] | None:
     """(equatorial semi-axis a_r, axial semi-axis a_z, centre z0) of the nucleus of ``cell`` in the meridian
     plane, None without a nucleus. A cell that is not axisymmetric about z (random, offset along x or y, an
-    ellipsoid whose semi-axes across z differ) is refused with a :class:`ParameterError`."""
+    ellipsoid whose semi-axes across z differ) is refused with a :class:`ParameterError`.
+
+    In a cap the nucleus (semi-axes in units of R, the base radius) is centred on the axis at half the apex
+    height plus the offset along z, z0 = H/2 + offset, and must lie inside the cap at least ``NUCLEUS_MARGIN``
+    from its surface and base. A layer (a gel or tissue section) is homogeneous: a nucleus is refused."""
     if cell.random is not None:
         raise ParameterError("random", "the random cell is not axisymmetric; the axisymmetric solver needs a "
                                        "cell symmetric about z")
     nucleus: NucleusParameters = cell.nucleus
     if nucleus.shape == "none":
         return None
+    if geometry is not None and geometry.shape == "layer":
+        raise ParameterError("nucleus", "the layer is homogeneous (a gel or tissue section): give --nucleus none")
     lengths, centre = nucleus.axes_lengths(), nucleus.centre()
     if nucleus.offset and nucleus.offset_axis != "z":
         raise ParameterError("offset_axis", f"the axisymmetric solver needs the nucleus offset along z (the plate "
@@ -108,18 +177,33 @@ def meridian_nucleus(cell: CellParameters) -> tuple[float, float, float] | None:
     if not np.isclose(lengths[0], lengths[1], rtol=1e-12, atol=0):
         raise ParameterError("nucleus_axis", f"the axisymmetric solver needs a spheroid with its axis along z "
                                              f"(equal semi-axes along x and y), got x {lengths[0]:g}, y {lengths[1]:g}")
-    return float(lengths[0]), float(lengths[2]), float(centre[2])
+    a_r, a_z, z0 = float(lengths[0]), float(lengths[2]), float(centre[2])
+    if geometry is not None and geometry.shape == "cap":
+        z0 = geometry.height / 2 + z0
+        angle = np.linspace(0, np.pi, 721)
+        r, z = a_r * np.sin(angle), z0 + a_z * np.cos(angle)
+        radius, centre_z = geometry.cap_sphere
+        clearance = min(float(z.min()), float(radius - np.hypot(r, z - centre_z).max()))
+        if clearance < NUCLEUS_MARGIN:
+            raise ParameterError("size_ratio", f"the nucleus (semi-axes r {a_r:g}, z {a_z:g}, centred at z {z0:g}: "
+                                               f"half the apex height plus the offset) does not fit inside the cap "
+                                               f"of height {geometry.height:g} R; a smaller nucleus, another "
+                                               f"offset or --nucleus none")
+    return a_r, a_z, z0
 
 
 @dataclass(frozen=True)
 class MeridianMesh:
-    """A 6-node triangle mesh of the meridian half-disk {R >= 0, R^2 + Z^2 <= 1}.
+    """A 6-node triangle mesh of the meridian section of a :class:`MeridianGeometry` (the sphere: the half-disk
+    {R >= 0, R^2 + Z^2 <= 1}).
 
     nodes: (n_nodes, 2) reference coordinates (R, Z).
     elements: (n_elements, 6) node indices, gmsh order (corners, then edges (0,1), (1,2), (2,0)), positive.
     region: (n_elements,) CYTOPLASM or NUCLEUS.
-    surface_nodes: nodes on the cell's outer boundary (the arc R^2 + Z^2 = 1), contact candidates.
+    surface_nodes: nodes on the cell's free outer boundary that an indenter or plate can touch (the sphere's arc,
+    the cap's arc, the layer's top), contact candidates.
     axis_nodes: nodes on the axis R = 0.
+    base_nodes: nodes on the base bonded to the dish (cap and layer: z = 0), held in r and z; empty for the sphere.
     """
 
     nodes: np.ndarray
@@ -127,6 +211,7 @@ class MeridianMesh:
     region: np.ndarray
     surface_nodes: np.ndarray
     axis_nodes: np.ndarray
+    base_nodes: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def n_nodes(self) -> int:
@@ -137,18 +222,22 @@ class MeridianMesh:
         return len(self.elements)
 
 
-def meridian_mesh_parameters(cell: CellParameters, mesh: MeridianMeshParameters) -> dict:
-    """Everything a meridian mesh is made from: the nucleus geometry in the meridian plane, the mesh settings
-    (not the quadrature) and gmsh's version."""
+def meridian_mesh_parameters(cell: CellParameters, mesh: MeridianMeshParameters,
+                             geometry: MeridianGeometry | None = None) -> dict:
+    """Everything a meridian mesh is made from: the body's geometry (a cap or a layer; the sphere adds nothing),
+    the nucleus geometry in the meridian plane, the mesh settings (not the quadrature) and gmsh's version."""
     import gmsh
 
     settings = mesh.model_dump(mode="json")
     settings.pop("quadrature_points")
-    nucleus = meridian_nucleus(cell)
+    nucleus = meridian_nucleus(cell, geometry)
     if nucleus is None:
         settings.pop("interface_size")
         settings.pop("interface_width")
-    return {"nucleus": None if nucleus is None else list(nucleus), "mesh": settings, "gmsh": gmsh.__version__}
+    parameters = {"nucleus": None if nucleus is None else list(nucleus), "mesh": settings, "gmsh": gmsh.__version__}
+    if geometry is not None and geometry.shape != "sphere":
+        parameters["geometry"] = {"shape": geometry.shape, "height": geometry.height, "width": geometry.layer_extent}
+    return parameters
 
 
 def _mesh_bytes(mesh: MeridianMesh) -> bytes:
@@ -165,26 +254,33 @@ def _mesh_from_bytes(payload: bytes) -> MeridianMesh:
     return mesh
 
 
-def build_meridian_mesh(cell: CellParameters, mesh: MeridianMeshParameters, use_cache: bool = True) -> MeridianMesh:
-    """The meridian mesh of ``cell`` (its nucleus geometry) with the sizes ``mesh``, cached on disk like the 3D
-    meshes (one verified entry per parameter set, under :func:`elastocell.files.cache_directory`)."""
-    parameters = meridian_mesh_parameters(cell, mesh)
+def build_meridian_mesh(cell: CellParameters, mesh: MeridianMeshParameters, use_cache: bool = True,
+                        geometry: MeridianGeometry | None = None) -> MeridianMesh:
+    """The meridian mesh of ``cell`` (its nucleus geometry) in the body ``geometry`` (None: the sphere) with the
+    sizes ``mesh``, cached on disk like the 3D meshes (one verified entry per parameter set, under
+    :func:`elastocell.files.cache_directory`)."""
+    parameters = meridian_mesh_parameters(cell, mesh, geometry)
     key = parameter_hash(parameters, format_version=AXISYMMETRIC_MESH_FORMAT_VERSION)[:20]
     path = Path(cache_directory()) / f"meridian-{key}.npz"
     if use_cache:
         found = read_cache_entry(path, "meridian mesh", parameters, AXISYMMETRIC_MESH_FORMAT_VERSION, _mesh_from_bytes)
         if found is not None:
             return found
-    result = _generate(meridian_nucleus(cell), mesh)
+    result = _generate(meridian_nucleus(cell, geometry), mesh, geometry)
     if use_cache:
         write_cache_entry(path, _mesh_bytes(result), "meridian mesh", parameters, AXISYMMETRIC_MESH_FORMAT_VERSION)
     return result
 
 
-def _generate(nucleus: tuple[float, float, float] | None, parameters: MeridianMeshParameters) -> MeridianMesh:
-    """gmsh (OpenCASCADE): the unit disk, fragmented with the nucleus ellipse and the half-plane x < 0, whose
-    left pieces are removed; x is R, y is Z."""
+def _generate(nucleus: tuple[float, float, float] | None, parameters: MeridianMeshParameters,
+              geometry: MeridianGeometry | None = None) -> MeridianMesh:
+    """gmsh (OpenCASCADE): the body (the unit disk; the cap's disk; the layer's rectangle), fragmented with the
+    nucleus ellipse and the half-plane x < 0 (and, for the cap, y < 0), whose outside pieces are removed; x is R,
+    y is Z."""
     import gmsh
+
+    geometry = geometry or MeridianGeometry()
+    shape = geometry.shape
 
     with _lock:
         gmsh.initialize(interruptible=False)
@@ -194,8 +290,18 @@ def _generate(nucleus: tuple[float, float, float] | None, parameters: MeridianMe
             gmsh.option.setNumber("Mesh.RandomSeed", 1)
             gmsh.model.add("meridian")
             occ = gmsh.model.occ
-            disk = occ.addDisk(0, 0, 0, 1, 1)
-            tools = [(2, occ.addRectangle(-2, -2, 0, 2, 4))]
+            if shape == "sphere":
+                disk = occ.addDisk(0, 0, 0, 1, 1)
+                tools = [(2, occ.addRectangle(-2, -2, 0, 2, 4))]
+            elif shape == "cap":
+                radius, centre = geometry.cap_sphere
+                disk = occ.addDisk(0, centre, 0, radius, radius)
+                reach = 4 * radius + 4
+                tools = [(2, occ.addRectangle(-reach, -reach, 0, reach, 2 * reach)),
+                         (2, occ.addRectangle(0, -reach, 0, reach, reach))]
+            else:
+                disk = occ.addRectangle(0, 0, 0, geometry.layer_extent, geometry.height)
+                tools = [(2, occ.addRectangle(-2, -1, 0, 2, geometry.height + 2))]
             if nucleus is not None:
                 a_r, a_z, z0 = nucleus
                 inclusion = occ.addDisk(0, 0, 0, 1, 1)
@@ -204,7 +310,8 @@ def _generate(nucleus: tuple[float, float, float] | None, parameters: MeridianMe
                 tools.append((2, inclusion))
             occ.fragment([(2, disk)], tools)
             occ.synchronize()
-            left = [(2, tag) for _, tag in gmsh.model.getEntities(2) if occ.getCenterOfMass(2, tag)[0] < 0]
+            left = [(2, tag) for _, tag in gmsh.model.getEntities(2)
+                    if occ.getCenterOfMass(2, tag)[0] < 0 or (shape == "cap" and occ.getCenterOfMass(2, tag)[1] < 0)]
             occ.remove(left, recursive=True)
             occ.synchronize()
             surfaces = [tag for _, tag in gmsh.model.getEntities(2)]
@@ -222,7 +329,11 @@ def _generate(nucleus: tuple[float, float, float] | None, parameters: MeridianMe
             outer = [tag for _, tag in gmsh.model.getBoundary([(2, t) for t in surfaces], combined=True,
                                                                oriented=False)
                      if gmsh.model.getBoundingBox(1, abs(tag))[3] > 1e-9]  # not the axis
-            _size_field(parameters, interface, [abs(tag) for tag in outer])
+            if shape != "sphere":  # the free surface only: not the base, nor the layer's far side
+                boxes = {tag: gmsh.model.getBoundingBox(1, abs(tag)) for tag in outer}
+                outer = [tag for tag in outer if boxes[tag][4] > 1e-9
+                         and (shape == "cap" or boxes[tag][1] > geometry.height - 1e-9)]
+            _size_field(parameters, interface, [abs(tag) for tag in outer], geometry)
             gmsh.model.mesh.generate(2)
             gmsh.model.mesh.setOrder(2)
             node_tags, coordinates, _ = gmsh.model.mesh.getNodes()
@@ -246,16 +357,38 @@ def _generate(nucleus: tuple[float, float, float] | None, parameters: MeridianMe
     elements = inverse.reshape(tags.shape).astype(np.int64)
     on_axis = np.abs(nodes[:, 0]) < 1e-10
     nodes[on_axis, 0] = 0.0
-    radius = np.hypot(nodes[:, 0], nodes[:, 1])
-    surface = np.flatnonzero(np.abs(radius - 1) < 1e-8)
+    base = np.zeros(len(nodes), dtype=bool)
+    if shape == "sphere":
+        radius = np.hypot(nodes[:, 0], nodes[:, 1])
+        on_surface = np.abs(radius - 1) < 1e-8
+    else:
+        nodes[np.abs(nodes[:, 1]) < 1e-10, 1] = 0.0
+        base = nodes[:, 1] == 0.0
+        if shape == "cap":
+            radius, centre = geometry.cap_sphere
+            on_surface = np.abs(np.hypot(nodes[:, 0], nodes[:, 1] - centre) - radius) < 1e-8
+        else:
+            on_surface = np.abs(nodes[:, 1] - geometry.height) < 1e-8
+        on_surface &= ~base
+    surface = np.flatnonzero(on_surface)
     elements = _orient_positive(nodes, elements)
     if (jacobians(nodes, elements, triangle_rule(3)[0]) <= 0).any():
         raise ParameterError("mesh_size", "a curved triangle of the meridian mesh is folded; use smaller sizes")
     return MeridianMesh(nodes=nodes, elements=elements, region=np.concatenate(regions).astype(np.int8),
-                        surface_nodes=surface, axis_nodes=np.flatnonzero(on_axis))
+                        surface_nodes=surface, axis_nodes=np.flatnonzero(on_axis), base_nodes=np.flatnonzero(base))
 
 
-def _size_field(parameters: MeridianMeshParameters, interface: list[int], outer: list[int]) -> None:
+LAYER_GROWTH = 0.15
+"""Growth of the element size with the distance d from the contact beyond d = 1 in a layer (units of R_b per
+R_b): the far field of a thick, wide layer carries little strain."""
+
+
+def _size_field(parameters: MeridianMeshParameters, interface: list[int], outer: list[int],
+                geometry: MeridianGeometry) -> None:
+    """The size: ``pole_size`` at the points the indenter or plates and the dish touch (the sphere's poles; the
+    apex of a cap or layer), growing to ``mesh_size`` over ``pole_radius``; ``surface_size`` near the free
+    surface (a layer: none, its pole grading covers the contact), ``interface_size`` near the nucleus; in a layer
+    the size grows further by ``LAYER_GROWTH`` per unit of distance beyond 1 from the contact."""
     import gmsh
 
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
@@ -263,9 +396,13 @@ def _size_field(parameters: MeridianMeshParameters, interface: list[int], outer:
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
     h, hs, hp, radius = parameters.mesh_size, parameters.surface_size, parameters.pole_size, parameters.pole_radius
     field = gmsh.model.mesh.field
-    distance = "Min(Sqrt(x*x+(y-1)*(y-1)), Sqrt(x*x+(y+1)*(y+1)))"
+    if geometry.shape == "sphere":
+        distance = "Min(Sqrt(x*x+(y-1)*(y-1)), Sqrt(x*x+(y+1)*(y+1)))"
+    else:
+        distance = f"Sqrt(x*x+(y-{geometry.height!r})*(y-{geometry.height!r}))"
+    growth = f" + {LAYER_GROWTH}*Max(0, {distance} - 1)" if geometry.shape == "layer" else ""
     poles = field.add("MathEval")
-    field.setString(poles, "F", f"{hp} + ({h}-{hp})*Min(1, {distance}/{radius})")
+    field.setString(poles, "F", f"{hp} + ({h}-{hp})*Min(1, {distance}/{radius}){growth}")
     fields = [poles]
 
     def near(curves, size, width):
@@ -280,7 +417,7 @@ def _size_field(parameters: MeridianMeshParameters, interface: list[int], outer:
         field.setNumber(threshold, "DistMax", width)
         fields.append(threshold)
 
-    if hs < h:
+    if hs < h and geometry.shape != "layer":
         near(outer, hs, parameters.surface_width)
     if interface and parameters.interface_size < h:
         near(interface, parameters.interface_size, parameters.interface_width)
@@ -358,13 +495,14 @@ class AxisymmetricCell:
     mesh: MeridianMesh
     youngs_moduli: np.ndarray
     quadrature_points: int = 3
+    is_equivalent: bool = False
     _kernels: dict = field(default_factory=dict, repr=False)
 
     @classmethod
     def from_parameters(cls, cell: CellParameters, mesh: MeridianMeshParameters | None = None,
-                        use_cache: bool = True) -> AxisymmetricCell:
+                        use_cache: bool = True, geometry: MeridianGeometry | None = None) -> AxisymmetricCell:
         mesh = mesh or MeridianMeshParameters()
-        meridian = build_meridian_mesh(cell, mesh, use_cache=use_cache)
+        meridian = build_meridian_mesh(cell, mesh, use_cache=use_cache, geometry=geometry)
         return cls(cell, meridian, nucleus_stiffness_ratios(cell, meridian), mesh.quadrature_points)
 
     @property
@@ -399,6 +537,17 @@ class AxisymmetricCell:
     @property
     def volume(self) -> float:
         return float(self.element_volumes.sum())
+
+    @property
+    def effective_stiffness_ratio(self) -> float:
+        """E_eff/E_c, the volume average of the moduli over the body of revolution (each element's volume
+        integrates 2 pi r over its section)."""
+        return float(np.sum(self.element_volumes * self.youngs_moduli) / self.volume)
+
+    def equivalent(self) -> AxisymmetricCell:
+        """The homogeneous equivalent: same mesh, every element at E_eff (as the 3D ``Cell.equivalent``)."""
+        moduli = np.full(self.mesh.n_elements, self.effective_stiffness_ratio)
+        return AxisymmetricCell(self.parameters, self.mesh, moduli, self.quadrature_points, is_equivalent=True)
 
     @cached_property
     def stiffness_pattern(self) -> StiffnessPattern:

@@ -29,11 +29,12 @@ Levenberg-Marquardt shift is then added, as in :mod:`elastocell.scenarios.compre
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from elastocell.body.axisymmetric import AxisymmetricCell, MeridianMeshParameters, meridian_nucleus
+from elastocell.body.axisymmetric import AxisymmetricCell, MeridianGeometry, MeridianMeshParameters, meridian_nucleus
 from elastocell.parameters.cell import CellParameters
 from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.compression import MAX_NODE_STEP, MAX_SHIFT, MIN_SHIFT, RETRY_SHIFT, stagnated
@@ -54,6 +55,11 @@ class AxisymmetricError(RuntimeError):
     def __init__(self, message: str, partial: AxisymmetricResult | None = None):
         super().__init__(message)
         self.partial = partial
+
+
+class AxisymmetricInterrupted(AxisymmetricError):
+    """The curve was interrupted (Ctrl-C, SIGTERM); ``partial`` holds every row converged before, from which
+    :func:`compress_axisymmetric` can continue (``resume_from=``)."""
 
 
 @dataclass
@@ -148,6 +154,7 @@ class _Problem:
         self.n_nodes = cell.mesh.n_nodes
         self.on_axis = np.zeros(self.n_nodes, dtype=bool)
         self.on_axis[cell.mesh.axis_nodes] = True
+        self.bonded = cell.mesh.base_nodes  # held in r and z (a base bonded to the dish)
         self.pattern = cell.stiffness_pattern
         self.noise = 1e-13 * float(np.sum(cell.element_volumes * cell.youngs_moduli))
 
@@ -158,6 +165,7 @@ class _Problem:
     def project(self, x: np.ndarray) -> np.ndarray:
         x = x.copy()
         x[self.on_axis, 0] = 0.0
+        x[self.bonded] = self.cell.mesh.nodes[self.bonded]
         for obstacle in self.obstacles:
             x[self.candidates] = obstacle.project(x[self.candidates])
         return x
@@ -184,6 +192,7 @@ class _Problem:
         rotations[self.candidates[rotated]] = np.stack([n, np.column_stack([-n[:, 1], n[:, 0]])], axis=2)
         held = np.zeros(2 * self.n_nodes, dtype=bool)
         held[2 * np.flatnonzero(self.on_axis)] = True  # u_r = 0 on the axis
+        held[2 * self.bonded] = held[2 * self.bonded + 1] = True  # a bonded base does not move
         nodes = self.candidates[active]
         # an active node's normal dof: local dof 0 where rotated; z (global 1) on the axis, where n = +-e_z
         held[2 * nodes + self.on_axis[nodes]] = True
@@ -315,9 +324,23 @@ def _predictor(problem: _Problem, x: np.ndarray, increment: float) -> np.ndarray
     return x + problem.glob(solution + prescribed, contact)
 
 
+def _dent(x: np.ndarray, indenter: Obstacle, depth: float, bottom: float, height: float) -> np.ndarray:
+    """The first step's guess under a sphere on a bonded body: a dent u_z = -depth min(1, a / rho) (z - bottom) /
+    height, with a = sqrt(R_b depth) the Hertz contact radius and rho the distance from the apex (0, bottom +
+    height); an affine squeeze of a body much thicker than the contact strains all of it and its Newton iteration
+    cycles between active sets."""
+    contact_radius = np.sqrt(indenter.radius * depth)
+    distance = np.hypot(x[:, 0], x[:, 1] - bottom - height)
+    guess = x.copy()
+    guess[:, 1] -= depth * np.minimum(1.0, contact_radius / np.maximum(distance, 1e-300)) * (x[:, 1] - bottom) / height
+    return guess
+
+
 def _forces(problem: _Problem, x: np.ndarray) -> tuple[float, float, float]:
-    """(force on the moving obstacle, force on the support, contact radius on the moving obstacle)."""
-    contact = problem.contact(x, problem.cell.internal_forces(x))
+    """(force on the moving obstacle, force on the support (the lower plate or dish; a bonded base: the sum of
+    the z reactions of its held nodes), contact radius on the moving obstacle)."""
+    gradient = problem.cell.internal_forces(x)
+    contact = problem.contact(x, gradient)
     forces, radius = [], 0.0
     for k, obstacle in enumerate(problem.obstacles):
         on = contact.active & (contact.obstacle == k)
@@ -325,11 +348,19 @@ def _forces(problem: _Problem, x: np.ndarray) -> tuple[float, float, float]:
         if obstacle.velocity != 0 and on.any():
             radius = float(x[problem.candidates[on], 0].max())
     moving = [k for k, obstacle in enumerate(problem.obstacles) if obstacle.velocity != 0][0]
+    if len(problem.obstacles) == 1:
+        return forces[moving], float(gradient[problem.bonded, 1].sum()), radius
     return forces[moving], forces[1 - moving], radius
 
 
 def _curve(cell: AxisymmetricCell, obstacles: list[Obstacle], load_max: float, steps: int, tolerance: float,
-           max_iterations: int, solver: str, precision: str) -> AxisymmetricResult:
+           max_iterations: int, solver: str, precision: str, bottom: float = -1.0,
+           height: float = 2.0, resume_from: AxisymmetricResult | None = None,
+           on_row: Callable[[AxisymmetricResult], None] | None = None) -> AxisymmetricResult:
+    """The force curve; ``bottom`` and ``height``: the z of the body's lowest point and its height, for the first
+    step's guess. ``resume_from``: the rows of an interrupted curve of the same cell and loading, continued from
+    its last row (the same load steps); ``on_row(result)`` after every converged row; an interruption
+    (KeyboardInterrupt) raises :class:`AxisymmetricInterrupted` with the converged rows."""
     start_time = time.perf_counter()
     linear_solver = SparseSolver(solver, precision)
     problem = _Problem(cell, obstacles, linear_solver)
@@ -339,14 +370,26 @@ def _curve(cell: AxisymmetricCell, obstacles: list[Obstacle], load_max: float, s
     rows = {"load": [0.0], "force": [0.0], "support": [0.0], "radius": [0.0], "volume": [1.0], "positions": [x.copy()]}
     iterations_total, substeps, history = 0, 0, []
     load = 0.0
+    if resume_from is not None:
+        if resume_from.positions.shape[1:] != x.shape:
+            raise ValueError(f"the curve to continue has {resume_from.positions.shape[1]} nodes, the cell {len(x)}")
+        rows = {name: list(getattr(resume_from, attribute)) for name, attribute in RESULT_ROWS.items()}
+        iterations_total, substeps, history = resume_from.newton_iterations, resume_from.substeps, list(resume_from.history)
+        x, load = resume_from.positions[-1].copy(), float(resume_from.load[-1])
+        problem.set_load(load, start)
+        start_time -= resume_from.wall_time
     try:
         for target in np.linspace(0.0, load_max, steps + 1)[1:]:
+            if target <= load + 1e-12:  # reached before the interruption this curve continues
+                continue
             increment = target - load
             while load < target - 1e-14:
                 trial_load = min(target, load + increment)
-                if load == 0.0:  # first contact: squeeze the cell affinely between its new bounds
+                if load == 0.0 and len(problem.bonded):
+                    guess = _dent(x, obstacles[-1], trial_load, bottom, height)
+                elif load == 0.0:  # first contact: squeeze the cell affinely between its new bounds
                     guess = x.copy()
-                    guess[:, 1] = -1.0 + (guess[:, 1] + 1.0) * (1.0 + top_velocity * trial_load / 2)
+                    guess[:, 1] = bottom + (guess[:, 1] - bottom) * (1.0 + top_velocity * trial_load / height)
                 else:
                     guess = _predictor(problem, x, trial_load - load)
                 problem.set_load(trial_load, start)
@@ -371,9 +414,20 @@ def _curve(cell: AxisymmetricCell, obstacles: list[Obstacle], load_max: float, s
             rows["radius"].append(radius)
             rows["volume"].append(cell.min_volume_ratio(x))
             rows["positions"].append(x.copy())
+            if on_row is not None:
+                on_row(_result(rows, iterations_total, substeps, cell, start_time, history))
+    except KeyboardInterrupt:  # the step in progress is lost, every converged row is kept
+        result = _result(rows, iterations_total, substeps, cell, start_time, history)
+        raise AxisymmetricInterrupted(f"interrupted at load {load:.4f} ({len(rows['load'])} rows converged)",
+                                      result) from None
     finally:
         linear_solver.close()
     return _result(rows, iterations_total, substeps, cell, start_time, history)
+
+
+RESULT_ROWS = {"load": "load", "force": "force", "support": "force_support", "radius": "contact_radius",
+               "volume": "min_volume_ratio", "positions": "positions"}
+"""The per-row lists of :func:`_curve` and the :class:`AxisymmetricResult` arrays they become."""
 
 
 def _result(rows, iterations, substeps, cell, start_time, history) -> AxisymmetricResult:
@@ -384,44 +438,66 @@ def _result(rows, iterations, substeps, cell, start_time, history) -> Axisymmetr
         n_nodes=cell.mesh.n_nodes, wall_time=time.perf_counter() - start_time, history=history)
 
 
-def _cell(cell: CellParameters | AxisymmetricCell, mesh: MeridianMeshParameters | None) -> AxisymmetricCell:
+def _cell(cell: CellParameters | AxisymmetricCell, mesh: MeridianMeshParameters | None,
+          geometry: MeridianGeometry | None = None) -> AxisymmetricCell:
     if isinstance(cell, AxisymmetricCell):
         return cell
-    meridian_nucleus(cell)  # refuses a cell that is not axisymmetric about z
-    return AxisymmetricCell.from_parameters(cell, mesh)
+    meridian_nucleus(cell, geometry)  # refuses a cell that is not axisymmetric about z
+    return AxisymmetricCell.from_parameters(cell, mesh, geometry=geometry)
 
 
 def compress_axisymmetric(cell_parameters: CellParameters | AxisymmetricCell, delta_max: float = 0.75,
                           steps: int = 40, mesh: MeridianMeshParameters | None = None,
                           tolerance: float = DEFAULT_TOLERANCE, max_newton_iterations: int = 40,
-                          solver: str = "auto", precision: str = "double") -> AxisymmetricResult:
+                          solver: str = "auto", precision: str = "double",
+                          resume_from: AxisymmetricResult | None = None,
+                          on_row: Callable[[AxisymmetricResult], None] | None = None) -> AxisymmetricResult:
     """F(delta) between two rigid frictionless plates (lower at z = -1, upper at z = 1 - 2 delta), in the units
     of 3D compression: F/(E_c R^2) against delta, ``steps`` equal increments up to ``delta_max``. A cell not
-    axisymmetric about z is refused (:class:`ParameterError`)."""
+    axisymmetric about z is refused (:class:`ParameterError`). ``resume_from``/``on_row``: continue an
+    interrupted curve, a callback after every row (:func:`_curve`); Ctrl-C raises :class:`AxisymmetricInterrupted`."""
     if not 0 < delta_max < 1:
         raise ParameterError("delta_max", f"must be in (0, 1), got {delta_max}")
     if not 1 <= steps <= 100000:
         raise ParameterError("steps", f"must be in [1, 100000], got {steps}")
     cell = _cell(cell_parameters, mesh)
     obstacles = [Obstacle("lower", -1.0), Obstacle("upper", 1.0, velocity=-2.0)]
-    return _curve(cell, obstacles, delta_max, steps, tolerance, max_newton_iterations, solver, precision)
+    return _curve(cell, obstacles, delta_max, steps, tolerance, max_newton_iterations, solver, precision,
+                  resume_from=resume_from, on_row=on_row)
 
 
 def indent_axisymmetric(cell_parameters: CellParameters | AxisymmetricCell, indenter_radius: float,
                         depth_max: float, steps: int = 20, mesh: MeridianMeshParameters | None = None,
                         tolerance: float = DEFAULT_TOLERANCE, max_newton_iterations: int = 40,
-                        solver: str = "auto", precision: str = "double") -> AxisymmetricResult:
-    """F(depth) of a rigid frictionless sphere of radius ``indenter_radius`` (units of R) pressed on the axis into
-    the cell, which rests on a rigid frictionless dish at z = -1; depth is the sphere's displacement after first
-    contact (units of R), the force F/(E_c R^2) on the sphere."""
+                        solver: str = "auto", precision: str = "double",
+                        geometry: MeridianGeometry | None = None) -> AxisymmetricResult:
+    """F(depth) of a rigid frictionless sphere of radius ``indenter_radius`` pressed on the axis into the body
+    ``geometry`` (None: the sphere), starting in touch with its apex; depth is the sphere's displacement after
+    first contact, the force F/(E_c L^2) on the sphere, L the geometry's length unit (R; a layer's R_b).
+
+    The sphere rests on a rigid frictionless dish at z = -1 (depth below 1 R); a cap or a layer is bonded to the
+    dish at z = 0 (its base nodes held in r and z; depth below its height)."""
+    geometry = geometry or MeridianGeometry()
     if not indenter_radius > 0:
         raise ParameterError("indenter_radius", f"must be > 0 (units of R), got {indenter_radius}")
-    if not 0 < depth_max < 1:
-        raise ParameterError("depth_max", f"must be in (0, 1) (units of R), got {depth_max}")
-    cell = _cell(cell_parameters, mesh)
-    obstacles = [Obstacle("lower", -1.0), Obstacle("sphere", 1.0 + indenter_radius, velocity=-1.0,
-                                                   radius=indenter_radius)]
-    return _curve(cell, obstacles, depth_max, steps, tolerance, max_newton_iterations, solver, precision)
+    reach = 1.0 if geometry.shape == "sphere" else geometry.height
+    if not 0 < depth_max < reach:
+        raise ParameterError("depth_max", f"must be in (0, {reach:g}) (the {geometry.shape}'s height), got "
+                                          f"{depth_max:g}")
+    cell = _cell(cell_parameters, mesh, geometry)
+    indenter = Obstacle("sphere", geometry.top + indenter_radius, velocity=-1.0, radius=indenter_radius)
+    if geometry.shape == "sphere":
+        obstacles = [Obstacle("lower", -1.0), indenter]
+    else:
+        obstacles = [indenter]
+    return _curve(cell, obstacles, depth_max, steps, tolerance, max_newton_iterations, solver, precision,
+                  bottom=geometry.bottom, height=geometry.top - geometry.bottom)
+
+
+def hertz_half_space_force(depth, indenter_radius: float, poisson_ratio: float = 0.48):
+    """Hertz's force of a rigid sphere (radius R_b) pressed to ``depth`` into an elastic half-space of modulus
+    E = 1: F = 4/3 E/(1 - nu^2) sqrt(R_b) depth^(3/2)."""
+    return 4 / (3 * (1 - poisson_ratio**2)) * np.sqrt(indenter_radius) * np.asarray(depth) ** 1.5
 
 
 def hertz_sphere_indentation_depth(force, indenter_radius: float, poisson_ratio: float = 0.48, radius: float = 1.0):

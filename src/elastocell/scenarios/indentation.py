@@ -1,0 +1,122 @@
+"""A rigid sphere (a bead of radius R_b) pressed quasistatically into a cell on a rigid flat dish: the body and
+its support for each cell shape, on the axisymmetric solver (:mod:`elastocell.scenarios.axisymmetric`).
+
+Shapes (``cell_shape``):
+
+- ``sphere``: a suspended cell of radius R resting on the dish, frictionless contact with it;
+- ``cap``: an adherent cell, a spherical cap of base radius R and apex height H, its base bonded to the dish;
+- ``layer``: a gel or tissue section of thickness h bonded to the dish, meshed in units of R_b, laterally wide
+  enough that its extent does not change the force (:func:`elastocell.body.axisymmetric.layer_width`).
+
+:func:`indentation_curve` takes every length in units of R (the cell radius; for the layer any length unit,
+whose results then come in that unit) and returns the curve in those units, the force F/(E_c R^2): the arrays a
+master surface is made of, without writing files. A cell that is not axisymmetric about z (random, a nucleus
+offset along x or y, an ellipsoid not aligned with z) is refused before any computing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from elastocell.body.axisymmetric import (
+    CELL_SHAPES,
+    AxisymmetricCell,
+    MeridianGeometry,
+    MeridianMeshParameters,
+    meridian_nucleus,
+)
+from elastocell.parameters.cell import CellParameters
+from elastocell.parameters.units import ParameterError
+from elastocell.scenarios.axisymmetric import DEFAULT_TOLERANCE, AxisymmetricResult, indent_axisymmetric
+
+AXISYMMETRIC_ONLY = "indent runs the axisymmetric solver"
+
+
+def indentation_geometry(cell_shape: str, indenter_radius: float, cap_height: float | None = None,
+                         layer_thickness: float | None = None) -> tuple[MeridianGeometry, float]:
+    """(the body's meridian geometry, its length unit in units of R): R for the sphere and the cap, R_b for the
+    layer. Lengths in units of R; an option that does not belong to the shape, or a missing one, is refused."""
+    if cell_shape not in CELL_SHAPES:
+        raise ParameterError("cell_shape", f"must be one of {', '.join(CELL_SHAPES)}, got {cell_shape!r}")
+    if not indenter_radius > 0:
+        raise ParameterError("indenter_radius", f"must be > 0, got {indenter_radius:g}")
+    if cap_height is not None and cell_shape != "cap":
+        raise ParameterError("cap_height", f"applies to --cell-shape cap only, not {cell_shape}")
+    if layer_thickness is not None and cell_shape != "layer":
+        raise ParameterError("layer_thickness", f"applies to --cell-shape layer only, not {cell_shape}")
+    if cell_shape == "sphere":
+        return MeridianGeometry(), 1.0
+    if cell_shape == "cap":
+        height = 1.0 if cap_height is None else cap_height
+        return MeridianGeometry(shape="cap", height=height), 1.0
+    if layer_thickness is None:
+        raise ParameterError("layer_thickness", "is required with --cell-shape layer")
+    if not layer_thickness > 0:
+        raise ParameterError("layer_thickness", f"must be > 0, got {layer_thickness:g}")
+    return MeridianGeometry(shape="layer", height=layer_thickness / indenter_radius), indenter_radius
+
+
+def check_axisymmetric(cell: CellParameters, geometry: MeridianGeometry) -> None:
+    """Refuse, in one line naming the option, a cell the axisymmetric solver cannot represent."""
+    try:
+        meridian_nucleus(cell, geometry)
+    except ParameterError as error:
+        message = str(error).split(": ", 1)[1]
+        raise ParameterError(error.parameter, f"{message} ({AXISYMMETRIC_ONLY})") from None
+
+
+def check_depth(geometry: MeridianGeometry, unit: float, depth_max: float, steps: int) -> None:
+    """Refuse a depth beyond the body's height (units of R) or a step count out of range."""
+    if not 1 <= steps <= 100000:
+        raise ParameterError("steps", f"must be in [1, 100000], got {steps}")
+    reach = (1.0 if geometry.shape == "sphere" else geometry.height) * unit
+    if not 0 < depth_max < reach:
+        raise ParameterError("depth_max", f"must be in (0, {reach:g}) (below the {geometry.shape}'s height), got "
+                                          f"{depth_max:g}")
+
+
+def indentation_body(cell: CellParameters, cell_shape: str = "sphere", indenter_radius: float = 0.5,
+                     cap_height: float | None = None, layer_thickness: float | None = None,
+                     mesh: MeridianMeshParameters | None = None) -> tuple[AxisymmetricCell, MeridianGeometry, float]:
+    """(the meshed body, its geometry, its length unit in units of R) of an indentation (lengths in units of R;
+    ``mesh`` in the body's unit)."""
+    geometry, unit = indentation_geometry(cell_shape, indenter_radius, cap_height, layer_thickness)
+    check_axisymmetric(cell, geometry)
+    return AxisymmetricCell.from_parameters(cell, mesh, geometry=geometry), geometry, unit
+
+
+def indent_body(body: AxisymmetricCell, geometry: MeridianGeometry, unit: float, indenter_radius: float,
+                depth_max: float, steps: int = 20, tolerance: float = DEFAULT_TOLERANCE,
+                max_newton_iterations: int = 40, solver: str = "auto") -> AxisymmetricResult:
+    """The force curve of :func:`indentation_body`'s body, lengths in units of R, force F/(E_c R^2)."""
+    check_depth(geometry, unit, depth_max, steps)
+    result = indent_axisymmetric(body, indenter_radius / unit, depth_max / unit, steps=steps, tolerance=tolerance,
+                                 max_newton_iterations=max_newton_iterations, solver=solver, geometry=geometry)
+    return scaled_result(result, unit)
+
+
+def scaled_result(result: AxisymmetricResult, unit: float) -> AxisymmetricResult:
+    """A curve computed in a length unit ``unit`` (units of R) expressed in units of R."""
+    if unit == 1.0:
+        return result
+    return replace(result, load=result.load * unit, force=result.force * unit**2,
+                   force_support=result.force_support * unit**2, contact_radius=result.contact_radius * unit,
+                   positions=result.positions * unit)
+
+
+def indentation_curve(cell_parameters: CellParameters, cell_shape: str = "sphere", indenter_radius: float = 0.5,
+                      cap_height: float | None = None, layer_thickness: float | None = None,
+                      depth_max: float = 0.3, steps: int = 20, mesh: MeridianMeshParameters | None = None,
+                      tolerance: float = DEFAULT_TOLERANCE, max_newton_iterations: int = 40,
+                      solver: str = "auto") -> AxisymmetricResult:
+    """F(depth) of a rigid frictionless sphere of radius ``indenter_radius`` pressed into a cell of shape
+    ``cell_shape`` on a rigid dish, lengths in units of R (the cell radius; the cap's base radius), the force
+    F/(E_c R^2) (``result.load`` is the depth, ``result.force`` the force on the sphere, ``result.force_support``
+    the dish's). ``cap_height`` H (cap; None: a hemisphere), ``layer_thickness`` h (layer; required); ``mesh``
+    sizes in units of R (the layer: of R_b, the unit it is meshed in). Nothing is written."""
+    geometry, unit = indentation_geometry(cell_shape, indenter_radius, cap_height, layer_thickness)
+    check_depth(geometry, unit, depth_max, steps)
+    body, geometry, unit = indentation_body(cell_parameters, cell_shape, indenter_radius, cap_height,
+                                            layer_thickness, mesh)
+    return indent_body(body, geometry, unit, indenter_radius, depth_max, steps, tolerance, max_newton_iterations,
+                       solver)
