@@ -16,7 +16,7 @@ import pytest
 
 from elastocell.body.cell import Cell
 from elastocell.lattice import Lattice, LatticeParams
-from elastocell.lattice.reference import reference_collide, reference_step
+from elastocell.lattice.reference import reference_step
 from elastocell.lattice.rheology import PowerLaw, local_relaxation_time
 from elastocell.parameters.cell import cell_parameters
 from elastocell.parameters.medium import KOZICKI_SQUARE, mc_pbs, medium
@@ -34,9 +34,17 @@ from elastocell.scenarios.pipe import (
 
 
 # ----------------------------------------------------------------------------------------- kernels
+@pytest.mark.parametrize("backend", ["numba", "jax"])
 @pytest.mark.parametrize("collision", ["trt", "bgk"])
-def test_power_law_kernels_equal_the_reference_step(collision):
-    """Reference: the NumPy step with the same per-node tau (float64). Measured max difference 3e-16."""
+def test_power_law_step_equals_the_reference_step(collision, backend):
+    """Reference: the NumPy step with the same per-node tau (float64), walls, solid nodes and a force field.
+    Measured max difference 3.3e-16 (Numba and JAX); the power law moves the populations by 3.2e-3 from the
+    Newtonian step at the reference tau, so the test sees the per-node tau."""
+    if backend == "jax":
+        pytest.importorskip("jax")
+        from elastocell.lattice.jax_backend import JaxLattice as lattice_class
+    else:
+        lattice_class = Lattice
     rng = np.random.default_rng(1)
     shape = (5, 6, 7)
     solid = np.zeros(shape, bool)
@@ -45,17 +53,19 @@ def test_power_law_kernels_equal_the_reference_step(collision):
     params = LatticeParams(shape, relaxation_time=0.9, collision=collision, dtype="float64", solid=solid,
                            body_force=(1e-4, 2e-5, 0.0), wall_velocity=(0.01, -0.01),
                            rheology=PowerLaw.matching(0.6, 0.1, 1e-3))
-    lattice = Lattice(params)
+    lattice = lattice_class(params)
     lattice.initialize(velocity=rng.normal(0, 0.01, (3,) + shape))
     force = rng.normal(0, 1e-4, (3,) + shape)
     lattice.set_force_density(force)
-    f = lattice.populations.copy()
-    post = reference_collide(f, params, force + np.asarray(params.body_force).reshape(3, 1, 1, 1))
-    assert np.ptp(post - f) > 0  # the step changes the populations
+    f = newtonian = lattice.populations.copy()
+    newtonian_params = LatticeParams(shape, relaxation_time=0.9, collision=collision, dtype="float64", solid=solid,
+                                     body_force=(1e-4, 2e-5, 0.0), wall_velocity=(0.01, -0.01))
     for _ in range(3):
         f = reference_step(f, params, force)
-        lattice.step(1)
+        newtonian = reference_step(newtonian, newtonian_params, force)
+    lattice.step(3)
     assert np.abs(lattice.populations - f)[:, ~solid].max() < 1e-13
+    assert np.abs(newtonian - f)[:, ~solid].max() > 1e-3
 
 
 def test_local_tau_spans_the_law_and_is_clamped():
@@ -72,12 +82,17 @@ def test_local_tau_spans_the_law_and_is_clamped():
     assert local_relaxation_time(np.array(0.0), 0.03, 0.5, 0.52, 10.0) == 10.0  # fluid at rest: tau_max
 
 
-def test_newtonian_jax_refuses_a_power_law():
-    pytest.importorskip("jax")
-    from elastocell.lattice.jax_backend import JaxLattice
-
-    with pytest.raises(ValueError, match="numba"):
-        JaxLattice(LatticeParams((2, 2, 2), relaxation_time=1.0, rheology=PowerLaw(0.6, 0.1)))
+def test_power_law_of_index_one_is_the_newtonian_fluid():
+    """n = 1 with K = nu: tau = 3K + 1/2 at every node, the Newtonian step up to the Newton solve's round-off
+    (measured: identical, 0.0, in float64 after 200 steps in a square duct)."""
+    shape, solid, _, _ = channel_geometry("square", 4.0, 1.0, 3)
+    lattices = [Lattice(LatticeParams(shape, relaxation_time=0.8, dtype="float64", solid=solid,
+                                      body_force=(1e-5, 0.0, 0.0), rheology=law))
+                for law in (None, PowerLaw(1.0, 0.1))]
+    for lattice in lattices:
+        lattice.step(200)
+    u0, u1 = (lattice.velocity()[0] for lattice in lattices)
+    assert u0.max() > 0 and np.abs(u1 - u0).max() < 1e-12 * u0.max()
 
 
 # ----------------------------------------------------------------------------------------- closed forms
@@ -162,7 +177,6 @@ def cell():
 @pytest.mark.parametrize(("options", "parameter"), [
     (dict(channel_shape="square", channel_aspect_ratio=2.0), "channel_aspect_ratio"),
     (dict(channel_shape="rectangle", channel_aspect_ratio=0.3), "channel_aspect_ratio"),
-    (dict(medium="0.59%MC-PBS", backend="jax"), "medium"),
     (dict(medium="honey"), "medium"),
 ])
 def test_pipe_refuses_impossible_channels_and_media(options, parameter):

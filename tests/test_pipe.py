@@ -256,7 +256,6 @@ def test_checkpoint_fingerprint_ignores_field_order_and_a_sweep_restarts_a_stale
         (["--capillary-number-wall", "0.2", "--radius", "6um", "--channel-height", "20um"], "--channel-height"),
         (["--capillary-number-wall", "0.2", "--medium", "honey"], "--medium"),
         (["--capillary-number-wall", "0.2", "--medium", "0.59%MC-PBS", "--temperature", "150"], "--temperature"),
-        (["--capillary-number-wall", "0.2", "--medium", "0.59%MC-PBS", "--backend", "jax"], "--medium"),
         (["--capillary-number-wall", "0.2", "--medium", "power-law"], "--flow-index"),
     ],
 )

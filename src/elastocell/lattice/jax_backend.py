@@ -13,6 +13,7 @@ mass drift at the rounding level of the deviations, not of the weights.
 One step (collide, then stream), written as whole-array operations that XLA fuses:
 
 * moments: rho = 1 + sum_i d_i, u = (sum_i c_i d_i + F/2) / rho (Guo's half-force velocity);
+* a power-law medium (``params.rheology``): omega+- of each node from its strain rate (:func:`local_rates`);
 * TRT collision on the symmetric and antisymmetric parts, d*_i = d_i - omega+ (d_i^s - e_i^s)
   - omega- (d_i^a - e_i^a) + (1 - omega+/2) S_i^s + (1 - omega-/2) S_i^a with
   e_i = f^eq_i - w_i = w_i [(rho - 1) + rho (3 c_i.u + 9/2 (c_i.u)^2 - 3/2 u^2)] and the Guo source
@@ -33,6 +34,7 @@ import numpy as np
 
 from elastocell.body.materials import computes_in_float64
 from elastocell.lattice.params import LatticeParams
+from elastocell.lattice.rheology import NEWTON_ITERATIONS, SMALLEST_STRESS
 from elastocell.lattice.solver import Lattice, step_count
 from elastocell.lattice.stencil import OPPOSITE, VELOCITIES, WEIGHTS, Q
 
@@ -51,8 +53,11 @@ class LatticeTables:
     def __init__(self, params: LatticeParams | None, dtype=None):
         if params is None:  # unflattening
             return
-        if params.rheology is not None:
-            raise ValueError("the JAX backend has a Newtonian medium only: run a power-law medium on backend 'numba'")
+        law = params.rheology
+        self.has_rheology = law is not None
+        self.rheology = (0.0,) * 5 if law is None else (
+            float(law.flow_index), float(3.0 * law.consistency), float(law.relaxation_time_min),
+            float(law.relaxation_time_max), 0.0 if params.collision == "bgk" else float(params.magic))
         nx, ny, nz = params.shape
         self.omega_plus = float(1.0 / params.relaxation_time_plus)
         self.omega_minus = float(1.0 / params.relaxation_time_minus)
@@ -78,7 +83,7 @@ class LatticeTables:
             self.wall_top = tuple(6.0 * WEIGHTS * (VELOCITIES @ top))  # for c_iy = -1, entering y = ny - 1
 
     _STATIC = ("omega_plus", "omega_minus", "body_force", "has_body_force", "has_solid", "has_walls",
-               "wall_bottom", "wall_top")
+               "wall_bottom", "wall_top", "has_rheology", "rheology")
 
     def tree_flatten(self):
         return (self.bounce, self.fluid), tuple(getattr(self, name) for name in self._STATIC)
@@ -110,6 +115,27 @@ def total_force(field, tables: LatticeTables, shape, dtype):
     return field
 
 
+def local_rates(non_equilibrium, u, force, rho, tables: LatticeTables):
+    """(omega+, omega-) per node of a power-law medium (:mod:`elastocell.lattice.rheology`, the kernels' algorithm):
+    Pi = sum_i c_i c_i (f_i - f^eq_i) + (u F + F u)/2, m = 3 sqrt(2 Pi:Pi)/(2 rho), tau+ the clamped root of
+    3K gdot^n + gdot/2 = m by Newton in log gdot (float64 where JAX computes in 64 bit), tau- at the same magic."""
+    n, three_k, tau_min, tau_max, magic = tables.rheology
+    c = jnp.asarray(VELOCITIES, dtype=non_equilibrium.dtype)
+    pi = jnp.einsum("ia,ib,i...->ab...", c, c, non_equilibrium)
+    if force is not None:
+        uf = jnp.einsum("a...,b...->ab...", u, force)
+        pi = pi + 0.5 * (uf + jnp.swapaxes(uf, 0, 1))
+    m = jnp.maximum(1.5 * jnp.sqrt(2.0 * jnp.sum(pi * pi, axis=(0, 1))) / rho, SMALLEST_STRESS)
+    s = jnp.minimum(jnp.log(2.0 * m), jnp.log(m / three_k) / n)
+    for _ in range(NEWTON_ITERATIONS):
+        p = three_k * jnp.exp(n * s)
+        g = jnp.exp(s)
+        s = s - (p + 0.5 * g - m) / (n * p + 0.5 * g)
+    tau = jnp.clip(three_k * jnp.exp((n - 1.0) * s) + 0.5, tau_min, tau_max)
+    tau_minus = tau if magic == 0.0 else 0.5 + magic / (tau - 0.5)
+    return (1.0 / tau).astype(non_equilibrium.dtype), (1.0 / tau_minus).astype(non_equilibrium.dtype)
+
+
 def collide_and_stream(deviations, force, tables: LatticeTables):
     """One LB step of the deviations d_i = f_i - w_i (module docstring); ``force`` (3, ...) or None."""
     dtype = deviations.dtype
@@ -121,14 +147,17 @@ def collide_and_stream(deviations, force, tables: LatticeTables):
     usq = jnp.sum(u * u, axis=0)
     equilibrium = w * (drho + rho * (3.0 * cu + 4.5 * cu * cu - 1.5 * usq))
     opposite = np.asarray(OPPOSITE)
+    omega_plus, omega_minus = tables.omega_plus, tables.omega_minus
+    if tables.has_rheology:
+        omega_plus, omega_minus = local_rates(deviations - equilibrium, u, force, rho, tables)
     sym = 0.5 * (deviations + deviations[opposite]) - 0.5 * (equilibrium + equilibrium[opposite])
     asym = 0.5 * (deviations - deviations[opposite]) - 0.5 * (equilibrium - equilibrium[opposite])
-    post = deviations - tables.omega_plus * sym - tables.omega_minus * asym
+    post = deviations - omega_plus * sym - omega_minus * asym
     if force is not None:
         cf = jnp.einsum("ia,a...->i...", c, force)
         source = w * (3.0 * (cf - jnp.sum(u * force, axis=0)) + 9.0 * cu * cf)
-        post = (post + (1.0 - 0.5 * tables.omega_plus) * 0.5 * (source + source[opposite])
-                + (1.0 - 0.5 * tables.omega_minus) * 0.5 * (source - source[opposite]))  # fmt: skip
+        post = (post + (1.0 - 0.5 * omega_plus) * 0.5 * (source + source[opposite])
+                + (1.0 - 0.5 * omega_minus) * 0.5 * (source - source[opposite]))  # fmt: skip
     streamed = []
     for i in range(Q):
         shifted = jnp.roll(post[i], shift=tuple(int(s) for s in VELOCITIES[i]), axis=(0, 1, 2))

@@ -395,9 +395,7 @@ class PipeFlowParameters(FlowLatticeParameters):
                 f"a square channel has H/W = 1, got {aspect}: use channel_shape rectangle")
         require(self.channel_shape != "cylinder" or aspect == 1.0, "channel_aspect_ratio",
                 f"a cylinder has no aspect ratio (got {aspect}): use channel_shape rectangle")
-        fluid = pipe_medium(self)
-        require(fluid.is_newtonian or self.backend == "numba", "medium",
-                f"{fluid.name} runs on backend numba only (the JAX backend has a Newtonian medium)")
+        pipe_medium(self)  # refuses an unknown medium or an impossible temperature / flow index
         check_channel_fit(self.resolution, ratio, offset, self.kernel,
                           aspect if self.channel_shape != "cylinder" else 1.0)
         if self.lattice_wall_shear_rate is not None:
