@@ -38,6 +38,15 @@ CASES = [
     (["compress", "--nucleus", "none", "--size-ratio", "0.3"], "--size-ratio"),
     (["compress", "--nucleus", "ellipsoid", "--size-ratio", "0.3"], "--size-ratio"),
     (["compress", "--equivalent", "--compare"], "--compare"),
+    # options that nothing would read, given away from their defaults
+    (["compress", "--seed", "3"], "--seed"),
+    (["equivalent", "--seed", "3"], "--seed"),
+    (["compress", "--nucleus", "none", "--interface-size", "0.05"], "--interface-size"),
+    (["compress", "--random", "--interface-size", "0.05"], "--interface-size"),
+    (["shear", "--capillary-number", "0.1", "--nucleus", "none", "--interface-size", "0.05", *FLOW],
+     "--interface-size"),
+    (["pipe", "--capillary-number-wall", "0.2", "--stationary-observable", "deformation", *FLOW],
+     "--stationary-observable"),
     (["compress", "--radius", "nan um"], "--radius"),
     (["compress", "--youngs-modulus", "-inf kPa"], "--youngs-modulus"),
     (["equivalent", "--stiffness-ratio", "nan"], "--stiffness-ratio"),
@@ -102,3 +111,18 @@ def test_damaged_afm_file_is_reported_with_its_name_and_the_reason(tmp_path, cap
                                 "--no-plots", "--quiet"], capsys)
     assert code != 0
     assert "damaged.jpk-force" in output and "Traceback" not in output
+
+
+def test_options_at_their_defaults_or_read_are_not_refused():
+    """The refusals of unread options fire only when an option is given away from its default: the random cell
+    with a seed, a nucleus cell with an interface size, a cell without a nucleus in a flow (whose uniform mesh sets
+    the interface size to the mesh size), and the stationarity stop with its observable are accepted."""
+    from elastocell.parameters.cell import cell_parameters
+    from elastocell.parameters.flow import flow_cell
+    from elastocell.simulation.runner import StopCriteria
+
+    assert cell_parameters(random=True, seed=3).random.seed == 3
+    assert cell_parameters(nucleus="sphere", interface_size=0.05).mesh.interface_size == 0.05
+    assert cell_parameters(nucleus="none", mesh_size=0.4, interface_size=0.4).nucleus.shape == "none"
+    assert flow_cell(None, {"nucleus": "none"}, 6.0).nucleus.shape == "none"
+    assert StopCriteria(stationary_tolerance=0.01, stationary_observable="deformation").stationary_tolerance == 0.01

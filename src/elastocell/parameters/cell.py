@@ -329,6 +329,7 @@ def cell_parameters(
     _refuse_conflicts(nucleus, random, {"stiffness_ratio": stiffness_ratio, "size_ratio": size_ratio,
                                         "offset": offset, "offset_axis": offset_axis,
                                         "semi_axes": tuple(semi_axes), "nucleus_axis": nucleus_axis})
+    _refuse_unread(nucleus, random, seed, mesh_size, interface_size)
     if random:
         nucleus = "none"
     defaults = MeshParameters.default_for(element) if element in ("p1", "p2") else MeshParameters()
@@ -384,6 +385,21 @@ def _refuse_conflicts(nucleus: str, random: bool, options: dict) -> None:
                                         f"{', '.join(sorted(NUCLEUS_OPTIONS_USED.get(nucleus, ()))) or 'none'})")
     if options["offset_axis"] != NUCLEUS_OPTION_DEFAULTS["offset_axis"] and options["offset"] == 0:
         raise ParameterError("offset_axis", "needs an offset (--offset > 0) to apply")
+
+
+def _refuse_unread(nucleus: str, random: bool, seed: int, mesh_size: float | None,
+                   interface_size: float | None) -> None:
+    """Cell options that nothing would read, given away from their defaults, are refused in one line: ``seed``
+    without ``random``, and ``interface_size`` (the element size on the nucleus surface) of a cell without a
+    nucleus (``nucleus="none"`` or ``random``). An interface size equal to ``mesh_size`` refines nothing and is
+    accepted (the flow scenarios' uniform mesh sets it so)."""
+    if seed != 0 and not random:
+        raise ParameterError("seed", "applies only to the random cell; add --random (random=True) or drop it")
+    if (interface_size is not None and (nucleus == "none" or random)
+            and (mesh_size is None or interface_size != mesh_size)):
+        raise ParameterError("interface_size", "the element size on the nucleus surface does not apply to a cell "
+                                               "without a nucleus (" + ("random" if random else "nucleus 'none'")
+                             + "); drop it")
 
 
 def describe_cell(cell: CellParameters) -> str:
