@@ -129,8 +129,9 @@ def test_contact_point_estimator(master):
     assert CONTACT - 0.1e-6 < guess < CONTACT + 1.5e-6  # the first guess lies near (and not far before) contact
     row = fit_curve("c", displacement, force, FitSettings(radius=R), master)
     assert abs(row["contact_point"] - CONTACT) < 3 * row["contact_point_std"] + 1e-8
-    fixed = fit_curve("c", displacement, force, FitSettings(radius=R, contact_point=CONTACT), master)
-    assert fixed["contact_point"] == CONTACT
+    # a bare contact point is in um (the bare-number rule); an SI value needs its unit
+    fixed = fit_curve("c", displacement, force, FitSettings(radius=R, contact_point=f"{CONTACT}m"), master)
+    assert fixed["contact_point"] == pytest.approx(CONTACT, rel=1e-12)
     assert fixed["youngs_modulus"] == pytest.approx(E_TRUE, rel=0.03)
 
 

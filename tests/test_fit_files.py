@@ -334,8 +334,7 @@ def test_check_fit(changes, reason, nan):
 
 
 def test_geometry_names(tmp_path):
-    """plates is parallel-plates (same E); sphere-indenter is refused in one line until its master surfaces
-    exist."""
+    """plates is parallel-plates (same E); sphere-indenter without --indenter-radius is refused in one line."""
     name = DATA / "fmt-jpk-fd_spot3-0192.jpk-force"
     rows = []
     for geometry in ("parallel-plates", "plates"):
@@ -349,7 +348,7 @@ def test_geometry_names(tmp_path):
                                  "--geometry", "sphere-indenter"])
     lines = [line for line in result.output.strip().splitlines() if line]
     assert result.exit_code == 2 and len(lines) == 1, result.output
-    assert "--geometry" in lines[0] and "sphere-indenter master surfaces are not available yet" in lines[0]
+    assert "--indenter-radius" in lines[0] and "required with --geometry sphere-indenter" in lines[0]
 
 
 def test_hertz_sphere_estimate_returns_the_modulus_of_a_hertz_sphere_curve():

@@ -27,6 +27,21 @@ MASTERCURVE_OPTIONS = ("poisson_ratio", "material",
                        "no_cache", opt("quiet", help="No progress, no summary."))
 
 
+def shipped_cached_or_computed(no_cache: bool, shipped, cache_exists, compute) -> tuple:
+    """(curve, source): the shipped curve, the cached one or ``compute()`` (``no_cache``: always computed), and
+    which of "shipped", "cached", "computed" it is."""
+    curve, source = None, None
+    if not no_cache:
+        curve = shipped()
+        source = "shipped" if curve is not None else None
+        if curve is None and cache_exists():
+            source = "cached"
+    if curve is None:
+        curve = compute()
+        source = source or "computed"
+    return curve, source
+
+
 @mastercurve_app.command("compression")
 @user_errors
 @takes(*MASTERCURVE_OPTIONS)
@@ -41,20 +56,17 @@ def mastercurve_compression(poisson_ratio: float, material: str, out: Path | Non
     )
 
     check_inputs(poisson_ratio, material)
-    curve, source = None, None
-    if not no_cache:
-        curve = shipped(poisson_ratio, material)
-        source = "shipped" if curve is not None else None
-        if curve is None and cache_path(poisson_ratio, material).exists():
-            source = "cached"
-    if curve is None:
-        show = not quiet
-        progress = (lambda mesh, delta: typer.echo(f"\r{mesh} mesh: delta = {delta:.3f}", err=True, nl=False)) \
-            if show else None
+
+    def compute():
+        progress = None if quiet else (
+            lambda mesh, delta: typer.echo(f"\r{mesh} mesh: delta = {delta:.3f}", err=True, nl=False))
         curve = compute_master_curve(poisson_ratio, material, use_cache=not no_cache, progress=progress)
-        source = source or "computed"
-        if show:
+        if not quiet:
             typer.echo("", err=True)
+        return curve
+
+    curve, source = shipped_cached_or_computed(no_cache, lambda: shipped(poisson_ratio, material),
+                                               lambda: cache_path(poisson_ratio, material).exists(), compute)
     if out is not None:
         curve.to_csv(out)
     if not quiet:
@@ -65,9 +77,52 @@ def mastercurve_compression(poisson_ratio: float, material: str, out: Path | Non
                    + (f" -> {out}" if out else ""))
 
 
+@mastercurve_app.command("indentation")
+@user_errors
+@takes(*MASTERCURVE_OPTIONS[:2], opt("out", annotation=Path | None, default=None,
+                                     help="Write the surface (CSV with # JSON metadata) here.", shown="not written"),
+       *MASTERCURVE_OPTIONS[3:], opt("workers", annotation=int, default=1, help="Curves computed at a time."))
+def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | None, no_cache: bool, quiet: bool,
+                            workers: int):
+    """F/(E R^2) over depth/R and R_b/R of a homogeneous suspended cell indented by a bead (sphere on a dish): the
+    shipped surface, the cached one, or a fresh computation with the axisymmetric solver (default mesh; a finer
+    mesh at three ratios for the error)."""
+    import numpy as np
+
+    from elastocell.inverse.indentation_surface import (  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+        cache_path,
+        check_inputs,
+        compute_indentation_surface,
+        shipped,
+    )
+
+    check_inputs(poisson_ratio, material)
+    progress = None if quiet else (
+        lambda ratio, mesh, seconds: typer.echo(f"R_b/R = {ratio:g}, {mesh} mesh: {seconds:.0f} s", err=True))
+    surface, source = shipped_cached_or_computed(
+        no_cache, lambda: shipped(poisson_ratio, material), lambda: cache_path(poisson_ratio, material).exists(),
+        lambda: compute_indentation_surface(poisson_ratio, material, use_cache=not no_cache, progress=progress,
+                                            workers=workers))
+    if out is not None:
+        surface.to_csv(out)
+    if not quiet:
+        error = surface.error / surface.force.clip(1e-300)
+        worst = float(np.nanmax(np.where(surface.depth >= 0.1 * surface.depth.max(), error, np.nan)))
+        typer.echo(f"nu={poisson_ratio:g} {material} ({source}): R_b/R {surface.ratio_range[0]:g}..."
+                   f"{surface.ratio_range[1]:g}; largest relative mesh error past a tenth of the depth range: "
+                   f"{100 * worst:.2f} %" + (f" -> {out}" if out else ""))
+
+
 @fit_app.command("afm")
 @user_errors
-@takes("files", opt("radius", default=..., help="Cell radius R.", scale=None), "geometry", "spring_constant",
+@takes("files", opt("radius", default=..., help="Cell radius R.", scale=None), "geometry",
+       opt("cell_shape", help="sphere-indenter: the cell's shape (sphere: a suspended cell resting on the dish; cap "
+           "and layer have no master surface yet)."),
+       opt("indenter_radius", annotation=str | None, default=None, scale=None, shown="required with sphere-indenter"),
+       opt("cap_height", scale=None), opt("layer_thickness", scale=None),
+       opt("depth_max", annotation=float | None, default=None, help="sphere-indenter: fit the data up to this bead "
+           "depth after contact.", shown="the master surface's range: min(R_b, R/2)"),
+       "spring_constant",
        "sensitivity", opt("poisson_ratio", help="nu (shipped: 0.45, 0.48, 0.49)."),
        opt("material", help="Master curve's law."),
        "model", opt("delta_max", help="Fit the data up to this delta = 1 - h/(2R) (<= 0.75)."), "contact_point",
@@ -80,30 +135,30 @@ def mastercurve_compression(poisson_ratio: float, material: str, out: Path | Non
        opt("workers", help="Run one task per file on a local Dask cluster of N processes.",
            shown="a plain loop, or one worker per core from 150 files on, 1200 with --no-plots"),
        "quiet")
-def fit_afm(files: list[Path], radius: str, geometry: str, spring_constant: str | None, sensitivity: str | None,
+def fit_afm(files: list[Path], radius: str, geometry: str, cell_shape: str, indenter_radius: str | None,
+            cap_height: str | None, layer_thickness: str | None, depth_max: float | None,
+            spring_constant: str | None, sensitivity: str | None,
             poisson_ratio: float, material: str, model: str, delta_max: float, contact_point: str, bootstrap: int,
             seed: int, nucleus_size_ratio: float | None, stiffness_ratio: float | None, baseline_fraction: float,
             threshold: float, baseline_tilt: bool, out: Path, no_plots: bool, scheduler: str | None,
             workers: int | None, quiet: bool):
     """Young's modulus from force curves (plain CSV or instrument files, every curve of a map): master-curve and
-    Hertz fits of plate compression, 95 % CIs; a curve that fails a check is flagged in fits.csv (exit code 3
+    Hertz fits of plate compression, or (--geometry sphere-indenter) master-surface and Hertz-sphere fits of a
+    bead indenting a cell on a dish, 95 % CIs; a curve that fails a check is flagged in fits.csv (exit code 3
     when no curve is accepted)."""
     from elastocell.inverse.fit import (  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
         FitSettings,
         fit_files,
-        parse_length,
-        parse_sensitivity,
-        parse_spring_constant,
     )
 
-    radius_m = parse_length(radius, "radius")
-    contact = None if contact_point.strip().lower() == "auto" else parse_length(contact_point, "contact_point")
-    settings = FitSettings(radius=radius_m, poisson_ratio=poisson_ratio, material=material, geometry=geometry,
+    contact = None if contact_point.strip().lower() == "auto" else contact_point
+    settings = FitSettings(radius=radius, poisson_ratio=poisson_ratio, material=material, geometry=geometry,
                            model=model, delta_max=delta_max, contact_point=contact, bootstrap=bootstrap, seed=seed,
                            baseline_fraction=baseline_fraction, threshold=threshold, baseline_tilt=baseline_tilt,
                            nucleus_size_ratio=nucleus_size_ratio, stiffness_ratio=stiffness_ratio,
-                           spring_constant=None if spring_constant is None else parse_spring_constant(spring_constant),
-                           sensitivity=None if sensitivity is None else parse_sensitivity(sensitivity))
+                           spring_constant=spring_constant, sensitivity=sensitivity, indenter_radius=indenter_radius,
+                           cell_shape=cell_shape, cap_height=cap_height, layer_thickness=layer_thickness,
+                           depth_max=depth_max)
     check_execution(scheduler, workers)
     for path in files:
         if not path.exists():
@@ -119,8 +174,10 @@ def fit_afm(files: list[Path], radius: str, geometry: str, spring_constant: str 
                            + (f" (E = {value:.4g} Pa not accepted)" if value == value else ""))
                 continue
             hertz = row.get("youngs_modulus_hertz")
+            reach = f"delta up to {row['delta_max']:.3f}" if settings.geometry == "parallel-plates" else \
+                f"depth up to {row['depth_max'] * 1e6:.3g} um"
             typer.echo(f"{row['file']}: E = {row['youngs_modulus']:.4g} Pa [{row['youngs_modulus_ci_low']:.4g}, "
-                       f"{row['youngs_modulus_ci_high']:.4g}] ({row['model']}), delta up to {row['delta_max']:.3f}"
+                       f"{row['youngs_modulus_ci_high']:.4g}] ({row['model']}), {reach}"
                        + (f", Hertz {hertz:.4g} Pa" if hertz == hertz else ""))
         typer.echo(f"{len(rows)} curve(s), {accepted} accepted, {len(rows) - accepted} flagged, in "
                    f"{result['wall_time_s']:.2f} s ({result['execution']}) -> {out / 'fits.csv'}")
@@ -156,20 +213,15 @@ def mastercurve_shear(poisson_ratio: float, material: str, out: Path | None, no_
     )
 
     check_inputs(poisson_ratio, material)
-    curve, source = None, None
-    if not no_cache:
-        curve = shipped(poisson_ratio, material)
-        source = "shipped" if curve is not None else None
-        if curve is None and cache_path(poisson_ratio, material).exists():
-            source = "cached"
-    if curve is None:
-        def report(ca, resolution, summary):
-            typer.echo(f"Ca = {ca:g}, R/dx = {resolution:g}: D = {summary['taylor_deformation_mean']:.4f} "
-                       f"({summary.get('wall_time_s', 0):.0f} s)", err=True)
 
-        curve = compute_shear_master_curve(poisson_ratio, material, use_cache=not no_cache,
-                                           progress=None if quiet else report)
-        source = source or "computed"
+    def report(ca, resolution, summary):
+        typer.echo(f"Ca = {ca:g}, R/dx = {resolution:g}: D = {summary['taylor_deformation_mean']:.4f} "
+                   f"({summary.get('wall_time_s', 0):.0f} s)", err=True)
+
+    curve, source = shipped_cached_or_computed(
+        no_cache, lambda: shipped(poisson_ratio, material), lambda: cache_path(poisson_ratio, material).exists(),
+        lambda: compute_shear_master_curve(poisson_ratio, material, use_cache=not no_cache,
+                                           progress=None if quiet else report))
     if out is not None:
         curve.to_csv(out)
     if not quiet:

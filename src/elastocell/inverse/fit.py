@@ -86,6 +86,7 @@ import numpy as np
 from elastocell.api.plotting import plt
 from elastocell.body.effective_moduli import hashin_shtrikman_upper
 from elastocell.files import replace_atomically, save_figure, software_versions, write_json
+from elastocell.inverse.indentation_surface import IndentationSurface, check_shape, load_indentation_surface
 from elastocell.inverse.mastercurve import MasterCurve, load_master_curve
 from elastocell.inverse.mastercurve_shear import load_shear_master_curve
 from elastocell.parameters.units import ParameterError, parse_quantity
@@ -95,8 +96,6 @@ from elastocell.simulation.distributed import TaskFailure, check_execution, defa
 PLAIN_SUFFIXES = (".csv", ".txt", ".tsv")
 GEOMETRIES = {"parallel-plates": "parallel-plates", "plates": "parallel-plates", "sphere-indenter": "sphere-indenter"}
 """Accepted ``geometry`` names and what they mean (``plates`` is an alias)."""
-SPHERE_INDENTER_UNAVAILABLE = ("sphere-indenter: the sphere-indenter master surfaces are not available yet; use "
-                               "parallel-plates (or plates)")
 
 RISE_FRACTION = 0.05
 """The contact point lies before the force has risen above this fraction of its largest value (and above
@@ -123,15 +122,46 @@ class CurveError(ValueError):
     """A curve that cannot be fitted (bad file, no contact, ...): the message names the file."""
 
 
+LEGACY_SI_BELOW = 1e-3
+"""A bare number below this given to :class:`FitSettings` as a cell or indenter radius, cap height or layer
+thickness (in um, no such length is under 1 nm) or as a sensitivity (nm/V) is read as the SI value (m, m/V) that
+callers of the Python API passed before the bare-number rule applied here: unambiguous by its size."""
+
+
+def _setting(value, unit: str, parameter: str, legacy: bool = False) -> float | None:
+    """A FitSettings value in SI: None as it is, a quantity ('8um', '50nm/V') converted, a bare number in its
+    quantity's documented unit (``elastocell.parameters.units.BARE_UNITS``), or with ``legacy`` a bare number
+    below :data:`LEGACY_SI_BELOW` as SI."""
+    if value is None:
+        return None
+    if legacy and isinstance(value, (int, float)) and not isinstance(value, bool) and abs(value) < LEGACY_SI_BELOW:
+        return float(value)
+    return parse_quantity(value, unit, parameter)[0]
+
+
 @dataclass(frozen=True)
 class FitSettings:
-    radius: float  # m
+    """What ``elastocell fit afm`` fits, under the CLI's names.
+
+    Quantities follow the CLI's rule: a string with a unit (``radius="8um"``, ``spring_constant="50mN/m"``,
+    ``sensitivity="50nm/V"``) or a bare number in its documented unit (lengths in um, spring constant N/m,
+    sensitivity nm/V). Lengths given as SI floats (``radius=8e-6``) keep working: a radius, indenter radius, cap
+    height or layer thickness, or a sensitivity, below :data:`LEGACY_SI_BELOW` cannot be meant in um or nm/V and
+    is read as metres (m/V); ``contact_point`` has no such reading (any value can be a contact point): bare, it is
+    in um. After construction every field holds SI floats (m, N/m, m/V), as fits.csv and fit_settings.json record.
+
+    geometry: ``parallel-plates`` (``plates``) or ``sphere-indenter`` (a bead of radius ``indenter_radius``, needed,
+    pressed into a cell of shape ``cell_shape`` on a dish; the x-axis is the bead's depth). ``delta_max`` limits the
+    plate fit (delta <= 0.75), ``depth_max`` (units of R; default the master surface's range) the indenter fit.
+    """
+
+    radius: float | str  # m after construction
     poisson_ratio: float = 0.48
     material: str = "neo-hookean"
     geometry: str = "parallel-plates"
     model: str = "both"  # master | hertz | both
     delta_max: float = 0.75
-    contact_point: float | None = None  # m; None = auto
+    contact_point: float | str | None = None  # m after construction; None = auto
     bootstrap: int = 0
     seed: int = 0
     baseline_fraction: float = 0.2
@@ -139,11 +169,20 @@ class FitSettings:
     baseline_tilt: bool = False
     nucleus_size_ratio: float | None = None
     stiffness_ratio: float | None = None
-    spring_constant: float | None = None  # N/m; None = the file's
-    sensitivity: float | None = None  # m/V; None = the file's
-    bead_radius: float | None = None  # m, R_b of a spherical probe (recorded)
+    spring_constant: float | str | None = None  # N/m; None = the file's
+    sensitivity: float | str | None = None  # m/V after construction; None = the file's
+    indenter_radius: float | str | None = None  # m after construction, R_b of the spherical probe
+    cell_shape: str = "sphere"  # sphere-indenter: sphere | cap | layer
+    cap_height: float | str | None = None  # m after construction (recorded; cap)
+    layer_thickness: float | str | None = None  # m after construction (recorded; layer)
+    depth_max: float | None = None  # units of R (sphere-indenter); None = the master surface's range
 
     def __post_init__(self):
+        for name, unit, legacy in (("radius", "m", True), ("contact_point", "m", False),
+                                   ("spring_constant", "N/m", False), ("sensitivity", "m/V", True),
+                                   ("indenter_radius", "m", True), ("cap_height", "m", True),
+                                   ("layer_thickness", "m", True)):
+            object.__setattr__(self, name, _setting(getattr(self, name), unit, name, legacy))
         if not (math.isfinite(self.radius) and self.radius > 0):
             raise ParameterError("radius", f"must be > 0, got {self.radius}")
         if not (math.isfinite(self.poisson_ratio) and -1 < self.poisson_ratio < 0.5):
@@ -152,9 +191,13 @@ class FitSettings:
         if geometry is None:
             raise ParameterError("geometry", f"must be parallel-plates (or plates) or sphere-indenter, got "
                                              f"{self.geometry!r}")
-        if geometry == "sphere-indenter":
-            raise ParameterError("geometry", SPHERE_INDENTER_UNAVAILABLE.split(": ", 1)[1])
         object.__setattr__(self, "geometry", geometry)
+        if geometry == "sphere-indenter":
+            if self.indenter_radius is None:
+                raise ParameterError("indenter_radius", "required with --geometry sphere-indenter (e.g. 5um)")
+            check_shape(self.cell_shape)
+            if self.depth_max is not None and not 0 < self.depth_max <= 1:
+                raise ParameterError("depth_max", f"must be in (0, 1] (units of R), got {self.depth_max}")
         if self.model not in ("master", "hertz", "both"):
             raise ParameterError("model", f"must be master, hertz or both, got {self.model!r}")
         if not 0 < self.delta_max <= 0.75:
@@ -174,10 +217,15 @@ class FitSettings:
                 raise ParameterError("nucleus_size_ratio", f"must be in (0, 1), got {self.nucleus_size_ratio}")
             if not (math.isfinite(self.stiffness_ratio) and self.stiffness_ratio > 0):
                 raise ParameterError("stiffness_ratio", f"must be > 0, got {self.stiffness_ratio}")
-        for name in ("spring_constant", "sensitivity", "bead_radius"):
+        for name in ("spring_constant", "sensitivity", "indenter_radius", "cap_height", "layer_thickness"):
             value = getattr(self, name)
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise ParameterError(name, f"must be > 0, got {value}")
+
+    @property
+    def indenter_ratio(self) -> float:
+        """R_b/R of the sphere-indenter geometry."""
+        return self.indenter_radius / self.radius
 
 
 def parse_length(value, parameter: str) -> float:
@@ -566,10 +614,33 @@ def estimate_contact_point(displacement: np.ndarray, force: np.ndarray, fraction
 # ---------------------------------------------------------------- least squares
 
 
-def _model_function(model: str, curve: MasterCurve | None, poisson_ratio: float):
+def _model_function(model: str, curve, settings: FitSettings):
+    """(f, limit) of ``F = E R^2 f(u)``, ``u = (displacement - c)/(2R)`` fitted up to ``u <= limit``.
+
+    Plates: ``f`` the master curve (``curve``) or Hertz's two contacts, ``u = delta``. Sphere indenter (``u`` =
+    depth/(2R)): ``f(u) = s(2u)`` with ``s`` the master surface (``curve``, an :class:`IndentationSurface`) at
+    R_b/R, or Hertz's sphere on a half-space, ``F = 4/3 E/(1 - nu^2) sqrt(R_b) d^(3/2)``."""
+    nu = settings.poisson_ratio
+    if settings.geometry == "parallel-plates":
+        if model == "master":
+            return curve, settings.delta_max
+        return (lambda delta: hertz_force(np.maximum(delta, 0.0), nu)), settings.delta_max
+    ratio = settings.indenter_ratio
+    depth_max = settings.depth_max if settings.depth_max is not None else (
+        curve.depth_max if curve is not None else 1.0)
     if model == "master":
-        return curve
-    return lambda delta: hertz_force(np.maximum(delta, 0.0), poisson_ratio)
+        s = curve.curve(ratio)
+        return (lambda u: s(2 * np.asarray(u, float))), depth_max / 2
+    return (lambda u: hertz_sphere_force(2 * np.asarray(u, float), nu, ratio)), depth_max / 2
+
+
+def load_model(settings: FitSettings):
+    """The master curve (plates) or the master surface (sphere indenter) of ``settings``; None for Hertz alone."""
+    if settings.model == "hertz":
+        return None
+    if settings.geometry == "sphere-indenter":
+        return load_indentation_surface(settings.poisson_ratio, settings.material, settings.cell_shape)
+    return load_master_curve(settings.poisson_ratio, settings.material)
 
 
 def _lag_correlation(values: np.ndarray, lag: int) -> float:
@@ -783,7 +854,18 @@ def check_fit(fit: dict, region: tuple[float, float] | None = None) -> list[str]
     return reasons
 
 
-def fit_curve(name: str, displacement, force, settings: FitSettings, curve: MasterCurve | None = None) -> dict:
+def _geometry_columns(settings: FitSettings) -> dict:
+    """The fits.csv columns that record the geometry (lengths in m; NaN where not given)."""
+    nan = float("nan")
+    return {"radius": settings.radius, "poisson_ratio": settings.poisson_ratio, "geometry": settings.geometry,
+            "indenter_radius": nan if settings.indenter_radius is None else settings.indenter_radius,
+            "cell_shape": settings.cell_shape if settings.geometry == "sphere-indenter" else "",
+            "cap_height": nan if settings.cap_height is None else settings.cap_height,
+            "layer_thickness": nan if settings.layer_thickness is None else settings.layer_thickness}
+
+
+def fit_curve(name: str, displacement, force, settings: FitSettings,
+              curve: MasterCurve | IndentationSurface | None = None) -> dict:
     """Fit one curve; returns a dict (fits.csv row plus ``_plot`` data), ``flag`` empty when every check of
     :func:`check_fit` passed. Raises CurveError when nothing can be fitted (too few points, no contact)."""
     displacement, force = _clean(name, np.asarray(displacement, float), np.asarray(force, float))
@@ -801,19 +883,17 @@ def fit_curve(name: str, displacement, force, settings: FitSettings, curve: Mast
     corrected = force - baseline(displacement)
     contact0 = estimate.contact if fit_contact else settings.contact_point
     region = (estimate.lower, estimate.upper) if estimate is not None else None
-    if curve is None and settings.model in ("master", "both"):
-        curve = load_master_curve(settings.poisson_ratio, settings.material)
-    row = {"file": name, "flag": "", "radius": settings.radius, "poisson_ratio": settings.poisson_ratio,
-           "geometry": settings.geometry,
-           "bead_radius": settings.bead_radius if settings.bead_radius is not None else float("nan")}
+    if curve is None:
+        curve = load_model(settings)
+    row = {"file": name, "flag": "", **_geometry_columns(settings)}
     fits, flags = {}, {}
     for model in ("master", "hertz"):
         if settings.model not in (model, "both"):
             continue
+        f, limit = _model_function(model, curve, settings)
         try:
-            fits[model] = fit_model(displacement, corrected, settings.radius,
-                                    _model_function(model, curve, settings.poisson_ratio), settings.delta_max,
-                                    contact0, fit_contact, baseline.sigma, settings.bootstrap, settings.seed,
+            fits[model] = fit_model(displacement, corrected, settings.radius, f, limit, contact0, fit_contact,
+                                    baseline.sigma, settings.bootstrap, settings.seed,
                                     contact_bounds=region if fit_contact else None)
         except CurveError as error:
             raise CurveError(f"{name}: {error}") from None
@@ -840,7 +920,13 @@ def fit_curve(name: str, displacement, force, settings: FitSettings, curve: Mast
     row["contact_region_low"] = region[0] if region else nan
     row["contact_region_high"] = region[1] if region else nan
     row["baseline_sigma"] = baseline.sigma
-    if "master" in fits and curve is not None:
+    if settings.geometry == "sphere-indenter":  # the x-axis is the bead's depth: u = depth/(2R)
+        row["depth_max"] = row.pop("delta_max") * 2 * settings.radius
+        row["delta_max"] = float("nan")
+        if "master" in fits and curve is not None:
+            row["master_curve_relative_error"] = float(curve.relative_error_at(
+                fits["master"]["delta_max"] * 2, settings.indenter_ratio))
+    elif "master" in fits and curve is not None:
         row["master_curve_relative_error"] = float(curve.relative_error_at(fits["master"]["delta_max"]))
     if settings.nucleus_size_ratio is not None:
         row.update(heterogeneous_moduli(row, settings.nucleus_size_ratio, settings.stiffness_ratio,
@@ -926,7 +1012,8 @@ def plot_fit(path: Path, row: dict) -> None:
     micro = 1e6
     top.plot(data["displacement"] * micro, data["force"] * 1e9, ".", ms=2,
              color="#f4a582" if flagged else "0.5", label="data (baseline removed)")
-    styles = {"master": ("C0", "master curve"), "hertz": ("C2", "Hertz")}
+    styles = {"master": ("C0", "master surface" if row.get("geometry") == "sphere-indenter" else "master curve"),
+              "hertz": ("C2", "Hertz")}
     for model, fit in data["fits"].items():
         d, y, predicted = fit["fitted_points"]
         color, label = styles[model]
@@ -949,6 +1036,9 @@ def plot_fit(path: Path, row: dict) -> None:
             top.set_ylim((low - 0.05 * (high - low)) * 1e9, (high + 0.05 * (high - low)) * 1e9)
     top.set_ylabel("force (nN)")
     title = f"{row['file']}: R = {radius * micro:.3g} um, delta up to {row.get('delta_max', float('nan')):.3f}"
+    if row.get("geometry") == "sphere-indenter":
+        title = (f"{row['file']}: R = {radius * micro:.3g} um, bead R_b = {row['indenter_radius'] * micro:.3g} um, "
+                 f"depth up to {row.get('depth_max', float('nan')) * micro:.3g} um")
     if flagged:
         title = f"{row['file']}: FLAGGED\n" + "\n".join(_wrap(row["flag"], 90))
     top.set_title(title, fontsize=8 if flagged else None, color=WARNING_COLOR if flagged else "black")
@@ -1008,8 +1098,7 @@ def _flagged_row(name: str, message: str, curve: Curve | None, settings: FitSett
     nan = float("nan")
     row = {"file": name, "youngs_modulus": nan, "youngs_modulus_ci_low": nan, "youngs_modulus_ci_high": nan,
            "contact_point": nan, "delta_max": nan, "youngs_modulus_hertz": nan, "flag": message,
-           "radius": settings.radius, "poisson_ratio": settings.poisson_ratio, "geometry": settings.geometry,
-           "bead_radius": settings.bead_radius if settings.bead_radius is not None else nan}
+           **_geometry_columns(settings)}
     if curve is not None:
         row["_plot"] = {"displacement": np.asarray(curve.displacement, float), "force": np.asarray(curve.force, float),
                         "fits": {}, "radius": settings.radius, "region": None}
@@ -1046,16 +1135,16 @@ def _fit_path(path: Path, settings: FitSettings, curve: MasterCurve | None, plot
 
 
 @functools.lru_cache(maxsize=8)
-def _worker_master_curve(poisson_ratio: float, material: str) -> MasterCurve:
-    """The master curve, read once per worker process (a task per file would otherwise re-read it)."""
-    return load_master_curve(poisson_ratio, material)
+def _worker_model(settings: FitSettings):
+    """The master curve or surface, read once per worker process (a task per file would otherwise re-read it)."""
+    return load_model(settings)
 
 
 def _fit_file_task(item) -> list:
     """One Dask task: the curves of one file (its plots in a private folder ``out/.plots-<index>``, renamed by
     the caller once names are made unique in input order); rows without their plot data (small results)."""
     index, path, settings, out, plots = item
-    curve = _worker_master_curve(settings.poisson_ratio, settings.material) if settings.model != "hertz" else None
+    curve = _worker_model(settings)
     plot_directory = None
     if plots:
         plot_directory = Path(out) / f".plots-{index:06d}"
@@ -1089,7 +1178,7 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
     start = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    curve = load_master_curve(settings.poisson_ratio, settings.material) if settings.model != "hertz" else None
+    curve = load_model(settings)
     files = expand_paths(paths)
     if not files:
         raise ParameterError("file", "no input files")
@@ -1177,13 +1266,20 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
     write_json(out / "fit_settings.json", {
         "settings": asdict(settings), "files": [str(p) for p in files],
         "curves": [{key: row.get(key) for key in curve_keys if key in row} for row in rows],
-        "units": {"radius": "m", "bead_radius": "m", "contact_point": "m", "spring_constant": "N/m",
+        "units": {"radius": "m", "indenter_radius": "m", "cap_height": "m", "layer_thickness": "m",
+                  "depth_max": "m in fits.csv, units of R in settings", "contact_point": "m", "spring_constant": "N/m",
                   "sensitivity": "m/V (NT-MDT: m/nA)", "youngs_modulus": "Pa"},
-        "master_curve": (curve.metadata | {"poisson_ratio": curve.poisson_ratio, "material": curve.material,
-                                           "hertz_blend_below": curve.hertz_blend_below}) if curve else None,
+        "master_curve": (curve.metadata | {"poisson_ratio": curve.poisson_ratio, "material": curve.material}
+                         | ({"hertz_blend_below": curve.hertz_blend_below} if isinstance(curve, MasterCurve) else {})
+                         ) if curve else None,
+        "geometry": {"geometry": settings.geometry, "cell_shape": settings.cell_shape if
+                     settings.geometry == "sphere-indenter" else None, "indenter_radius": settings.indenter_radius,
+                     "indenter_ratio": settings.indenter_ratio if settings.indenter_radius else None},
         "delta_definition": "delta = (displacement - contact_point) / (2 R) = 1 - h/(2R); for an instrument file "
                             "displacement = -(tip position), tip position = height (measured) + force / k "
-                            "(piezo height minus cantilever deflection)",
+                            "(piezo height minus cantilever deflection)" if settings.geometry == "parallel-plates"
+                            else "depth = displacement - contact_point (the bead's depth after contact); "
+                            "displacement = -(tip position), tip position = height (measured) + force / k",
         "contact_point_estimator": "baseline (mean, or line with baseline_tilt) on the first baseline_fraction of the "
                                    "approach, noise 1.4826 MAD; noise exit: the last point below threshold*sigma; "
                                    "change point of a flat-then-power-law model (p 1..2.5) up to 30 % of the "
@@ -1222,11 +1318,13 @@ def parse_shear_stress(value, parameter: str = "shear_stress") -> float:
     return parse_quantity(value, "Pa", parameter)[0]
 
 
-def parse_rate(value, parameter: str) -> float:
-    """An (angular) rate in 1/s: '1000/s', '150 rad/s' or a plain number (1/s). A frequency in Hz (cycles per
-    second) is converted to an angular frequency (times 2 pi)."""
+def parse_rate(value, parameter: str, angular: bool = False) -> float:
+    """A rate in 1/s: '1000/s', '1000Hz', '150 rad/s' or a plain number (1/s), as ``elastocell shear
+    --shear-rate`` reads it (a shear rate given in Hz is that many per second). With ``angular`` (the
+    tank-treading frequency, an angular frequency in rad/s) a frequency in Hz, cycles per second, is converted:
+    times 2 pi."""
     magnitude, physical = parse_quantity(value, "1/s", parameter)
-    if physical and "hz" in str(value).lower():
+    if angular and physical and "hz" in str(value).lower():
         magnitude *= 2.0 * math.pi
     return magnitude
 
@@ -1340,8 +1438,9 @@ def fit_shear(deformation, shear_stress, deformation_error=0.0, shear_stress_err
         rate = parse_rate(shear_rate, "shear_rate")
         if not (math.isfinite(rate) and rate > 0):
             raise ParameterError("shear_rate", f"must be > 0, got {rate}")
-        omega = parse_rate(tank_treading_frequency, "tank_treading_frequency") / rate
-        omega_error = _finite_nonnegative(parse_rate(tank_treading_frequency_error, "tank_treading_frequency_error"),
+        omega = parse_rate(tank_treading_frequency, "tank_treading_frequency", angular=True) / rate
+        omega_error = _finite_nonnegative(parse_rate(tank_treading_frequency_error, "tank_treading_frequency_error",
+                                                     angular=True),
                                           "tank_treading_frequency_error") / rate
         t_low, t_high = curve.range("tank_treading_frequency")
         if not t_low <= omega <= t_high:
