@@ -55,6 +55,10 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                      "python validation/shear.py --only split homogeneous resolution --resolution 6 "
                      "--resolutions 4 6 8 --duration 4"),
     }),
+    "flow_accuracy": ("Accuracy of the immersed-boundary flow", {
+        "flow_accuracy.py": ("Held sphere (torque, stresslet, drag) and the cell against closed forms",
+                             "python validation/flow_accuracy.py --page"),
+    }),
     "pipe": ("Cell in pipe flow", {
         "pipe.py": ("Poiseuille flow, the centred cell, and the cost of a coupled step",
                     "python validation/pipe.py"),

@@ -21,7 +21,7 @@ from numba import njit
 
 from elastocell.coupling import ibm
 from elastocell.coupling.elastic_forces import ElasticForces, elastic_forces
-from elastocell.coupling.markers import MarkerState, raise_flow_failure
+from elastocell.coupling.markers import MarkerState, marker_radius, raise_flow_failure
 from elastocell.lattice import Lattice, LatticeParams
 from elastocell.lattice import kernels as lb_kernels
 
@@ -92,10 +92,12 @@ def _coupled_steps(
     return parity, n_steps, j_min, np.sqrt(max_speed)
 
 
-def immersed_cell(backend: str, lattice_params: LatticeParams, velocity, cell, units, kernel: str):
+def immersed_cell(backend: str, lattice_params: LatticeParams, velocity, cell, units, kernel: str,
+                  radius_correction: float = 0.0):
     """The coupled system on a backend ("numba" or "jax"): a lattice at the equilibrium of ``velocity``
     (3, nx, ny, nz) and the cell at ``units.centre`` with radius ``units.radius`` (dx) and modulus
-    ``units.youngs_modulus`` (lattice units). A law without a compiled force kernel
+    ``units.youngs_modulus`` (lattice units); its markers lie on a sphere of radius ``units.radius -
+    radius_correction`` (:func:`~elastocell.coupling.markers.marker_radius`). A law without a compiled force kernel
     (``Law.has_compiled_kernel`` false) runs on "jax", whose forces are the autodiff of the law, with a warning."""
     if backend == "numba" and not cell.law.has_compiled_kernel:
         warnings.warn(f"the law {cell.law.name!r} has no compiled (Numba) force kernel: the flow runs on the JAX "
@@ -114,7 +116,8 @@ def immersed_cell(backend: str, lattice_params: LatticeParams, velocity, cell, u
         raise ValueError(f"backend must be 'numba' or 'jax', got {backend!r}")
     lattice = lattice_class(lattice_params)
     lattice.initialize(velocity=velocity)
-    return cell_class(lattice, cell, units.centre, units.radius, units.youngs_modulus, kernel=kernel)
+    radius = marker_radius(units.radius, radius_correction)
+    return cell_class(lattice, cell, units.centre, radius, units.youngs_modulus, kernel=kernel)
 
 
 class ImmersedCell(MarkerState):

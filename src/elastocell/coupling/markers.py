@@ -30,6 +30,20 @@ def raise_flow_failure(time_step: int, j_min: float, max_speed: float) -> None:
     )
 
 
+def marker_radius(radius: float, hydrodynamic_radius_correction: float = 0.0) -> float:
+    """Radius (dx) of the sphere the markers of a cell of radius ``radius`` (dx) are placed on: ``radius -
+    hydrodynamic_radius_correction``. An immersed boundary's kernel spreads its force over about a kernel
+    half-width, so the body the fluid sees is larger than the marker surface (docs/theory.md, "Flow
+    accuracy"); placing the markers that much further in gives a body of hydrodynamic radius ``radius``.
+    The elastic body keeps its modulus; its size is the marker radius."""
+    radius = float(radius)
+    correction = float(hydrodynamic_radius_correction)
+    if not (np.isfinite(correction) and 0.0 <= correction < 0.5 * radius):
+        raise ValueError(f"the hydrodynamic radius correction must be in [0, R/2) = [0, {0.5 * radius:g}) dx, "
+                         f"got {correction}")
+    return radius - correction
+
+
 class MarkerState:
     """What every backend's immersed cell exposes about its markers (positions in dx, radius R in dx)."""
 

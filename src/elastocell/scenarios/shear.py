@@ -69,6 +69,9 @@ class ShearFlowParameters(FlowLatticeParameters):
     reynolds_number: upper limit of the particle Reynolds number shear_rate R^2 / nu (Stokes regime).
     velocity_limit: upper limit of the wall speed |U| (dx/dt).
     kernel: immersed-boundary kernel ("trilinear", the paper's 2-point one, or "peskin4").
+    hydrodynamic_radius_correction: c in dx: the markers lie on a sphere of radius R - c dx, so that the
+        body the fluid sees (larger than the marker surface by about c dx for the kernel) has radius R
+        (docs/validation/flow_accuracy.md measures c). Default 0: markers at R.
     lattice_shear_rate: impose the shear rate in lattice units (1/dt) instead of choosing the largest
         allowed one; refused if it breaks a limit.
     max_steps_per_strain: refuse a run needing more LB steps per unit strain (1/shear_rate).
@@ -79,6 +82,7 @@ class ShearFlowParameters(FlowLatticeParameters):
 
     capillary_number: float
     confinement: float = 0.2
+    hydrodynamic_radius_correction: float = 0.0
     lattice_shear_rate: float | None = None
     max_steps_per_strain: float = 1.0e6
 
@@ -90,6 +94,10 @@ class ShearFlowParameters(FlowLatticeParameters):
                                "Taylor deformation D ~ 0.5 and more beyond it")
         require(math.isfinite(self.confinement) and 0 < self.confinement < 1, "confinement",
                 f"2R/H must be in (0, 1), got {self.confinement}")
+        require(math.isfinite(self.hydrodynamic_radius_correction)
+                and 0 <= self.hydrodynamic_radius_correction < 0.5 * self.resolution,
+                "hydrodynamic_radius_correction", f"must be in [0, R/2) = [0, {0.5 * self.resolution:g}) dx, "
+                f"got {self.hydrodynamic_radius_correction}")
         if self.lattice_shear_rate is not None:
             require(math.isfinite(self.lattice_shear_rate) and self.lattice_shear_rate > 0, "lattice_shear_rate",
                     f"must be > 0 (1/dt), got {self.lattice_shear_rate}")
@@ -255,7 +263,8 @@ def shear_setup(cell, params: ShearFlowParameters, units: ShearUnits | None = No
     profile = -u + 2.0 * u * (np.arange(ny) + 0.5) / ny
     velocity = np.zeros((3,) + units.shape)
     velocity[0] = profile[None, :, None]
-    return immersed_cell(params.backend, lattice_params, velocity, cell, units, params.kernel)
+    return immersed_cell(params.backend, lattice_params, velocity, cell, units, params.kernel,
+                         params.hydrodynamic_radius_correction)
 
 
 def run_shear(
@@ -328,7 +337,7 @@ class ShearRun(FlowRun):
 
     def _start(self) -> None:
         self._surface = self.cell.mesh.surface_nodes
-        self._centre0 = self.units.centre / self.units.radius
+        self._centre0 = self.units.centre / self.system.radius  # the marker radius (positions_in_radii)
         self.tracker = RotationTracker(plane=(0, 1))
         first = self._observe()
         self.volume0 = first.volume
