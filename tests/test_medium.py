@@ -69,7 +69,7 @@ def test_power_law_step_equals_the_reference_step(collision, backend):
 
 
 def test_local_tau_spans_the_law_and_is_clamped():
-    """tau from the Newton solve equals the root of 3K gdot^n + gdot/2 = m (bisection); the clamp holds."""
+    """tau from the Halley solve equals the root of 3K gdot^n + gdot/2 = m (bisection); the clamp holds."""
     law = PowerLaw(0.5, 0.01, 0.52, 10.0)
     m = np.logspace(-8, 0, 40)
     tau = law.relaxation_time(m)
@@ -83,7 +83,7 @@ def test_local_tau_spans_the_law_and_is_clamped():
 
 
 def test_power_law_of_index_one_is_the_newtonian_fluid():
-    """n = 1 with K = nu: tau = 3K + 1/2 at every node, the Newtonian step up to the Newton solve's round-off
+    """n = 1 with K = nu: tau = 3K + 1/2 at every node, the Newtonian step up to the root solve's round-off
     (measured: identical, 0.0, in float64 after 200 steps in a square duct)."""
     shape, solid, _, _ = channel_geometry("square", 4.0, 1.0, 3)
     lattices = [Lattice(LatticeParams(shape, relaxation_time=0.8, dtype="float64", solid=solid,

@@ -34,7 +34,7 @@ import numpy as np
 
 from elastocell.body.materials import computes_in_float64
 from elastocell.lattice.params import LatticeParams
-from elastocell.lattice.rheology import NEWTON_ITERATIONS, SMALLEST_STRESS
+from elastocell.lattice.rheology import LOG_TWO, ROOT_ITERATIONS, SMALLEST_STRESS
 from elastocell.lattice.solver import Lattice, step_count
 from elastocell.lattice.stencil import OPPOSITE, VELOCITIES, WEIGHTS, Q
 
@@ -118,7 +118,8 @@ def total_force(field, tables: LatticeTables, shape, dtype):
 def local_rates(non_equilibrium, u, force, rho, tables: LatticeTables):
     """(omega+, omega-) per node of a power-law medium (:mod:`elastocell.lattice.rheology`, the kernels' algorithm):
     Pi = sum_i c_i c_i (f_i - f^eq_i) + (u F + F u)/2, m = 3 sqrt(2 Pi:Pi)/(2 rho), tau+ the clamped root of
-    3K gdot^n + gdot/2 = m by Newton in log gdot (float64 where JAX computes in 64 bit), tau- at the same magic."""
+    3K gdot^n + gdot/2 = m by Halley steps in log gdot (float64 where JAX computes in 64 bit), tau- at the same
+    magic."""
     n, three_k, tau_min, tau_max, magic = tables.rheology
     c = jnp.asarray(VELOCITIES, dtype=non_equilibrium.dtype)
     pi = jnp.einsum("ia,ib,i...->ab...", c, c, non_equilibrium)
@@ -126,12 +127,14 @@ def local_rates(non_equilibrium, u, force, rho, tables: LatticeTables):
         uf = jnp.einsum("a...,b...->ab...", u, force)
         pi = pi + 0.5 * (uf + jnp.swapaxes(uf, 0, 1))
     m = jnp.maximum(1.5 * jnp.sqrt(2.0 * jnp.sum(pi * pi, axis=(0, 1))) / rho, SMALLEST_STRESS)
-    s = jnp.minimum(jnp.log(2.0 * m), jnp.log(m / three_k) / n)
-    for _ in range(NEWTON_ITERATIONS):
+    log_m = jnp.log(m)
+    s = jnp.minimum(log_m + LOG_TWO, (log_m - np.log(three_k)) / n)
+    for _ in range(ROOT_ITERATIONS):
         p = three_k * jnp.exp(n * s)
-        g = jnp.exp(s)
-        s = s - (p + 0.5 * g - m) / (n * p + 0.5 * g)
-    tau = jnp.clip(three_k * jnp.exp((n - 1.0) * s) + 0.5, tau_min, tau_max)
+        g = 0.5 * jnp.exp(s)
+        f0, f1, f2 = p + g - m, n * p + g, n * n * p + g
+        s = s - 2.0 * f0 * f1 / (2.0 * f1 * f1 - f0 * f2)
+    tau = jnp.clip(m * jnp.exp(-s), tau_min, tau_max)
     tau_minus = tau if magic == 0.0 else 0.5 + magic / (tau - 0.5)
     return (1.0 / tau).astype(non_equilibrium.dtype), (1.0 / tau_minus).astype(non_equilibrium.dtype)
 

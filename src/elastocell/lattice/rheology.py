@@ -11,11 +11,11 @@ forcing the second moment of the non-equilibrium part obeys
 
 (Kruger et al., The Lattice Boltzmann Method, 2017, section 6.5) so the shear rate gdot = sqrt(2 S:S) =
 m / tau with m = 3 sqrt(2 Pi:Pi) / (2 rho). Because tau itself depends on gdot, the node solves
-gdot tau(gdot) = m, i.e. 3 K gdot^n + gdot/2 = m, for gdot: Newton's method on s = log gdot (the left side is
-convex and increasing in s; from the upper bound min(2m, (m/3K)^(1/n)) the iterates decrease monotonically
-to the root), :data:`NEWTON_ITERATIONS` fixed iterations (relative error of tau < 3e-8 for n >= 0.3, measured
-against a bracketing root finder over m in [1e-9, 1]). Clamping the root's tau is the exact solution of the
-clamped law (both sides are monotone in gdot).
+gdot tau(gdot) = m, i.e. 3 K gdot^n + gdot/2 = m, for gdot: Halley's method on s = log gdot (the left side is
+convex and increasing in s) from the upper bound min(2m, (m/3K)^(1/n)), :data:`ROOT_ITERATIONS` fixed
+iterations (two exponentials each), then tau = m/gdot. Measured against a bracketing root finder (brentq) over
+m in [1e-12, 10], n in [0.2, 2], 3K in [3e-3, 30]: relative error of tau 2e-5 after two iterations, 4e-15 after
+three. Clamping the root's tau is the exact solution of the clamped law (both sides are monotone in gdot).
 
 With TRT the symmetric moments relax with that tau+ and the antisymmetric ones with
 tau- = 1/2 + Lambda/(tau+ - 1/2) at the same magic Lambda, so the half-way walls stay where they are for
@@ -29,11 +29,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-NEWTON_ITERATIONS = 4
-"""Newton iterations per node for gdot tau(gdot) = m (3 iterations leave 2e-4, 4 leave 3e-8 at n = 0.3)."""
+ROOT_ITERATIONS = 3
+"""Halley iterations per node for gdot tau(gdot) = m (two leave 2e-5 at n = 0.2, three round-off)."""
 
 DEFAULT_TAU_RANGE = (0.52, 10.0)
 """Default clamp of the local relaxation time (TRT stays stable close to 1/2; nu_max/nu_min = 475)."""
+
+LOG_TWO = math.log(2.0)
 
 SMALLEST_STRESS = 1e-20
 """Floor on m (a node at rest): its tau is then tau_max."""
@@ -76,16 +78,21 @@ class PowerLaw:
 
 
 def local_relaxation_time(m, three_k, n, tau_min, tau_max):
-    """Solve 3K gdot^n + gdot/2 = m by :data:`NEWTON_ITERATIONS` Newton steps in log gdot; return the clamped tau.
+    """Solve 3K gdot^n + gdot/2 = m by :data:`ROOT_ITERATIONS` Halley steps in s = log gdot; return the clamped
+    tau = m/gdot.
 
     Works elementwise on NumPy arrays and, compiled, on scalars inside the kernels."""
     m = np.maximum(m, SMALLEST_STRESS)
-    s = np.minimum(np.log(2.0 * m), np.log(m / three_k) / n)
-    for _ in range(NEWTON_ITERATIONS):
+    log_m = np.log(m)
+    s = np.minimum(log_m + LOG_TWO, (log_m - np.log(three_k)) / n)
+    for _ in range(ROOT_ITERATIONS):
         p = three_k * np.exp(n * s)
-        g = np.exp(s)
-        s = s - (p + 0.5 * g - m) / (n * p + 0.5 * g)
-    return np.minimum(np.maximum(three_k * np.exp((n - 1.0) * s) + 0.5, tau_min), tau_max)
+        g = 0.5 * np.exp(s)
+        f0 = p + g - m  # G(s) and its first two derivatives
+        f1 = n * p + g
+        f2 = n * n * p + g
+        s = s - 2.0 * f0 * f1 / (2.0 * f1 * f1 - f0 * f2)
+    return np.minimum(np.maximum(m * np.exp(-s), tau_min), tau_max)
 
 
 def stress_norm(pi_neq, rho):
