@@ -14,6 +14,7 @@ References:
   tau = 1 at the wall, the local tau is clamped to [0.52, 10];
 * duct: Newtonian flow through a rectangular duct, the series of White (Viscous Fluid Flow, eqs. 3-48/3-49),
   half-way walls at +-a, +-b (a, b whole half-node counts), tau = 1;
+* tube: a power-law liquid through the staircase cylinder, Q = pi n/(3n+1) (G/2K)^(1/n) R^(3+1/n);
 * power-law square duct: no closed form; Kozicki et al.'s (1966) relation Q = a^3 (G a/(2K))^(1/n)/(b_k + a_k/n)
   (a_k = 0.2121, b_k = 0.6771; exact at n = 1, an approximation otherwise) and the lattice's own refinement;
 * mlups: the fused step (Numba, float32, periodic cube, body force) with a Newtonian and a power-law medium in
@@ -43,7 +44,7 @@ except ImportError:  # a source checkout without installing
 from page import Page
 
 from elastocell.lattice import Lattice, LatticeParams, kernels
-from elastocell.lattice.rheology import PowerLaw
+from elastocell.lattice.rheology import PowerLaw, tube_flow_rate
 from elastocell.parameters.medium import KOZICKI_SQUARE, mc_pbs
 from elastocell.scenarios import pipe
 
@@ -115,6 +116,25 @@ def power_law_duct(half_widths, indices, tau_max_values) -> None:
                   formats={"Q/Q_kozicki-1": ".4f", "Q/Q_newtonian": ".4f", "wall_s": ".1f"})
 
 
+def tube(radii, indices) -> None:
+    rows = []
+    nu, rate = 1.0 / 6.0, 1e-3
+    for n in indices:
+        for radius in radii:
+            start = time.perf_counter()
+            shape, _, a, b = pipe.channel_geometry("cylinder", radius, 1.0, 1)
+            law = PowerLaw.matching(n, nu, rate)
+            g = 2 * nu * rate / radius
+            q = float(pipe.channel_profile(shape, "cylinder", a, b, g, 1.0, law).sum())
+            rows.append({"n": round(n, 4), "R_dx": radius,
+                         "flow_rate_error": q / tube_flow_rate(g, law.consistency, n, radius) - 1,
+                         "wall_s": time.perf_counter() - start})
+    with_order(rows, "n", "flow_rate_error")
+    PAGE[0].table(rows, "Power-law flow through the staircase cylinder against Q = pi n/(3n+1) (G/2K)^(1/n) "
+                  "R^(3+1/n) (first order: the staircase wall)",
+                  formats={"flow_rate_error": ".2e", "order_flow_rate_error": ".2f", "wall_s": ".1f"})
+
+
 def load_kernels(path: str):
     spec = importlib.util.spec_from_file_location("baseline_kernels", path)
     module = importlib.util.module_from_spec(spec)
@@ -162,8 +182,8 @@ def mlups(size: int, repeats: int, steps: int, baseline: str | None) -> None:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--only", nargs="+", default=["slab", "duct", "power-duct", "mlups"],
-                        choices=["slab", "duct", "power-duct", "mlups"])
+    parser.add_argument("--only", nargs="+", default=["slab", "duct", "power-duct", "tube", "mlups"],
+                        choices=["slab", "duct", "power-duct", "tube", "mlups"])
     parser.add_argument("--nodes", nargs="+", type=int, default=[8, 16, 32, 64])
     parser.add_argument("--indices", nargs="+", type=float, default=[1.0, 0.6, 0.4])
     parser.add_argument("--half-widths", nargs="+", type=float, default=[4, 8, 16])
@@ -183,6 +203,8 @@ def main(argv=None) -> None:
     if "power-duct" in args.only:
         power_law_duct(args.half_widths, [mc_pbs("0.59%MC-PBS").flow_index, 0.4], [10.0])
         power_law_duct([8.0], [mc_pbs("0.59%MC-PBS").flow_index], [100.0])
+    if "tube" in args.only:
+        tube([4.0, 8.0, 16.0], [1.0, mc_pbs("0.59%MC-PBS").flow_index])
     if "mlups" in args.only:
         mlups(args.size, args.repeats, args.steps, args.baseline_kernels)
     PAGE[0].write()

@@ -113,3 +113,10 @@ def slab_flow_rate(body_force: float, consistency: float, flow_index: float, hal
     """Flow rate per unit width of :func:`slab_velocity`: 2 n/(2n+1) (G/K)^(1/n) h^(2+1/n)."""
     n = flow_index
     return 2.0 * n / (2.0 * n + 1.0) * (body_force / consistency) ** (1.0 / n) * half_gap ** (2.0 + 1.0 / n)
+
+
+def tube_flow_rate(body_force: float, consistency: float, flow_index: float, radius: float) -> float:
+    """Flow rate of a power-law liquid driven by G through a tube of radius R (wall stress G R/2):
+    Q = pi n/(3n+1) (G/(2K))^(1/n) R^(3+1/n)."""
+    n = flow_index
+    return math.pi * n / (3.0 * n + 1.0) * (body_force / (2.0 * consistency)) ** (1.0 / n) * radius ** (3.0 + 1.0 / n)
