@@ -12,6 +12,8 @@ Collision: TRT (magic Lambda = 3/16 by default) or BGK; Guo forcing with a unifo
 body force and/or a per-node force density field; periodic boundaries, half-way
 bounce-back on a solid mask and on moving plane walls at y = -1/2, ny - 1/2.
 Kernels: one fused, compiled (Numba, parallel) step with in-place AA streaming.
+Medium: Newtonian (one tau), or a shear-thinning power law whose tau each node takes from its own strain rate
+inside the collision (``LatticeParams(..., rheology=PowerLaw(n, K))``, :mod:`elastocell.lattice.rheology`).
 """
 
 from elastocell.lattice.params import (
@@ -20,6 +22,7 @@ from elastocell.lattice.params import (
     relaxation_time_from_viscosity,
     viscosity_from_relaxation_time,
 )
+from elastocell.lattice.rheology import PowerLaw
 from elastocell.lattice.solver import Lattice, equilibrium_deviation
 from elastocell.lattice.stability import (
     DEFAULT_VELOCITY_LIMIT,
@@ -41,6 +44,7 @@ __all__ = [
     "WEIGHTS",
     "Lattice",
     "LatticeParams",
+    "PowerLaw",
     "StabilityReport",
     "check_stability",
     "equilibrium_deviation",

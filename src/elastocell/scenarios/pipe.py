@@ -1,4 +1,5 @@
-"""A cell in pressure-driven (Poiseuille) flow through a cylindrical capillary (paper sections 2.6 and 3.3).
+"""A cell in pressure-driven (Poiseuille) flow through a capillary: a cylinder (paper sections 2.6 and 3.3) or a
+rectangular duct, in a Newtonian or shear-thinning medium.
 
 Channel (docs/theory.md, "Pipe (capillary) flow"): a cylinder of radius R_ch along x, periodic along x,
 driven by a uniform body-force density G along x (the pressure gradient). Lattice nodes (integer indices)
@@ -8,6 +9,13 @@ whose distance from the axis exceeds R_ch are solid; every fluid-solid link is a
     u(r) = G (R_ch^2 - r^2) / (4 eta),      Q = pi G R_ch^4 / (8 eta),
 
 to the accuracy measured by :func:`poiseuille_error` (the staircase makes the error first order in dx).
+
+The channel may instead be a rectangular duct (``channel_shape`` "square" or "rectangle", RT-DC's chips):
+width W = 2 R_ch along y, height H along z, plane walls half-way between nodes (the Newtonian series of
+:func:`duct_velocity` / :func:`duct_flow_rate`, second order, :func:`duct_error`), and the medium a shear-thinning
+power law (``medium``: the MC-PBS presets of :mod:`elastocell.parameters.medium` or "power-law"; per-node
+viscosity from the local strain rate, :mod:`elastocell.lattice.rheology`). A duct or a power-law medium starts from
+the lattice's own steady empty channel (:func:`channel_profile`).
 
 Scenario: an elastic cell (mesh in units of R, every node an immersed-boundary marker; the coupled stepping
 of :class:`~elastocell.coupling.immersed.ImmersedCell`, whose compiled path applies the lattice's uniform body force and
