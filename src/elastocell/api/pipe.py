@@ -73,9 +73,6 @@ def pipe(
     if stationary_observable not in STATIONARY_OBSERVABLES:
         raise ParameterError("stationary_observable", f"must be one of {', '.join(STATIONARY_OBSERVABLES)}, "
                              f"got {stationary_observable!r}")
-    if stationary_tolerance is None and stationary_observable != "strain_axial":
-        raise ParameterError("stationary_observable", "is read only by the stationarity stop; give "
-                                                      "--stationary-tolerance (stationary_tolerance) with it")
     stop = StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                         stationary_observable=stationary_observable, unit=PipeRun.TIME_UNIT)
     if vtk_interval is not None and not vtk_interval > 0:
