@@ -188,7 +188,9 @@ EXPECTED_OPTIONS = {
             '--offset=0.0 --offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 '
             '--mesh-size=None --pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 '
             '--radius=1 --material=neo-hookean --element=p1 --equivalent=False --channel-radius-ratio=2.0 '
-            '--start-offset=0.0 --resolution=8.0 --duration=10.0 --pressure-gradient=None --wall-clock=None '
+            '--start-offset=0.0 --resolution=8.0 --channel-shape=None --channel-width=None --channel-height=None '
+            '--channel-aspect-ratio=None --medium=newtonian --temperature=None --flow-index=None '
+            '--duration=10.0 --pressure-gradient=None --wall-clock=None '
             '--stationary-tolerance=None --stationary-observable=strain_axial --record-interval=0.1 '
             '--checkpoint-every=20 --vtk-interval=1.0 --resume=False --backend=numba --quiet=False',
     'reproduce': '--quick=False --scheduler=None --workers=None --out! --quiet=False',
