@@ -248,3 +248,99 @@ def test_offset_and_spheroidal_nuclei_compress_with_balanced_plate_forces(option
     homogeneous = compress_axisymmetric(cell_parameters(nucleus="none"), delta_max=0.2, steps=4, mesh=coarse)
     np.testing.assert_allclose(result.force_support[1:], result.force[1:], rtol=1e-8)
     assert np.all(result.force[1:] > homogeneous.force[1:])
+
+
+# ------------------------------------------------------------------------------------------- compress --axisymmetric
+@pytest.fixture
+def coarse_meridian_mesh(monkeypatch):
+    """``compress --axisymmetric`` on a meridian mesh 4 times coarser than the default (every size x 4)."""
+    import elastocell.api.compression as api
+
+    monkeypatch.setattr(api, "MeridianMeshParameters", lambda: MeridianMeshParameters().scaled(4))
+
+
+@pytest.mark.slow
+def test_compress_axisymmetric_writes_the_files_of_compress(tmp_path, coarse_meridian_mesh):
+    """The CLI path: the columns of compression.csv, the metadata naming the solver and the meridian mesh, the
+    comparison with the equivalent (E_eff the exact volume average of the body of revolution: 1 + (gamma - 1)
+    lambda^3 = 1.125, to the mesh's volume error), and the same forces as compress_axisymmetric itself."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from elastocell.cli.app import app
+    from elastocell.scenarios.axisymmetric import compress_axisymmetric
+
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, ["compress", "--out", str(out), "--axisymmetric", "--delta-max", "0.1",
+                                      "--steps", "2", "--stiffness-ratio", "2", "--radius", "8um",
+                                      "--youngs-modulus", "1kPa", "--compare", "--quiet"])
+    assert result.exit_code == 0, result.output
+    assert (out / "compression.csv").read_text().splitlines()[0] == "delta,force,force_per_Ec_R2,force_per_Eeff_R2"
+    table = np.genfromtxt(out / "compression.csv", delimiter=",", names=True)
+    metadata = json.loads((out / "metadata.json").read_text())
+    assert metadata["solver"]["name"] == "axisymmetric" and metadata["complete"]
+    assert metadata["mesh"]["n_nodes"] > 0 and metadata["mesh"]["n_nucleus_elements"] > 0
+    assert metadata["effective_stiffness_ratio"] == pytest.approx(1.125, rel=2e-3)
+    np.testing.assert_allclose(table["force"], table["force_per_Ec_R2"] * 1e3 * (8e-6) ** 2, rtol=1e-9)
+    np.testing.assert_allclose(table["force_per_Eeff_R2"], table["force_per_Ec_R2"] / metadata["effective_stiffness_ratio"])
+    direct = compress_axisymmetric(cell_parameters(stiffness_ratio=2), 0.1, 2, mesh=MeridianMeshParameters().scaled(4))
+    np.testing.assert_allclose(table["force_per_Ec_R2"], direct.force, rtol=1e-8)
+    equivalent = json.loads((out / "equivalent" / "metadata.json").read_text())
+    assert equivalent["equivalent"] and equivalent["solver"]["name"] == "axisymmetric"
+    assert np.all(np.isfinite(np.genfromtxt(out / "comparison.csv", delimiter=",", names=True)["force_ratio"][1:]))
+    assert not (out / "checkpoint.npz").exists() and not (out / "vtk").exists()
+
+
+@pytest.mark.parametrize("arguments, named", [
+    (["--random"], "--random"),
+    (["--offset", "0.2"], "--offset-axis"),
+])
+def test_compress_axisymmetric_refuses_a_cell_not_symmetric_about_z_in_one_line(tmp_path, arguments, named):
+    from typer.testing import CliRunner
+
+    from elastocell.cli.app import app
+
+    result = CliRunner().invoke(app, ["compress", "--out", str(tmp_path / "x"), "--axisymmetric", *arguments])
+    assert result.exit_code == 2
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and named in lines[0] and "axisymmetric" in lines[0], result.output
+    assert not (tmp_path / "x").exists()
+
+
+def test_compress_axisymmetric_interrupted_then_resumed_equals_the_whole_curve(tmp_path, coarse_meridian_mesh,
+                                                                               monkeypatch):
+    """Ctrl-C after the second row: the converged rows are written with "complete": false and a checkpoint;
+    --resume continues from it to the rows of an uninterrupted curve (same load steps; to the solver's
+    tolerance 1e-9)."""
+    import json
+
+    import elastocell.api.compression as api
+    from elastocell.scenarios.axisymmetric import compress_axisymmetric
+
+    original = api.compress_axisymmetric
+
+    def interrupted(*args, on_row=None, **kwargs):
+        def stop_after_two(rows):
+            on_row(rows)
+            if len(rows.load) == 3:
+                raise KeyboardInterrupt
+
+        return original(*args, on_row=stop_after_two, **kwargs)
+
+    out = tmp_path / "run"
+    monkeypatch.setattr(api, "compress_axisymmetric", interrupted)
+    with pytest.raises(api.CompressionInterrupted):
+        api.compress(out, axisymmetric=True, delta_max=0.15, steps=3, nucleus="none", progress=False)
+    metadata = json.loads((out / "metadata.json").read_text())
+    assert not metadata["complete"] and metadata["interrupted_at_delta"] == pytest.approx(0.1)
+    assert (out / "checkpoint.npz").exists()
+    monkeypatch.setattr(api, "compress_axisymmetric", original)
+    with pytest.raises(ParameterError, match="resume"):  # another curve's checkpoint
+        api.compress(out, axisymmetric=True, delta_max=0.15, steps=4, nucleus="none", progress=False, resume=True)
+    summary = api.compress(out, axisymmetric=True, delta_max=0.15, steps=3, nucleus="none", progress=False,
+                           resume=True)
+    assert summary["complete"] and not (out / "checkpoint.npz").exists()
+    table = np.genfromtxt(out / "compression.csv", delimiter=",", names=True)
+    whole = compress_axisymmetric(cell_parameters(nucleus="none"), 0.15, 3, mesh=MeridianMeshParameters().scaled(4))
+    np.testing.assert_allclose(table["force_per_Ec_R2"], whole.force, rtol=1e-7, atol=1e-12)

@@ -164,7 +164,7 @@ EXPECTED_OPTIONS = {
                 '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 --mesh-size=None --pole-size=None '
                 '--interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 --material=neo-hookean '
                 '--element=p2 --quadrature-degree=None --delta-max=0.75 --steps=40 --equivalent=False '
-                '--compare=False --resume=False --quiet=False',
+                '--compare=False --axisymmetric=False --resume=False --quiet=False',
     'equivalent': '--nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 --offset-axis=x '
                   '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 --mesh-size=None '
                   '--pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 '

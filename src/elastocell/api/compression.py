@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from elastocell.api.plotting import plot_compression
+from elastocell.body.axisymmetric import NUCLEUS, AxisymmetricCell, MeridianMeshParameters, meridian_nucleus
 from elastocell.body.cell import Cell, enable_compilation_cache
 from elastocell.files import (
     Stopwatch,
@@ -29,6 +30,12 @@ from elastocell.parameters.cell import (
     describe_cell,
 )
 from elastocell.parameters.units import ParameterError
+from elastocell.scenarios.axisymmetric import (
+    AxisymmetricError,
+    AxisymmetricInterrupted,
+    AxisymmetricResult,
+    compress_axisymmetric,
+)
 from elastocell.scenarios.compression import (
     CompressionError,
     CompressionInterrupted,
@@ -67,6 +74,7 @@ def compress(
     solver: str = "auto",
     progress: bool = True,
     resume: bool = False,
+    axisymmetric: bool = False,
     **cell_options,
 ) -> dict:
     """Compress a cell between two plates and write ``out/compression.csv``, ``metadata.json``,
@@ -81,6 +89,12 @@ def compress(
     ``out/comparison.png`` with their force ratio in ``out/comparison.csv``.
     resume: continue an interrupted curve from ``out/checkpoint.npz`` (written after every converged row) when
     it was made with the same parameters; otherwise the curve starts at delta = 0.
+    axisymmetric: solve the body of revolution in its meridian plane
+    (:func:`~elastocell.scenarios.axisymmetric.compress_axisymmetric`, quadratic triangles, the default
+    :class:`~elastocell.body.axisymmetric.MeridianMeshParameters`; the cell's 3D mesh options do not apply) for
+    a cell axisymmetric about the plate normal; any other cell (random, nucleus offset across z, ellipsoid
+    whose semi-axes across z differ) is refused naming why. Same files and columns, no VTK files;
+    ``metadata.json`` says ``"solver": {"name": "axisymmetric", ...}`` and gives the meridian mesh.
 
     Every option is validated before a file is written. One run at a time per ``out`` (a lock; see
     :func:`elastocell.simulation.directory.output_directory`). Ctrl-C or SIGTERM during the curve writes the
@@ -92,10 +106,16 @@ def compress(
         raise ParameterError("cell", f"give either cell= or cell options, not both ({', '.join(cell_options)})")
     if compare and equivalent:
         raise ParameterError("compare", "--compare already runs the equivalent; do not combine it with --equivalent")
-    cell = compression_parameters_for(cell or cell_parameters(**cell_options))
+    cell = cell or cell_parameters(**cell_options)
     scenario = CompressionParameters(delta_max=delta_max, steps=steps)
+    if axisymmetric:
+        meridian_nucleus(cell)  # a cell not axisymmetric about z: one ParameterError before any file
+    else:
+        cell = compression_parameters_for(cell)
     with output_directory(out) as out, interruptible():
         enable_compilation_cache()
+        if axisymmetric:
+            return _compress_axisymmetric(out, cell, scenario, equivalent, compare, solver, progress, resume)
         body = Cell.from_parameters(cell)
         primary = body.equivalent() if equivalent else body
         label = "homogeneous equivalent" if equivalent else describe_cell(cell)
@@ -145,16 +165,22 @@ def _load_checkpoint(path: Path, fingerprint: str, n_nodes: int) -> CompressionR
     except Exception as error:  # truncated, garbled, not an npz, missing arrays, pickled objects
         raise ParameterError("resume", f"cannot continue from {path}: the file is damaged or not a compression "
                                        f"checkpoint ({type(error).__name__}); delete it to start again") from None
-    if found != fingerprint:
-        raise ParameterError("resume", f"{path} belongs to a curve with other parameters; rerun with the same "
-                                       "options, or delete it to start again")
-    rows = len(arrays["delta"])
-    if rows < 1 or arrays["positions"].shape != (rows, n_nodes, 3) or any(len(a) != rows for a in arrays.values()):
-        raise ParameterError("resume", f"cannot continue from {path}: its arrays are inconsistent; delete it to "
-                                       "start again")
+    _check_checkpoint(path, found, fingerprint, arrays, (n_nodes, 3))
     return CompressionResult(**arrays, newton_iterations=iterations, factorisations=0, analyses=0,
                              substeps=substeps, max_rigid_reaction=reaction, wall_time=wall_time, solver="",
                              history=[])
+
+
+def _check_checkpoint(path: Path, found: str, fingerprint: str, arrays: dict, node_shape: tuple[int, int]) -> None:
+    """A ParameterError naming --resume when the checkpoint's fingerprint is another curve's, or its per-row
+    arrays disagree in length or its positions are not (rows, *node_shape)."""
+    if found != fingerprint:
+        raise ParameterError("resume", f"{path} belongs to a curve with other parameters; rerun with the same "
+                                       "options, or delete it to start again")
+    rows = len(arrays["positions"])
+    if rows < 1 or arrays["positions"].shape != (rows, *node_shape) or any(len(a) != rows for a in arrays.values()):
+        raise ParameterError("resume", f"cannot continue from {path}: its arrays are inconsistent; delete it to "
+                                       "start again")
 
 
 def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell: CellParameters, solver: str,
@@ -211,6 +237,155 @@ def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell:
     return summary
 
 
+def _compress_axisymmetric(out: Path, cell: CellParameters, scenario: CompressionParameters, equivalent: bool,
+                           compare: bool, solver: str, progress: bool, resume: bool) -> dict:
+    """:func:`compress` by the axisymmetric solver: the cell (or its equivalent), then with ``compare`` the
+    equivalent in ``out/equivalent``."""
+    mesh = MeridianMeshParameters()
+    body = AxisymmetricCell.from_parameters(cell, mesh)
+    primary = body.equivalent() if equivalent else body
+    label = "homogeneous equivalent" if equivalent else describe_cell(cell)
+    summary = _run_and_write_axisymmetric(out, primary, mesh, scenario, cell, solver, progress, label, resume)
+    if compare and not equivalent:
+        other = _run_and_write_axisymmetric(out / "equivalent", body.equivalent(), mesh, scenario, cell, solver,
+                                            progress, "homogeneous equivalent", resume)
+        _write_comparison(out, summary, other, cell)
+        summary["equivalent_summary"] = other
+    return summary
+
+
+AXISYMMETRIC_ARRAYS = ("load", "force", "force_support", "contact_radius", "min_volume_ratio", "positions")
+"""The per-row arrays of :class:`AxisymmetricResult` an axisymmetric checkpoint keeps."""
+
+
+def _save_axisymmetric_checkpoint(path: Path, result: AxisymmetricResult, fingerprint: str) -> None:
+    def write(temporary: Path) -> None:
+        with temporary.open("wb") as handle:
+            np.savez(handle, fingerprint=np.array(fingerprint), counts=np.array([result.newton_iterations,
+                                                                                 result.substeps]),
+                     scalars=np.array([result.wall_time]), **{name: getattr(result, name) for name in AXISYMMETRIC_ARRAYS})
+
+    replace_atomically(path, write)
+
+
+def _load_axisymmetric_checkpoint(path: Path, fingerprint: str, n_nodes: int) -> AxisymmetricResult:
+    """The rows of an interrupted axisymmetric curve; a damaged or foreign file is one ParameterError naming
+    --resume (as :func:`_load_checkpoint`)."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            found = str(data["fingerprint"])
+            arrays = {name: np.array(data[name]) for name in AXISYMMETRIC_ARRAYS}
+            iterations, substeps = (int(v) for v in data["counts"])
+            wall_time = float(data["scalars"][0])
+    except Exception as error:  # truncated, garbled, not an npz, missing arrays, pickled objects
+        raise ParameterError("resume", f"cannot continue from {path}: the file is damaged or not an axisymmetric "
+                                       f"compression checkpoint ({type(error).__name__}); delete it to start "
+                                       "again") from None
+    _check_checkpoint(path, found, fingerprint, arrays, (n_nodes, 2))
+    return AxisymmetricResult(**arrays, newton_iterations=iterations, substeps=substeps, n_nodes=n_nodes,
+                              wall_time=wall_time)
+
+
+def _run_and_write_axisymmetric(out: Path, body: AxisymmetricCell, mesh: MeridianMeshParameters,
+                                scenario: CompressionParameters, cell: CellParameters, solver: str,
+                                show_progress: bool, label: str, resume: bool) -> dict:
+    """One curve of the axisymmetric solver and its files: compression.csv, compression.png, metadata.json (the
+    rows so far and ``"complete": false`` when interrupted or stopped, as :func:`_run_and_write`)."""
+    out.mkdir(parents=True, exist_ok=True)
+    clock = Stopwatch()
+    checkpoint = out / "checkpoint.npz"
+    fingerprint = parameter_hash(cell, scenario, {"equivalent": body.is_equivalent, "solver": solver,
+                                                  "axisymmetric": mesh}, format_version=CHECKPOINT_FORMAT)
+    start = (_load_axisymmetric_checkpoint(checkpoint, fingerprint, body.mesh.n_nodes)
+             if resume and checkpoint.exists() else None)
+    with progress_bar(show_progress, "delta {task.completed:.3f}", label=None) as progress:
+        task = progress.add_task(f"compress {label} (axisymmetric)", total=scenario.delta_max) if progress else None
+
+        def on_row(rows: AxisymmetricResult) -> None:
+            _save_axisymmetric_checkpoint(checkpoint, rows, fingerprint)
+            if progress is not None:
+                progress.update(task, completed=float(rows.load[-1]))
+
+        failure = None
+        try:
+            result = compress_axisymmetric(body, scenario.delta_max, scenario.steps, solver=solver,
+                                           resume_from=start, on_row=on_row)
+        except AxisymmetricInterrupted as error:  # the converged rows, marked incomplete, then stop
+            summary = _axisymmetric_metadata(error.partial, body, cell, scenario, label, clock.elapsed, mesh)
+            write_table(out / "compression.csv", _table_of(error.partial.load, error.partial.force, body, cell))
+            summary.update(complete=False, interrupted=True, interrupted_at_delta=float(error.partial.load[-1]),
+                           delta_reached=float(error.partial.load[-1]))
+            write_json(out / "metadata.json", summary)
+            raise CompressionInterrupted(f"{error} in {out}; rerun with --resume to continue", None) from None
+        except AxisymmetricError as error:  # keep every converged row, then report
+            if error.partial is None or len(error.partial.load) < 2:
+                raise CompressionError(str(error), None) from None
+            result, failure = error.partial, error
+    table = _table_of(result.load, result.force, body, cell)
+    outputs = OutputSet()
+    outputs.write(out / "compression.csv", write_table, table)
+    outputs.write(out / "compression.png", plot_compression, [{"label": label, **table}], cell.material.poisson_ratio,
+                  title=f"{label} (axisymmetric)")
+    summary = _axisymmetric_metadata(result, body, cell, scenario, label, clock.elapsed, mesh)
+    summary["complete"] = failure is None
+    summary["delta_reached"] = float(result.load[-1])
+    if failure is not None:
+        summary["error"] = str(failure)
+    outputs.write(out / "metadata.json", write_json, summary)
+    if checkpoint.exists():
+        checkpoint.unlink()
+    if failure is not None:
+        raise CompressionError(f"{failure} (rows up to delta={result.load[-1]:.4f} written to {out})", None)
+    return summary
+
+
+def _table_of(delta: np.ndarray, force: np.ndarray, body: AxisymmetricCell, cell: CellParameters) -> dict:
+    """The columns of ``compression.csv`` for an axisymmetric curve (those of :func:`_table`)."""
+    gamma_eff = body.youngs_moduli[0] if body.is_equivalent else body.effective_stiffness_ratio
+    return {"delta": delta, "force": force * cell.force_scale(), "force_per_Ec_R2": force,
+            "force_per_Eeff_R2": force / gamma_eff}
+
+
+def _axisymmetric_metadata(result: AxisymmetricResult, body: AxisymmetricCell, cell: CellParameters,
+                           scenario: CompressionParameters, label: str, wall_time: float,
+                           mesh: MeridianMeshParameters) -> dict:
+    gamma_eff = float(body.youngs_moduli[0] if body.is_equivalent else body.effective_stiffness_ratio)
+    return {
+        "scenario": "compression",
+        "label": label,
+        "equivalent": body.is_equivalent,
+        "cell": cell.model_dump(mode="json"),
+        "compression": scenario.model_dump(mode="json"),
+        "effective_stiffness_ratio": gamma_eff,
+        "effective_youngs_modulus": gamma_eff * cell.youngs_modulus,
+        "units": _units(cell),
+        "element_order": 2,
+        "mesh": {"kind": "meridian (6-node triangles)", "n_nodes": body.mesh.n_nodes,
+                 "n_elements": body.mesh.n_elements, "n_nucleus_elements": int((body.mesh.region == NUCLEUS).sum()),
+                 "volume": body.volume, "parameters": mesh.model_dump(mode="json")},
+        "solver": {
+            "name": "axisymmetric",
+            "newton_iterations": result.newton_iterations,
+            "substeps": result.substeps,
+            "curve_time_s": result.wall_time,
+            "max_plate_force_imbalance": float(np.abs(result.force - result.force_support).max()),
+            "min_volume_ratio": float(result.min_volume_ratio.min()),
+            "first_half_volume_delta": (float(result.load[np.argmax(result.min_volume_ratio < 0.5)])
+                                        if (result.min_volume_ratio < 0.5).any() else None),
+        },
+        "wall_time_s": wall_time,
+        "software": software_versions(),
+    }
+
+
+def _units(cell: CellParameters) -> dict:
+    return {
+        "force": {(True, True): "N", (True, False): "E_c m^2", (False, True): "Pa R^2",
+                  (False, False): "E_c R^2"}[(cell.radius_is_physical, cell.youngs_modulus_is_physical)],
+        "radius": cell.radius, "youngs_modulus": cell.youngs_modulus,
+    }
+
+
 def _table(result: CompressionResult, body: Cell, cell: CellParameters) -> tuple[dict, float]:
     """The columns of ``compression.csv`` and E_eff/E_c of the body."""
     gamma_eff = body.effective_stiffness_ratio if not body.is_equivalent else body.youngs_moduli[0]
@@ -245,11 +420,7 @@ def _metadata(result: CompressionResult, body: Cell, cell: CellParameters, scena
         "compression": scenario.model_dump(mode="json"),
         "effective_stiffness_ratio": float(gamma_eff),
         "effective_youngs_modulus": float(gamma_eff * cell.youngs_modulus),
-        "units": {
-            "force": {(True, True): "N", (True, False): "E_c m^2", (False, True): "Pa R^2",
-                      (False, False): "E_c R^2"}[(cell.radius_is_physical, cell.youngs_modulus_is_physical)],
-            "radius": cell.radius, "youngs_modulus": cell.youngs_modulus,
-        },
+        "units": _units(cell),
         "element_order": body.mesh.order,
         "mesh": {**body.mesh.counts(), **body.mesh.quality(), "volume": body.volume},
         "solver": {

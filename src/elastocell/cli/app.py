@@ -94,10 +94,10 @@ def _warn_curves(summary: dict, name: str = "cell") -> None:
 
 @app.command()
 @user_errors
-@takes("out", CELL, "delta_max", "steps", "equivalent", "compare",
+@takes("out", CELL, "delta_max", "steps", "equivalent", "compare", "axisymmetric",
        opt("resume", help="Continue an interrupted curve from DIR/checkpoint.npz (same options)."), "quiet")
-def compress(out: Path, cell: dict, delta_max: float, steps: int, equivalent: bool, compare: bool, resume: bool,
-             quiet: bool):
+def compress(out: Path, cell: dict, delta_max: float, steps: int, equivalent: bool, compare: bool,
+             axisymmetric: bool, resume: bool, quiet: bool):
     """Quasistatic compression between two rigid frictionless plates (delta from 0 to --delta-max)."""
     from elastocell.api.compression import (
         compress as run,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
@@ -112,7 +112,7 @@ def compress(out: Path, cell: dict, delta_max: float, steps: int, equivalent: bo
     CompressionParameters(delta_max=delta_max, steps=steps)  # validate before meshing
     try:
         summary = run(out, cell=cell, delta_max=delta_max, steps=steps, equivalent=equivalent, compare=compare,
-                      resume=resume, progress=not quiet)
+                      resume=resume, progress=not quiet, axisymmetric=axisymmetric)
     except CompressionInterrupted as error:  # the converged rows are written
         typer.echo(f"elastocell: {error}", err=True)
         raise typer.Exit(code=130) from None
@@ -123,8 +123,10 @@ def compress(out: Path, cell: dict, delta_max: float, steps: int, equivalent: bo
                 _warn_curves(json.loads(path.read_text()), name)
         raise typer.Exit(code=1) from None
     if not quiet:
+        solved = " (axisymmetric, meridian mesh)" if axisymmetric else ""
         typer.echo(f"{summary['label']}: gamma_eff = {summary['effective_stiffness_ratio']:.4f}, "
-                   f"{summary['mesh']['n_nodes']} nodes, curve in {summary['solver']['curve_time_s']:.1f} s -> {out}")
+                   f"{summary['mesh']['n_nodes']} nodes{solved}, curve in {summary['solver']['curve_time_s']:.1f} s "
+                   f"-> {out}")
         _warn_curves(summary)
         if "equivalent_summary" in summary:
             typer.echo(f"equivalent: curve in {summary['equivalent_summary']['solver']['curve_time_s']:.1f} s; "

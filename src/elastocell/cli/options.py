@@ -202,6 +202,8 @@ OPTIONS: dict[str, Opt] = _declare(
     Opt("steps", int, 40, "Load steps (output rows after delta = 0)."),
     Opt("equivalent", bool, False, "Simulate the homogeneous equivalent instead.", shown="off"),
     Opt("compare", bool, False, "Also simulate the equivalent; write comparison.csv/png.", shown="off"),
+    Opt("axisymmetric", bool, False, "Solve the body of revolution in its meridian plane (a cell symmetric about "
+        "the plate normal; its own mesh, no VTK).", shown="off"),
     # ---------------------------------------------------------------- flows (shear, pipe)
     Opt("capillary_number", float | None, None, "Ca = eta*shear_rate/mu_c (mu_eff with --equivalent).",
         units=_DIMENSIONLESS, shown="required, or --viscosity with --shear-rate"),
