@@ -86,7 +86,12 @@ import numpy as np
 from elastocell.api.plotting import plt
 from elastocell.body.effective_moduli import hashin_shtrikman_upper
 from elastocell.files import replace_atomically, save_figure, software_versions, write_json
-from elastocell.inverse.indentation_surface import IndentationSurface, check_shape, load_indentation_surface
+from elastocell.inverse.indentation_surface import (
+    IndentationSurface,
+    check_shape,
+    depth_limit,
+    load_indentation_surface,
+)
 from elastocell.inverse.mastercurve import MasterCurve, load_master_curve
 from elastocell.inverse.mastercurve_shear import load_shear_master_curve
 from elastocell.parameters.units import ParameterError, parse_quantity
@@ -627,7 +632,7 @@ def _model_function(model: str, curve, settings: FitSettings):
         return (lambda delta: hertz_force(np.maximum(delta, 0.0), nu)), settings.delta_max
     ratio = settings.indenter_ratio
     depth_max = settings.depth_max if settings.depth_max is not None else (
-        curve.depth_max if curve is not None else 1.0)
+        curve.depth_max(ratio) if curve is not None else float(depth_limit(ratio)))
     if model == "master":
         s = curve.curve(ratio)
         return (lambda u: s(2 * np.asarray(u, float))), depth_max / 2

@@ -74,6 +74,24 @@ def depth_limit(indenter_ratio):
     return np.minimum(DEPTH_MAX, DEPTH_PER_RATIO * np.asarray(indenter_ratio, float))
 
 
+def curve_function(depth, force, indenter_ratio: float, poisson_ratio: float = 0.48):
+    """s(depth) of one computed curve (rows from depth 0, units of R and E R^2): PCHIP in depth of its ratio to
+    Hertz's two contacts in series (1 at depth 0), clamped to the last depth; what the surface does along one
+    tabulated ratio."""
+    from scipy.interpolate import PchipInterpolator
+
+    depth, force = np.asarray(depth, float), np.asarray(force, float)
+    positive = depth > 0
+    hertz = hertz_sphere_indentation_force(depth[positive], indenter_ratio, poisson_ratio)
+    ratio = PchipInterpolator(np.r_[0.0, depth[positive]], np.r_[1.0, force[positive] / hertz])
+
+    def s(x):
+        x = np.clip(np.asarray(x, float), 0.0, depth[-1])
+        return hertz_sphere_indentation_force(x, indenter_ratio, poisson_ratio) * ratio(x)
+
+    return s
+
+
 @dataclass
 class IndentationSurface:
     """s(depth, R_b/R) = F/(E R^2) of a homogeneous suspended cell indented by a bead (lengths in R).
