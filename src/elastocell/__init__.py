@@ -22,6 +22,7 @@ _PUBLIC = {
     "ParameterError": "elastocell.parameters.units",
     "compress": "elastocell.api.compression",
     "equivalent": "elastocell.api.compression",
+    "indent": "elastocell.api.indentation",
     "shear": "elastocell.api.shear",
     "pipe": "elastocell.api.pipe",
     "study": ("elastocell.studies", "run_study"),
@@ -43,5 +44,5 @@ def __dir__():
     return sorted(list(globals()) + list(_PUBLIC))
 
 
-__all__ = ["cell_parameters", "compress", "equivalent", "shear", "pipe", "study", "reproduce", "ParameterError",
+__all__ = ["cell_parameters", "compress", "equivalent", "indent", "shear", "pipe", "study", "reproduce", "ParameterError",
            "__version__"]

@@ -13,6 +13,7 @@ import typer
 
 from elastocell.cli.common import user_errors
 from elastocell.cli.fit import fit_app, mastercurve_app
+from elastocell.cli.indent import indent
 from elastocell.cli.lut import lut
 from elastocell.cli.options import CELL, FLOW_CELL, opt, plain, takes
 from elastocell.cli.study import reproduce, study_app
@@ -24,6 +25,8 @@ from elastocell.version import __version__
 HELP = """elastocell: mechanics of living cells, hyperelastic bodies with a nucleus, in silico.
 
 compress: AFM plate compression, force against deformation (--compare: with the homogeneous equivalent).
+
+indent: a bead (rigid sphere) pressed into a cell on a dish: a suspended sphere, an adherent cap or a layer.
 
 equivalent: the effective Young's modulus of a heterogeneous cell.
 
@@ -354,6 +357,7 @@ app.add_typer(fit_app, name="fit")
 app.add_typer(study_app, name="study")
 app.command("reproduce")(reproduce)
 app.command("lut")(lut)
+app.command("indent")(indent)
 
 
 def _click_exceptions():

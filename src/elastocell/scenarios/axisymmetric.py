@@ -34,7 +34,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from elastocell.body.axisymmetric import AxisymmetricCell, MeridianGeometry, MeridianMeshParameters, meridian_nucleus
+from elastocell.body.axisymmetric import (
+    AxisymmetricCell,
+    MeridianGeometry,
+    MeridianMeshParameters,
+    meridian_nucleus,
+)
 from elastocell.parameters.cell import CellParameters
 from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.compression import MAX_NODE_STEP, MAX_SHIFT, MIN_SHIFT, RETRY_SHIFT, stagnated
@@ -222,11 +227,24 @@ class _Problem:
             upper.data[self.pattern.upper_diagonal[2 * nodes + 1]] -= contact.multipliers[on] / distance
         return upper
 
+    def shifted(self, upper, held: np.ndarray, shift: float):
+        """The held-dof system with the shift. A wide bonded layer's ring stiffness grows with r, so that its mean
+        diagonal is that of the far field, hundreds of times the contact's: a shift relative to it smothers the
+        steps at the contact (a 20 R_b thick layer cycled between active sets); each dof's own diagonal
+        (Marquardt's scaling) does not."""
+        if not len(self.bonded):
+            return self.pattern.constrained_upper(upper, held, shift)
+        scaled = upper.copy()
+        diagonal = self.pattern.upper_diagonal
+        scaled.data[diagonal] += shift * np.abs(upper.data[diagonal])
+        return self.pattern.constrained_upper(scaled, held, 0.0)
+
     def factorised_direction(self, upper, held: np.ndarray, rhs: np.ndarray, shift: float):
         """(direction, shift): the solution of the held-dof system with the smallest Levenberg-Marquardt shift
-        (relative to the mean diagonal) whose factorisation is positive definite and whose step descends."""
+        (relative to the mean diagonal; on a body with a bonded base, to each dof's own diagonal) whose
+        factorisation is positive definite and whose step descends."""
         while shift <= MAX_SHIFT:
-            system = self.pattern.constrained_upper(upper, held, shift)
+            system = self.shifted(upper, held, shift)
             try:
                 not_definite = self.solver.factorize(system)
             except Exception:  # noqa: BLE001 - a failed factorisation: shift more
@@ -325,14 +343,19 @@ def _predictor(problem: _Problem, x: np.ndarray, increment: float) -> np.ndarray
 
 
 def _dent(x: np.ndarray, indenter: Obstacle, depth: float, bottom: float, height: float) -> np.ndarray:
-    """The first step's guess under a sphere on a bonded body: a dent u_z = -depth min(1, a / rho) (z - bottom) /
-    height, with a = sqrt(R_b depth) the Hertz contact radius and rho the distance from the apex (0, bottom +
-    height); an affine squeeze of a body much thicker than the contact strains all of it and its Newton iteration
-    cycles between active sets."""
+    """The first step's guess under a sphere on a bonded body: Hertz's surface deflection w(rho) of a half-space
+    under a sphere taken as a function of the distance rho from the apex (0, bottom + height), times
+    (z - bottom) / height so that the base stays put. On the surface it follows the sphere inside the contact
+    (w = depth - r^2 / (2 R_b) for r < a = sqrt(R_b depth)), so that the projection onto the sphere moves no
+    node across its neighbours; an affine squeeze of a body much thicker than the contact strains all of it and
+    its Newton iteration cycles between active sets."""
     contact_radius = np.sqrt(indenter.radius * depth)
-    distance = np.hypot(x[:, 0], x[:, 1] - bottom - height)
+    s = np.hypot(x[:, 0], x[:, 1] - bottom - height) / contact_radius
+    outside = np.maximum(s, 1.0)
+    deflection = np.where(s <= 1, (2 - s**2) / 2, ((2 - outside**2) * np.arcsin(1 / outside)
+                                                  + np.sqrt(outside**2 - 1)) / np.pi)
     guess = x.copy()
-    guess[:, 1] -= depth * np.minimum(1.0, contact_radius / np.maximum(distance, 1e-300)) * (x[:, 1] - bottom) / height
+    guess[:, 1] -= depth * deflection * (x[:, 1] - bottom) / height
     return guess
 
 
@@ -469,14 +492,15 @@ def compress_axisymmetric(cell_parameters: CellParameters | AxisymmetricCell, de
 def indent_axisymmetric(cell_parameters: CellParameters | AxisymmetricCell, indenter_radius: float,
                         depth_max: float, steps: int = 20, mesh: MeridianMeshParameters | None = None,
                         tolerance: float = DEFAULT_TOLERANCE, max_newton_iterations: int = 40,
-                        solver: str = "auto", precision: str = "double",
-                        geometry: MeridianGeometry | None = None) -> AxisymmetricResult:
+                        solver: str = "auto", precision: str = "double", geometry: MeridianGeometry | None = None,
+                        on_row: Callable[[AxisymmetricResult], None] | None = None) -> AxisymmetricResult:
     """F(depth) of a rigid frictionless sphere of radius ``indenter_radius`` pressed on the axis into the body
     ``geometry`` (None: the sphere), starting in touch with its apex; depth is the sphere's displacement after
     first contact, the force F/(E_c L^2) on the sphere, L the geometry's length unit (R; a layer's R_b).
 
     The sphere rests on a rigid frictionless dish at z = -1 (depth below 1 R); a cap or a layer is bonded to the
-    dish at z = 0 (its base nodes held in r and z; depth below its height)."""
+    dish at z = 0 (its base nodes held in r and z; depth below its height). ``on_row(result)`` after every
+    converged row; an interruption raises :class:`AxisymmetricInterrupted` with the converged rows."""
     geometry = geometry or MeridianGeometry()
     if not indenter_radius > 0:
         raise ParameterError("indenter_radius", f"must be > 0 (units of R), got {indenter_radius}")
@@ -491,7 +515,7 @@ def indent_axisymmetric(cell_parameters: CellParameters | AxisymmetricCell, inde
     else:
         obstacles = [indenter]
     return _curve(cell, obstacles, depth_max, steps, tolerance, max_newton_iterations, solver, precision,
-                  bottom=geometry.bottom, height=geometry.top - geometry.bottom)
+                  bottom=geometry.bottom, height=geometry.top - geometry.bottom, on_row=on_row)
 
 
 def hertz_half_space_force(depth, indenter_radius: float, poisson_ratio: float = 0.48):

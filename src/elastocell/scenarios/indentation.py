@@ -16,6 +16,7 @@ offset along x or y, an ellipsoid not aligned with z) is refused before any comp
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 from elastocell.body.axisymmetric import (
@@ -27,7 +28,12 @@ from elastocell.body.axisymmetric import (
 )
 from elastocell.parameters.cell import CellParameters
 from elastocell.parameters.units import ParameterError
-from elastocell.scenarios.axisymmetric import DEFAULT_TOLERANCE, AxisymmetricResult, indent_axisymmetric
+from elastocell.scenarios.axisymmetric import (
+    DEFAULT_TOLERANCE,
+    AxisymmetricError,
+    AxisymmetricResult,
+    indent_axisymmetric,
+)
 
 AXISYMMETRIC_ONLY = "indent runs the axisymmetric solver"
 
@@ -87,11 +93,19 @@ def indentation_body(cell: CellParameters, cell_shape: str = "sphere", indenter_
 
 def indent_body(body: AxisymmetricCell, geometry: MeridianGeometry, unit: float, indenter_radius: float,
                 depth_max: float, steps: int = 20, tolerance: float = DEFAULT_TOLERANCE,
-                max_newton_iterations: int = 40, solver: str = "auto") -> AxisymmetricResult:
-    """The force curve of :func:`indentation_body`'s body, lengths in units of R, force F/(E_c R^2)."""
+                max_newton_iterations: int = 40, solver: str = "auto",
+                on_row: Callable[[AxisymmetricResult], None] | None = None) -> AxisymmetricResult:
+    """The force curve of :func:`indentation_body`'s body, lengths in units of R, force F/(E_c R^2) (``on_row``
+    receives the rows so far in the body's unit). An interruption raises
+    :class:`~elastocell.scenarios.axisymmetric.AxisymmetricInterrupted` with the converged rows in units of R."""
     check_depth(geometry, unit, depth_max, steps)
-    result = indent_axisymmetric(body, indenter_radius / unit, depth_max / unit, steps=steps, tolerance=tolerance,
-                                 max_newton_iterations=max_newton_iterations, solver=solver, geometry=geometry)
+    try:
+        result = indent_axisymmetric(body, indenter_radius / unit, depth_max / unit, steps=steps,
+                                     tolerance=tolerance, max_newton_iterations=max_newton_iterations, solver=solver,
+                                     geometry=geometry, on_row=on_row)
+    except AxisymmetricError as error:
+        error.partial = None if error.partial is None else scaled_result(error.partial, unit)
+        raise
     return scaled_result(result, unit)
 
 

@@ -1,0 +1,244 @@
+"""``elastocell.indent``: a rigid sphere (a bead of radius R_b) pressed into a cell on a dish, with the same names
+and options as ``elastocell indent``, writing the same files.
+
+    import elastocell
+    elastocell.indent(out="r/bead", indenter_radius="5um", radius="8um", youngs_modulus="1kPa", nucleus="none")
+    elastocell.indent(out="r/cap", cell_shape="cap", cap_height="4um", indenter_radius="2.5um", radius="10um",
+                      size_ratio=0.3)
+    elastocell.indent(out="r/gel", cell_shape="layer", layer_thickness="50um", indenter_radius="5um",
+                      nucleus="none", depth_max=0.5)
+
+The curve comes from the axisymmetric solver (:mod:`elastocell.scenarios.indentation`); a cell that is not
+axisymmetric about z is refused before any computing.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from elastocell.body.axisymmetric import AxisymmetricCell, MeridianGeometry
+from elastocell.files import Stopwatch, save_figure, software_versions, write_json, write_table
+from elastocell.parameters.cell import CellParameters, cell_parameters, describe_cell
+from elastocell.parameters.units import RADIUS_SCALE, ParameterError, parse_quantity
+from elastocell.scenarios.axisymmetric import (
+    AxisymmetricError,
+    AxisymmetricInterrupted,
+    AxisymmetricResult,
+    hertz_half_space_force,
+    hertz_sphere_indentation_force,
+)
+from elastocell.scenarios.indentation import (
+    check_axisymmetric,
+    check_depth,
+    indent_body,
+    indentation_geometry,
+)
+from elastocell.simulation.directory import OutputSet, interruptible, output_directory
+from elastocell.simulation.output import progress_bar, vtk_enabled
+
+LENGTH_UNIT = {"sphere": "R, the cell radius (--radius)", "cap": "R, the cap's base radius (--radius)",
+               "layer": "R_b, the indenter radius (--indenter-radius)"}
+"""What the length unit R of the outputs (depth, force_per_Ec_R2) is for each shape."""
+
+
+def _length(value, name: str, cell: CellParameters) -> float | None:
+    """A length option in units of R (the cell radius): a quantity with a unit over the physical radius, a bare
+    number as it is."""
+    if value is None:
+        return None
+    magnitude, physical = parse_quantity(value, "m", name, scale=RADIUS_SCALE)
+    if physical and not cell.radius_is_physical:
+        raise ParameterError(name, f"is a physical length ({value}) but --radius is not: give --radius with a unit "
+                                   "too, or both as numbers in units of R")
+    return magnitude / cell.radius if physical else magnitude
+
+
+def indent(
+    out: str | Path,
+    indenter_radius: str | float,
+    cell: CellParameters | None = None,
+    cell_shape: str = "sphere",
+    cap_height: str | float | None = None,
+    layer_thickness: str | float | None = None,
+    depth_max: float = 0.3,
+    steps: int = 20,
+    vtk: bool = True,
+    solver: str = "auto",
+    progress: bool = True,
+    **cell_options,
+) -> dict:
+    """Press a rigid frictionless sphere of radius ``indenter_radius`` into a cell on a rigid dish and write
+    ``out/indentation.csv`` (``depth,force,force_per_Ec_R2,force_per_Eeff_R2``), ``metadata.json``,
+    ``indentation.png`` and the meridian section as VTK (``out/vtk/indentation_NNNN.vtu``, one file per row).
+
+    cell_shape: ``sphere`` (suspended, resting on the dish), ``cap`` (base radius ``radius``, apex height
+    ``cap_height``, default a hemisphere, base bonded to the dish; the nucleus centred on the axis at half the
+    apex height plus ``offset``) or ``layer`` (thickness ``layer_thickness``, bonded, homogeneous).
+    Lengths: quantities (``"5um"``) or bare numbers in units of R (the cell radius); ``depth_max`` is in units of
+    R (the layer: of R_b), as is the ``depth`` column unless the radius is physical (then metres, and the force
+    in newtons when the modulus is too). For the layer R is R_b throughout the outputs.
+
+    Every option is validated before a file is written; one run at a time per ``out``. Ctrl-C or SIGTERM writes
+    the converged rows with ``"complete": false`` in the metadata and raises
+    :class:`~elastocell.scenarios.axisymmetric.AxisymmetricInterrupted`.
+    """
+    if cell is not None and cell_options:
+        raise ParameterError("cell", f"give either cell= or cell options, not both ({', '.join(cell_options)})")
+    cell = cell or cell_parameters(**cell_options)
+    if cell_shape == "layer" and not cell.radius_is_physical:  # the layer's unit is R_b: --radius is not needed
+        magnitude, physical = parse_quantity(indenter_radius, "m", "indenter_radius", scale=RADIUS_SCALE)
+        if physical:
+            cell = cell.model_copy(update={"radius": magnitude, "radius_is_physical": True})
+    bead = _length(indenter_radius, "indenter_radius", cell)
+    cap = _length(cap_height, "cap_height", cell)
+    layer = _length(layer_thickness, "layer_thickness", cell)
+    geometry, unit = indentation_geometry(cell_shape, bead, cap, layer)
+    depth = depth_max * unit  # the layer's depth_max is in units of R_b
+    check_depth(geometry, unit, depth, steps)
+    check_axisymmetric(cell, geometry)
+    with output_directory(out) as out, interruptible():
+        clock = Stopwatch()
+        body = AxisymmetricCell.from_parameters(cell, geometry=geometry)
+        label = f"{describe_cell(cell)}, {cell_shape}, R_b = {bead * cell.radius:g}"
+        with progress_bar(progress, "depth {task.completed:.3f}", label=None) as bar:
+            callback = None
+            if bar is not None:
+                task = bar.add_task(f"indent {label}", total=depth)
+                callback = lambda rows: bar.update(task, completed=float(rows.load[-1]) * unit)  # noqa: E731
+            try:
+                result = indent_body(body, geometry, unit, bead, depth, steps, solver=solver, on_row=callback)
+                failure = None
+            except AxisymmetricInterrupted as error:
+                _write(out, error.partial, body, cell, geometry, unit, bead, cap, layer, depth, steps, label, clock,
+                       vtk, failure=error, interrupted=True)
+                raise AxisymmetricInterrupted(f"{error}; the converged rows are in {out}", error.partial) from None
+            except AxisymmetricError as error:
+                if error.partial is None or len(error.partial.load) < 2:
+                    raise
+                result, failure = error.partial, error
+        summary = _write(out, result, body, cell, geometry, unit, bead, cap, layer, depth, steps, label, clock, vtk,
+                         failure=failure)
+    if failure is not None:
+        raise AxisymmetricError(f"{failure} (rows up to depth={result.load[-1]:.4f} R written to {out})", None)
+    return summary
+
+
+def _table(result: AxisymmetricResult, body: AxisymmetricCell, cell: CellParameters,
+           unit: float) -> tuple[dict, float]:
+    """The columns of ``indentation.csv`` (lengths in the shape's unit L, or metres; force F/(E_c L^2), or
+    newtons when both scales are physical) and E_eff/E_c of the body: the volume-weighted mean of E/E_c over it,
+    1 + (gamma - 1) phi with phi the nucleus's volume fraction of this body (the cap's, not the sphere's)."""
+    gamma_eff = float(np.sum(body.element_volumes * body.youngs_moduli) / body.volume)
+    length = unit * cell.radius if cell.radius_is_physical else 1.0
+    force = result.force / unit**2
+    return {
+        "depth": result.load / unit * length,
+        "force": force * cell.youngs_modulus * length**2,
+        "force_per_Ec_R2": force,
+        "force_per_Eeff_R2": force / gamma_eff,
+    }, gamma_eff
+
+
+def _write(out: Path, result: AxisymmetricResult, body: AxisymmetricCell, cell: CellParameters,
+           geometry: MeridianGeometry, unit: float, bead: float, cap: float | None, layer: float | None, depth: float,
+           steps: int, label: str, clock: Stopwatch, vtk: bool, failure: Exception | None = None,
+           interrupted: bool = False) -> dict:
+    out.mkdir(parents=True, exist_ok=True)
+    table, gamma_eff = _table(result, body, cell, unit)
+    outputs = OutputSet()
+    outputs.write(out / "indentation.csv", write_table, table)
+    if not interrupted:
+        outputs.write(out / "indentation.png", plot_indentation, result, cell, geometry, unit, bead, label)
+        if vtk and vtk_enabled():
+            outputs.write(out / "vtk", write_meridian_vtk, body, result.positions / unit, unit * cell.radius)
+    summary = {
+        "scenario": "indentation",
+        "label": label,
+        "cell": cell.model_dump(mode="json"),
+        "indentation": {
+            "cell_shape": geometry.shape, "indenter_radius_per_R": bead, "cap_height_per_R": cap,
+            "layer_thickness_per_R": layer, "layer_thickness_per_indenter_radius": (
+                geometry.height if geometry.shape == "layer" else None),
+            "layer_width_per_indenter_radius": geometry.layer_extent if geometry.shape == "layer" else None,
+            "depth_max": depth / unit, "steps": steps,
+            "nucleus_placement": ("centred on the axis at half the apex height plus the offset along z"
+                                  if geometry.shape == "cap" else "as in the suspended cell (centre + offset along z)"
+                                  if geometry.shape == "sphere" else None),
+            "support": "frictionless dish" if geometry.shape == "sphere" else "base bonded to the dish",
+        },
+        "length_unit": LENGTH_UNIT[geometry.shape],
+        "effective_stiffness_ratio": gamma_eff,
+        "units": {
+            "depth": "m" if cell.radius_is_physical else "R",
+            "force": {(True, True): "N", (True, False): "E_c m^2", (False, True): "Pa R^2",
+                      (False, False): "E_c R^2"}[(cell.radius_is_physical, cell.youngs_modulus_is_physical)],
+            "radius": cell.radius, "youngs_modulus": cell.youngs_modulus,
+            "R": unit * cell.radius,
+        },
+        "mesh": {"n_nodes": body.mesh.n_nodes, "n_elements": body.mesh.n_elements,
+                 "n_nucleus_elements": int((body.mesh.region == 1).sum()), "element": "6-node triangle (meridian)",
+                 "volume_per_unit3": body.volume},
+        "solver": {"solver": "axisymmetric", "newton_iterations": result.newton_iterations,
+                   "substeps": result.substeps, "curve_time_s": result.wall_time,
+                   "min_volume_ratio": float(result.min_volume_ratio.min()),
+                   "max_contact_radius_per_R": float(result.contact_radius.max() / unit)},
+        "complete": failure is None,
+        "depth_reached": float(result.load[-1] / unit),
+        "wall_time_s": clock.elapsed,
+        "software": software_versions(),
+    }
+    if failure is not None:
+        summary["error"] = str(failure)
+    if interrupted:
+        summary["interrupted"] = True
+    outputs.write(out / "metadata.json", write_json, summary)
+    return summary
+
+
+def plot_indentation(path: Path, result: AxisymmetricResult, cell: CellParameters, geometry: MeridianGeometry,
+                     unit: float, bead: float, label: str) -> None:
+    """F/(E_c R^2) against depth/R with the small-depth Hertz limit of the shape (two contacts in series for
+    the suspended sphere; the half-space for a cap or a layer, an upper bound at depth for thin ones)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    depth, force = result.load / unit, result.force / unit**2
+    nu = cell.material.poisson_ratio
+    figure, axis = plt.subplots(figsize=(5.5, 4.2), constrained_layout=True)
+    axis.plot(depth, force, "o-", ms=3, label="elastocell (axisymmetric)")
+    fine = np.linspace(0, depth[-1], 60)
+    if geometry.shape == "sphere":
+        axis.plot(fine, hertz_sphere_indentation_force(fine, bead, nu), "k:", label="Hertz, bead and dish in series")
+    else:
+        axis.plot(fine, hertz_half_space_force(fine, bead / unit, nu), "k:", label="Hertz, half-space")
+    axis.set_xlabel("depth / R" if geometry.shape != "layer" else "depth / R_b")
+    axis.set_ylabel(r"$F/(E_\mathrm{c} R^2)$" if geometry.shape != "layer" else r"$F/(E R_b^2)$")
+    axis.set_xlim(0, None)
+    axis.set_ylim(0, None)
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
+    axis.set_title(label, fontsize=9)
+    save_figure(figure, path, dpi=130)
+    plt.close(figure)
+
+
+def write_meridian_vtk(directory: Path, body: AxisymmetricCell, positions: np.ndarray, length: float) -> Path:
+    """One ``indentation_NNNN.vtu`` per row: the meridian section (x = r, y = z, in units of ``length``) as
+    quadratic triangles with the displacement and the region (ParaView opens the numbered files as one time
+    series; its Rotational Extrusion filter revolves the section about y into the body)."""
+    import meshio
+
+    directory.mkdir(parents=True, exist_ok=True)
+    reference = np.column_stack([body.mesh.nodes, np.zeros(body.mesh.n_nodes)]) * length
+    for index, x in enumerate(positions):
+        points = np.column_stack([x, np.zeros(len(x))]) * length
+        meshio.Mesh(points, [("triangle6", body.mesh.elements)],
+                    point_data={"displacement": points - reference},
+                    cell_data={"region": [body.mesh.region.astype(np.int32)],
+                               "stiffness_ratio": [body.youngs_moduli]}).write(
+            directory / f"indentation_{index:04d}.vtu")
+    return directory

@@ -1,0 +1,50 @@
+"""``elastocell indent``: a rigid sphere (bead) pressed into a cell on a dish (see :mod:`elastocell.api.indentation`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+
+from elastocell.cli.common import user_errors
+from elastocell.cli.options import CELL, opt, plain, takes
+
+
+@user_errors
+@takes("out", "indenter_radius", "cell_shape", "cap_height", "layer_thickness", "depth_max",
+       opt("steps", default=20, help="Load steps (output rows after depth = 0)."), CELL, "quiet", "as_json")
+def indent(out: Path, indenter_radius: str, cell_shape: str, cap_height: str | None, layer_thickness: str | None,
+           depth_max: float, steps: int, cell: dict, quiet: bool, as_json: bool):
+    """A rigid frictionless sphere of radius --indenter-radius pressed quasistatically into a cell on a rigid dish
+    (axisymmetric solver: the cell and its nucleus must be symmetric about the dish normal z). Writes
+    indentation.csv (depth, force, force_per_Ec_R2, force_per_Eeff_R2), metadata.json, indentation.png and the
+    meridian section as VTK."""
+    from elastocell.api.indentation import (
+        indent as run,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+    )
+    from elastocell.parameters.cell import (
+        cell_parameters,  # lazy: a command loads pydantic models only when it runs
+    )
+    from elastocell.scenarios.axisymmetric import (  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+        AxisymmetricError,
+        AxisymmetricInterrupted,
+    )
+
+    parameters = cell_parameters(**{name: plain(value) for name, value in cell.items()})
+    try:
+        summary = run(out, indenter_radius, cell=parameters, cell_shape=plain(cell_shape), cap_height=cap_height,
+                      layer_thickness=layer_thickness, depth_max=depth_max, steps=steps,
+                      progress=not (quiet or as_json))
+    except AxisymmetricInterrupted as error:
+        typer.echo(f"elastocell: {error}", err=True)
+        raise typer.Exit(code=130) from None
+    except AxisymmetricError as error:
+        typer.echo(f"elastocell: indentation failed: {error}", err=True)
+        raise typer.Exit(code=1) from None
+    if as_json:
+        typer.echo(json.dumps({key: summary[key] for key in ("label", "indentation", "length_unit", "units", "mesh",
+                                                             "solver", "wall_time_s")}))
+    elif not quiet:
+        typer.echo(f"{summary['label']}: {summary['mesh']['n_nodes']} nodes, curve in "
+                   f"{summary['solver']['curve_time_s']:.1f} s -> {out}")
