@@ -53,7 +53,7 @@ def test_an_impossible_correction_names_the_parameter(value):
         marker_radius(4.0, value)
 
 
-def _held_sphere_torque(cell, correction: float, steps: int = 1200) -> float:
+def _held_sphere_torque(cell, correction: float, steps: int = 960) -> float:
     params = shear_scenario.ShearFlowParameters(capillary_number=0.05, resolution=4, dtype="float64")
     units = shear_scenario.shear_lattice_units(cell, params)
     lattice = shear_scenario.shear_setup(cell, params, units).lattice
@@ -65,8 +65,18 @@ def _held_sphere_torque(cell, correction: float, steps: int = 1200) -> float:
     return float(sphere.torque(units.centre)[2] / (-4.0 * math.pi * units.viscosity * units.shear_rate * 4.0**3))
 
 
-def test_held_sphere_hydrodynamic_radius_and_its_correction(coarse_cell):
-    # Measured (validation/flow_accuracy.py --only torque, R/dx = 4, trilinear, edges 2 dx): T/T_Stokes = 1.2445
-    # with the markers at R (R_h = R + 0.30 dx), PLACEHOLDER with the markers at R - 0.3 dx.
-    plain = _held_sphere_torque(coarse_cell, 0.0)
-    assert plain == pytest.approx(1.2445, abs=0.01)
+def test_held_sphere_with_corrected_markers_has_the_nominal_hydrodynamic_radius(coarse_cell):
+    # Measured (validation/flow_accuracy.py --only torque --resolutions 4 --corrections 0.3; R/dx = 4, trilinear,
+    # edges 2 dx, 960 steps): T/T_Stokes = 0.9827 with the markers at R - 0.3 dx (1.2445 at R: the test below).
+    # Tolerance 2.5 %: the measured 1.7 % and the 0.2 % still to settle after 960 steps.
+    torque = _held_sphere_torque(coarse_cell, 0.3)
+    assert torque == pytest.approx(1.0, abs=0.025)
+
+
+@pytest.mark.slow
+def test_held_sphere_hydrodynamic_radius_exceeds_the_marker_radius(coarse_cell):
+    # Measured (validation/flow_accuracy.py --only torque --resolutions 4): T/T_Stokes = 1.2445 with the markers
+    # at R (R_h = R + 0.30 dx; 1.2417 fully settled after 3000 steps). A 24 % excess: the uncorrected immersed
+    # boundary is a larger sphere. Tolerance 0.01 (the settling).
+    torque = _held_sphere_torque(coarse_cell, 0.0)
+    assert torque == pytest.approx(1.2445, abs=0.01)

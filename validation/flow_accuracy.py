@@ -26,6 +26,16 @@ Problems (lattice units, tau = 1, TRT, float64 storage for the fixed spheres):
   scenario at Ca = 0.05, D/Ca against Taylor's small-deformation limit 5/4 (docs/theory.md), inclination and
   tank-treading frequency (the rotation rate: 1/2 of the shear rate as Ca -> 0).
 
+Reading the tables: the held sphere's hydrodynamic radius exceeds its marker radius by a constant number of
+lattice spacings for a kernel (the first rows of the error-source table): the rigid-body error is first order,
+3 (R_h - R)/R in a torque or stresslet, and the wider peskin4 kernel doubles it. Placing the markers at R - c dx
+(``hydrodynamic_radius_correction``) removes it for the held sphere. The cell's D/Ca excess grows with the
+kernel width too, but placing its markers further in raises D/Ca: the deformation is scale-free and depends on
+the ratio of the hydrodynamic to the elastic radius, not on where the markers lie; mesh spacing changes it by a
+few per cent only. The last table extrapolates D/Ca from two resolutions with an error ~ (dx/R)^2, the order the
+resolution study quoted with ``ShearFlowParameters.resolution`` shows ((D/Ca - 5/4) (R/dx)^2 about constant from
+R/dx = 6 to 10).
+
 The sphere's markers are the nodes of the cell's own mesh (surface and interior, uniform p1, edge ``edge`` dx)
 at radius R - c dx (``hydrodynamic_radius_correction`` c). A marker is held by integral feedback: its force on
 the fluid is -k times the time integral of the fluid velocity interpolated at it, so at the steady state the
@@ -197,8 +207,76 @@ def cached(rows: list[dict], case: dict) -> dict | None:
 INTRO = __doc__.split("Problems (", 1)[1].split("Every case's row")[0]
 
 
+def find(rows: list[dict], column: str, **match) -> float | None:
+    """``column`` of the row with ``match`` (defaults: trilinear, edges 2 dx, no correction), None if not run."""
+    keys = {"kernel": "trilinear", "edge_dx": 2.0, "c_dx": 0.0, **match}
+    for row in rows:
+        if all(row.get(key.replace("R", "R/dx") if key == "R" else key) == value for key, value in keys.items()):
+            return row.get(column)
+    return None
+
+
+def _join(values, spec: str = ".3f") -> str:
+    return " / ".join("-" if v is None else format(v, spec) for v in values)
+
+
+def diagnosis(rows: list[dict], resolutions=(4.0, 6.0, 8.0)) -> list[dict]:
+    """One row per error source: its measured size at each resolution (values joined by '/')."""
+    def each(column, problem, spec=".3f", transform=lambda v: v, **match):
+        values = [find(rows, column, problem=problem, R=r, **match) for r in resolutions]
+        return _join([None if v is None else transform(v) for v in values], spec)
+
+    excess = lambda v: 100.0 * (v / 1.25 - 1.0)  # noqa: E731  D/Ca over 5/4, %
+    edges = sorted({r["edge_dx"] for r in rows if r["problem"] == "deformation" and r["R/dx"] == resolutions[0]})
+    mesh_edges = [find(rows, "mesh_edge_dx", problem="deformation", R=resolutions[0], Ca=0.05, edge_dx=e)
+                  for e in edges]
+    corrections = sorted({r["c_dx"] for r in rows if r["problem"] == "deformation" and r["R/dx"] == resolutions[0]})
+    first = resolutions[0]
+    return [
+        {"source": "hydrodynamic radius, trilinear: (R_h - R)/dx from torque", "measured": each("(R_h-R)/dx torque", "torque")},
+        {"source": "  the same from the stresslet", "measured": each("(R_h-R)/dx stresslet", "torque")},
+        {"source": "  the same from the drag (Hasimoto)", "measured": each("(R_h-R)/dx drag", "drag")},
+        {"source": "hydrodynamic radius, peskin4: (R_h - R)/dx torque / stresslet",
+         "measured": each("(R_h-R)/dx torque", "torque", kernel="peskin4") + "  |  "
+         + each("(R_h-R)/dx stresslet", "torque", kernel="peskin4")},
+        {"source": "stresslet excess S/S_Stokes - 1 (%), trilinear",
+         "measured": each("S/S_Stokes", "torque", ".1f", lambda v: 100 * (v - 1))},
+        {"source": "cell: D/Ca over 5/4 (%), Ca = 0.05, trilinear", "measured": each("D/Ca", "deformation", ".1f", excess, Ca=0.05)},
+        {"source": "cell: D/Ca over 5/4 (%), Ca = 0.05, peskin4",
+         "measured": each("D/Ca", "deformation", ".1f", excess, Ca=0.05, kernel="peskin4")},
+        {"source": f"cell: D/Ca at R/dx = {first:g}, Ca = 0.05, mesh edges {_join(mesh_edges, '.3g')} dx",
+         "measured": _join([find(rows, "D/Ca", problem="deformation", R=first, Ca=0.05, edge_dx=e) for e in edges], ".4g")},
+        {"source": f"cell: D/Ca at R/dx = {first:g}, Ca = 0.05, markers at R - c dx, c = {_join(corrections, '.3g')}",
+         "measured": _join([find(rows, "D/Ca", problem="deformation", R=first, Ca=0.05, c_dx=c) for c in corrections], ".4g")},
+        {"source": "held sphere, markers at R - 0.3 dx: T/T_Stokes", "measured": each("T/T_Stokes", "torque", ".4f", c_dx=0.3)},
+        {"source": "held sphere, markers at R - 0.34 dx: T/T_Stokes | S/S_Stokes",
+         "measured": each("T/T_Stokes", "torque", ".4f", c_dx=0.34) + "  |  " + each("S/S_Stokes", "torque", ".4f", c_dx=0.34)},
+        {"source": "held sphere, markers at R - 0.34 dx: F/F_Hasimoto", "measured": each("F/F_Hasimoto", "drag", ".4f", c_dx=0.34)},
+    ]  # fmt: skip
+
+
+def richardson(rows: list[dict], coarse: float = 6.0, fine: float = 8.0) -> list[dict]:
+    """D/Ca extrapolated from two resolutions, error taken as (dx/R)^2 and as dx/R; cost of the pair over the fine run."""
+    out = []
+    for ca in sorted({r["Ca"] for r in rows if r["problem"] == "deformation" and r["Ca"] is not None}):
+        d1, d2 = (find(rows, "D/Ca", problem="deformation", R=r, Ca=ca) for r in (coarse, fine))
+        w1, w2 = (find(rows, "wall_s", problem="deformation", R=r, Ca=ca) for r in (coarse, fine))
+        if d1 is None or d2 is None:
+            continue
+        second = (fine**2 * d2 - coarse**2 * d1) / (fine**2 - coarse**2)
+        first_order = (fine * d2 - coarse * d1) / (fine - coarse)
+        out.append({"Ca": ca, f"D/Ca R/dx={coarse:g}": d1, f"D/Ca R/dx={fine:g}": d2,
+                    "Richardson (dx/R)^2": second, "over 5/4 (%)": 100 * (second / 1.25 - 1),
+                    "Richardson dx/R": first_order, "cost (pair / fine run)": (w1 + w2) / w2})
+    return out
+
+
 def write_page(rows: list[dict]) -> None:
     page = Page("flow_accuracy", "flow_accuracy.py", intro="Problems (" + INTRO.strip(), versions=("numba",))
+    page.table(diagnosis(rows), "Error sources (values at R/dx = 4 / 6 / 8; '-' not run)")
+    page.table(richardson(rows), "The cell's D/Ca extrapolated from R/dx = 6 and 8 (small-Ca limit 1.25)",
+               formats={"Richardson (dx/R)^2": ".4f", "over 5/4 (%)": ".1f", "Richardson dx/R": ".4f",
+                        "cost (pair / fine run)": ".2f", "D/Ca R/dx=6": ".4f", "D/Ca R/dx=8": ".4f"})
     formats = {"wall_s": ".0f", "T/T_Stokes": ".4f", "S/S_Stokes": ".4f", "F/F_Hasimoto": ".4f", "D/Ca": ".4g",
                "(R_h-R)/dx torque": ".3f", "(R_h-R)/dx stresslet": ".3f", "(R_h-R)/dx drag": ".3f",
                "net_force": ".1e", "markers_force/F": ".5f", "incl_deg": ".2f", "tt_freq": ".4f",

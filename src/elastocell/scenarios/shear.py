@@ -70,8 +70,11 @@ class ShearFlowParameters(FlowLatticeParameters):
     velocity_limit: upper limit of the wall speed |U| (dx/dt).
     kernel: immersed-boundary kernel ("trilinear", the paper's 2-point one, or "peskin4").
     hydrodynamic_radius_correction: c in dx: the markers lie on a sphere of radius R - c dx, so that the
-        body the fluid sees (larger than the marker surface by about c dx for the kernel) has radius R
-        (docs/validation/flow_accuracy.md measures c). Default 0: markers at R.
+        body the fluid sees (larger than the marker surface by a constant of the kernel: 0.28-0.36 dx for
+        trilinear, 0.6-0.9 dx for peskin4, docs/validation/flow_accuracy.md) has radius R: it corrects the
+        cell's size in the flow (drag, torque, confinement), not D/Ca, which depends on the ratio of the
+        hydrodynamic to the elastic radius (measured: D/Ca rises from 1.670 to 1.734 with c = 0.3 at R/dx = 4).
+        Default 0: markers at R.
     lattice_shear_rate: impose the shear rate in lattice units (1/dt) instead of choosing the largest
         allowed one; refused if it breaks a limit.
     max_steps_per_strain: refuse a run needing more LB steps per unit strain (1/shear_rate).
