@@ -68,6 +68,66 @@ def test_an_interrupted_curve_keeps_its_rows_and_resumes_to_the_uninterrupted_cu
     np.testing.assert_allclose(resumed["force"], uninterrupted["force"], rtol=1e-8, atol=1e-12)
 
 
+def test_compare_interrupted_during_the_equivalent_resumes_the_equivalent_only(tmp_path, monkeypatch):
+    """The first curve of ``compare=True`` is complete on disk when the equivalent is interrupted: resuming reads
+    it back (same fingerprint) and computes only the equivalent."""
+    original, curves = api_compression.compress_cell, []
+
+    def compress_cell(body, *args, on_row=None, **kwargs):
+        curves.append(body.is_equivalent)
+
+        def row(result):
+            on_row(result)
+            if body.is_equivalent and len(result.delta) >= 3:
+                raise KeyboardInterrupt
+
+        return original(body, *args, on_row=row, **kwargs)
+
+    monkeypatch.setattr(api_compression, "compress_cell", compress_cell)
+    with pytest.raises(CompressionInterrupted, match="--resume"):
+        elastocell.compress(out=tmp_path, compare=True, **COARSE)
+    first = (tmp_path / "compression.csv").read_bytes()
+    assert curves == [False, True] and json.loads((tmp_path / "metadata.json").read_text())["complete"] is True
+    monkeypatch.setattr(api_compression, "compress_cell", original)
+    counted = []
+    monkeypatch.setattr(api_compression, "compress_cell",
+                        lambda body, *a, **k: counted.append(body.is_equivalent) or original(body, *a, **k))
+    summary = elastocell.compress(out=tmp_path, compare=True, resume=True, **COARSE)
+    assert counted == [True] and (tmp_path / "compression.csv").read_bytes() == first
+    assert summary["complete"] is True and summary["equivalent_summary"]["complete"] is True
+    assert (tmp_path / "comparison.csv").exists()
+    # without resume both curves are computed again
+    counted.clear()
+    elastocell.compress(out=tmp_path, compare=True, **COARSE)
+    assert counted == [False, True]
+
+
+def test_a_checkpoint_of_another_mesh_with_the_same_parameters_is_refused(tmp_path, monkeypatch):
+    """The checkpoint's fingerprint hashes the mesh arrays: a mesh that changed under the same parameters (another
+    mesher version, another cached mesh; here every node moved by 1e-3 R) does not continue the old curve."""
+    import dataclasses
+
+    from elastocell.body.cell import Cell
+
+    interrupt_after(3, monkeypatch)
+    with pytest.raises(CompressionInterrupted):
+        elastocell.compress(out=tmp_path, **COARSE)
+    monkeypatch.undo()
+
+    class MovedCell(Cell):
+        @classmethod
+        def from_parameters(cls, parameters, use_cache=True):
+            body = Cell.from_parameters(parameters, use_cache)
+            mesh = dataclasses.replace(body.mesh, nodes=body.mesh.nodes * (1 + 1e-3))
+            return Cell(parameters, mesh, body.youngs_moduli)
+
+    monkeypatch.setattr(api_compression, "Cell", MovedCell)
+    with pytest.raises(ParameterError, match="resume: .* other parameters"):
+        elastocell.compress(out=tmp_path, resume=True, **COARSE)
+    monkeypatch.undo()
+    assert elastocell.compress(out=tmp_path, resume=True, **COARSE)["complete"] is True  # the same mesh continues
+
+
 def test_resume_refuses_a_damaged_or_foreign_checkpoint_naming_resume(tmp_path, monkeypatch):
     interrupt_after(2, monkeypatch)
     with pytest.raises(CompressionInterrupted):

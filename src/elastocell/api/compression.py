@@ -9,6 +9,7 @@ the same files.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ from elastocell.body.axisymmetric import NUCLEUS, AxisymmetricCell, MeridianMesh
 from elastocell.body.cell import Cell, enable_compilation_cache
 from elastocell.files import (
     Stopwatch,
+    array_digest,
     parameter_hash,
     replace_atomically,
     software_versions,
@@ -128,19 +130,38 @@ def compress(
     return summary
 
 
-CHECKPOINT_FORMAT = 1
-"""Layout of a compression ``checkpoint.npz``: the rows of :class:`CompressionResult` and a fingerprint."""
+CHECKPOINT_FORMAT = 2
+"""Layout of a compression ``checkpoint.npz`` (the rows of :class:`CompressionResult` and a fingerprint) and of
+what the fingerprint hashes; raised when either changes."""
 
 CHECKPOINT_ARRAYS = ("delta", "force", "force_lower", "positions", "contact_nodes_upper", "unstable",
                      "min_nodal_jacobian", "min_volume_ratio")
 """The per-row arrays of :class:`CompressionResult` a checkpoint keeps."""
 
 
-def _fingerprint(body: Cell, cell: CellParameters, scenario: CompressionParameters, solver: str) -> str:
+def _fingerprint(body: Cell | AxisymmetricCell, cell: CellParameters, scenario: CompressionParameters, solver: str,
+                 **more) -> str:
     """The hash of everything that determines the curve: the resolved cell, the load steps, which body (cell
-    or its equivalent) and the solver."""
-    return parameter_hash(cell, scenario, {"equivalent": body.is_equivalent, "solver": solver},
-                          format_version=CHECKPOINT_FORMAT)
+    or its equivalent), the solver, ``more`` (the meridian mesh parameters of the axisymmetric solver) and the
+    sha256 of the body's mesh (nodes, elements) and element moduli, so that a mesh that changed under the same
+    parameters (another mesher, another cached mesh) does not continue a curve made on the other."""
+    arrays = array_digest(body.mesh.nodes, body.mesh.elements, np.asarray(body.youngs_moduli, dtype=np.float64))
+    return parameter_hash(cell, scenario, {"equivalent": body.is_equivalent, "solver": solver, **more,
+                                           "arrays": arrays}, format_version=CHECKPOINT_FORMAT)
+
+
+def _finished_curve(out: Path, fingerprint: str) -> dict | None:
+    """The metadata of the curve already complete in ``out`` with this fingerprint, or None. On resume such a
+    curve is read back, not computed again: ``compare=True`` interrupted during the equivalent resumes the
+    equivalent only."""
+    try:
+        summary = json.loads((out / "metadata.json").read_text())
+    except (OSError, ValueError):
+        return None
+    complete = isinstance(summary, dict) and summary.get("complete") is True
+    if complete and summary.get("fingerprint") == fingerprint and (out / "compression.csv").exists():
+        return summary
+    return None
 
 
 def _save_checkpoint(path: Path, result: CompressionResult, fingerprint: str) -> None:
@@ -189,6 +210,8 @@ def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell:
     clock = Stopwatch()
     checkpoint = out / "checkpoint.npz"
     fingerprint = _fingerprint(body, cell, scenario, solver)
+    if resume and (finished := _finished_curve(out, fingerprint)) is not None:
+        return finished
     start = _load_checkpoint(checkpoint, fingerprint, body.mesh.n_nodes) if resume and checkpoint.exists() else None
     with progress_bar(show_progress, "delta {task.completed:.3f}", label=None) as progress:
         if progress is not None:
@@ -225,16 +248,21 @@ def _run_and_write(out: Path, body: Cell, scenario: CompressionParameters, cell:
         outputs.write(out / "vtk", write_vtk_series, "compression", body.mesh, result.positions * cell.radius,
                       result.delta, cell_data)
     summary = _metadata(result, body, cell, scenario, label, gamma_eff, clock.elapsed, solver)
-    summary["complete"] = failure is None
-    summary["delta_reached"] = float(result.delta[-1])
-    if failure is not None:
-        summary["error"] = str(failure)
-    outputs.write(out / "metadata.json", write_json, summary)
-    if checkpoint.exists():  # the curve is on disk in full: nothing left to continue
-        checkpoint.unlink()
+    _write_metadata(outputs, out, summary, fingerprint, failure, result.delta[-1])
     if failure is not None:
         raise CompressionError(f"{failure} (rows up to delta={result.delta[-1]:.4f} written to {out})", None)
     return summary
+
+
+def _write_metadata(outputs: OutputSet, out: Path, summary: dict, fingerprint: str, failure, delta_reached) -> None:
+    """The last file of a curve: ``metadata.json`` with ``complete`` (and the ``error`` that stopped it early),
+    the curve's ``fingerprint`` (a complete curve is read back on resume, :func:`_finished_curve`) and
+    ``delta_reached``; then the checkpoint goes, the curve being on disk in full."""
+    summary.update(complete=failure is None, fingerprint=fingerprint, delta_reached=float(delta_reached))
+    if failure is not None:
+        summary["error"] = str(failure)
+    outputs.write(out / "metadata.json", write_json, summary)
+    (out / "checkpoint.npz").unlink(missing_ok=True)
 
 
 def _compress_axisymmetric(out: Path, cell: CellParameters, scenario: CompressionParameters, equivalent: bool,
@@ -294,8 +322,9 @@ def _run_and_write_axisymmetric(out: Path, body: AxisymmetricCell, mesh: Meridia
     out.mkdir(parents=True, exist_ok=True)
     clock = Stopwatch()
     checkpoint = out / "checkpoint.npz"
-    fingerprint = parameter_hash(cell, scenario, {"equivalent": body.is_equivalent, "solver": solver,
-                                                  "axisymmetric": mesh}, format_version=CHECKPOINT_FORMAT)
+    fingerprint = _fingerprint(body, cell, scenario, solver, axisymmetric=mesh)
+    if resume and (finished := _finished_curve(out, fingerprint)) is not None:
+        return finished
     start = (_load_axisymmetric_checkpoint(checkpoint, fingerprint, body.mesh.n_nodes)
              if resume and checkpoint.exists() else None)
     with progress_bar(show_progress, "delta {task.completed:.3f}", label=None) as progress:
@@ -327,13 +356,7 @@ def _run_and_write_axisymmetric(out: Path, body: AxisymmetricCell, mesh: Meridia
     outputs.write(out / "compression.png", plot_compression, [{"label": label, **table}], cell.material.poisson_ratio,
                   title=f"{label} (axisymmetric)")
     summary = _axisymmetric_metadata(result, body, cell, scenario, label, clock.elapsed, mesh)
-    summary["complete"] = failure is None
-    summary["delta_reached"] = float(result.load[-1])
-    if failure is not None:
-        summary["error"] = str(failure)
-    outputs.write(out / "metadata.json", write_json, summary)
-    if checkpoint.exists():
-        checkpoint.unlink()
+    _write_metadata(outputs, out, summary, fingerprint, failure, result.load[-1])
     if failure is not None:
         raise CompressionError(f"{failure} (rows up to delta={result.load[-1]:.4f} written to {out})", None)
     return summary
