@@ -65,7 +65,10 @@ def test_an_interrupted_curve_keeps_its_rows_and_resumes_to_the_uninterrupted_cu
     resumed = np.genfromtxt(tmp_path / "compression.csv", delimiter=",", names=True)
     assert summary["complete"] is True and not (tmp_path / "checkpoint.npz").exists()
     np.testing.assert_allclose(resumed["delta"], uninterrupted["delta"], rtol=0, atol=1e-14)
-    np.testing.assert_allclose(resumed["force"], uninterrupted["force"], rtol=1e-8, atol=1e-12)
+    # Compared as written (compression.csv, 10 significant digits): a 2e-13 difference can move the last printed
+    # digit, so the tolerance is one unit of the 10th digit, 1e-9 relative (measured: every printed digit equal in
+    # 3 runs of this curve, max |difference| 0.0).
+    np.testing.assert_allclose(resumed["force"], uninterrupted["force"], rtol=1e-9, atol=0)
 
 
 def test_compare_interrupted_during_the_equivalent_resumes_the_equivalent_only(tmp_path, monkeypatch):

@@ -1,8 +1,8 @@
-"""The restructured package gives the numbers the code before the restructure gave (commit d968b99).
+"""The package gives the numbers recorded in ``tests/data/same_outputs/expected.json``.
 
 Runs ``validation/same_outputs.py --check`` in process: a fixed set of cheap compression, flow, LUT and fit runs
-compared with ``tests/data/same_outputs/expected.json`` to round-off (tolerances in the script). About a minute
-on 2 cores, plus Numba's first compilation of the flow kernels after an install.
+compared with the recorded outputs to round-off (tolerances in the script; each run's recording commit is named
+in the file). About a minute on 2 cores, plus Numba's first compilation of the flow kernels after an install.
 """
 
 import importlib.util
@@ -23,7 +23,7 @@ def _load_script():
 
 
 @pytest.mark.slow
-def test_outputs_are_those_recorded_before_the_restructure(tmp_path, monkeypatch):
+def test_outputs_are_those_recorded(tmp_path, monkeypatch):
     if not EXPECTED.exists():
         pytest.skip(f"no recorded outputs at {EXPECTED}")
     same_outputs = _load_script()
