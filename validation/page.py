@@ -43,6 +43,10 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                             "python validation/force_ratios.py --element p2 --stiffness-ratio 2 10"),
         "compression_reach.py": ("Reach of a full curve for every cell", "python validation/compression_reach.py"),
     }),
+    "axisymmetric": ("Axisymmetric solver as the truth for compression", {
+        "axisymmetric.py": ("Its refinement, the 3D defaults against it, and their error budget",
+                             "nice python validation/axisymmetric.py"),
+    }),
     "startup": ("Start-up of a command in a new process", {
         "startup.py": ("Import, cell and first converged row, empty and warm caches",
                        "python validation/startup.py --code-path /tmp/baseline/src"),

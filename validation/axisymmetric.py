@@ -1,0 +1,239 @@
+"""The axisymmetric solver as the truth for compression between plates: its own mesh refinement, the 3D
+defaults against it for every stiffness ratio, the error budget of the 3D defaults for a stiff nucleus, and
+FElupe's axisymmetric mode on the same problem.
+
+    python validation/axisymmetric.py [--only refinement three-d budget peer] [--ratios 1 2 5 10 20]
+        [--fill-cache] [--fresh]
+
+- refinement: ``compress_axisymmetric`` on the default meridian mesh with every size times each of ``--scales``
+  (default 2, 1), for the homogeneous cell and the concentric nucleus of size ratio 0.5 and stiffness ratio
+  2, 5, 10, 20; F at delta 0.1, 0.3, 0.5, 0.7 against the finest mesh, and where a curve stopped, the smallest J
+  of its last row and where it is.
+- three-d: ``elastocell.compress`` on its defaults (``compression_parameters_for``: p2, and the rule with the
+  nodes for a stiffness ratio >= 7) against the finest axisymmetric curve, per stiffness ratio.
+- budget: one factor of the 3D default changed at a time (interface size, pole size, quadrature degree, Poisson
+  ratio, the last also in the truth), stiffness ratios 10 and 20; a variation not in the cache is listed as not
+  run unless ``--fresh``.
+- peer: FElupe's axisymmetric mode is not set up (it has no frictionless rigid-plate contact for axisymmetric
+  fields in this script); the section says so.
+
+The 3D curves cost minutes each; they are kept in the cache directory (``elastocell.files.cache_directory``,
+``validation-axisymmetric/``) under the hash of the resolved cell parameters and the load steps, so that a rerun
+takes them from there (``--fresh`` recomputes; ``--fill-cache`` computes the missing ones and writes no page, to
+run in the background).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+from page import Page
+
+from elastocell.body.cell import Cell
+
+# isort: split
+# body.cell imports JAX first: JAX tries `from compression import zstd`, which finds validation/compression.py,
+# whose `from elastocell.body.cell import Cell` then fails as an ImportError JAX expects (the module is half
+# imported); another elastocell module first would make it a circular import of JAX itself
+from elastocell.body.axisymmetric import AxisymmetricCell, MeridianMeshParameters
+from elastocell.files import cache_directory, parameter_hash, write_json
+from elastocell.parameters.cell import cell_parameters
+from elastocell.scenarios.axisymmetric import AxisymmetricError, compress_axisymmetric
+from elastocell.scenarios.compression import (
+    CompressionError,
+    CompressionParameters,
+    compress,
+    compression_parameters_for,
+)
+
+DELTAS = np.array([0.1, 0.3, 0.5, 0.7])
+RATIOS = [1, 2, 5, 10, 20]
+STEPS = 40
+DELTA_MAX = 0.75
+CACHE_FORMAT = 1
+BUDGET_RATIOS = [10, 20]
+BUDGET = [  # (label, 3D cell options changed from the default, the same change of the axisymmetric truth)
+    ("default", {}, {}),
+    ("interface 0.075", {"interface_size": 0.075}, {}),
+    ("poles 0.04", {"pole_size": 0.04}, {}),
+    ("quadrature degree 2", {"quadrature_degree": 2}, {}),
+    ("nu 0.45", {"poisson_ratio": 0.45}, {"poisson_ratio": 0.45}),
+]
+
+
+def cell_options(ratio: float, **changes) -> dict:
+    """The options of the cell of stiffness ratio ``ratio`` (1: the homogeneous cell) with size ratio 0.5."""
+    options = {"nucleus": "none"} if ratio == 1 else {"stiffness_ratio": ratio, "size_ratio": 0.5}
+    return {**options, **changes}
+
+
+def _cache_path(cell, steps: int):
+    key = parameter_hash(cell, {"delta_max": DELTA_MAX, "steps": steps}, format_version=CACHE_FORMAT)[:20]
+    return cache_directory() / "validation-axisymmetric" / f"3d-{key}.json"
+
+
+def three_d_curve(options: dict, fresh: bool = False, steps: int = STEPS) -> dict:
+    """The 3D curve of ``elastocell.compress``'s defaults for the cell of ``options`` (from the cache unless
+    ``fresh``): delta, force (E_c R^2), nodes, seconds, the delta reached and the error message if it stopped."""
+    cell = compression_parameters_for(cell_parameters(**options))
+    path = _cache_path(cell, steps)
+    if path.exists() and not fresh:
+        return json.loads(path.read_text())
+    body = Cell.from_parameters(cell)
+    start = time.perf_counter()
+    try:
+        result, error = compress(body, CompressionParameters(delta_max=DELTA_MAX, steps=steps)), ""
+    except CompressionError as failure:
+        result, error = failure.partial, str(failure)
+    record = {"options": options, "delta": result.delta.tolist(), "force": result.force.tolist(),
+              "nodes": body.mesh.n_nodes, "seconds": time.perf_counter() - start, "error": error,
+              "quadrature_degree": cell.mesh.quadrature_degree}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_json(path, record)
+    return record
+
+
+def axisymmetric_curve(options: dict, scale: float, fresh: bool = False, steps: int = STEPS) -> dict:
+    """The curve of ``compress_axisymmetric`` for the cell of ``options`` on the default meridian mesh with every
+    size times ``scale`` (cached as the 3D curves): delta, force, nodes, seconds, the stop message, and where it
+    stopped the smallest J of the last converged row and the (r, z) of that point's element."""
+    cell = cell_parameters(**options)
+    mesh = MeridianMeshParameters().scaled(scale)
+    key = parameter_hash(cell, mesh, {"delta_max": DELTA_MAX, "steps": steps}, format_version=CACHE_FORMAT)[:20]
+    path = cache_directory() / "validation-axisymmetric" / f"axi-{key}.json"
+    if path.exists() and not fresh:
+        return json.loads(path.read_text())
+    body = AxisymmetricCell.from_parameters(cell, mesh)
+    start = time.perf_counter()
+    try:
+        result, error = compress_axisymmetric(body, DELTA_MAX, steps), ""
+    except AxisymmetricError as failure:
+        result, error = failure.partial, str(failure)
+    record = {"options": options, "scale": scale, "delta": result.load.tolist(), "force": result.force.tolist(),
+              "nodes": body.mesh.n_nodes, "seconds": time.perf_counter() - start, "error": error,
+              "min_volume_ratio": result.min_volume_ratio.tolist()}
+    if error:
+        record["last_newton"] = [list(map(str, entry)) for entry in result.history[-4:]]
+        record["weakest_point"] = weakest_point(body, result.positions[-1])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_json(path, record)
+    return record
+
+
+def weakest_point(body: AxisymmetricCell, x: np.ndarray) -> dict:
+    """Where the smallest J of positions ``x`` is: its element's reference centroid (r, z), region, and J."""
+    values, gradients, _ = body.geometry
+    planar = np.einsum("eki,eqkj->eqij", x[body.mesh.elements], gradients)
+    radius = np.einsum("qk,ek->eq", values, body.mesh.nodes[body.mesh.elements][:, :, 0])
+    hoop = np.einsum("qk,ek->eq", values, x[body.mesh.elements][:, :, 0]) / radius
+    volume_ratio = np.linalg.det(planar) * hoop
+    element = int(np.argmin(volume_ratio.min(axis=1)))
+    centroid = body.mesh.nodes[body.mesh.elements[element]].mean(axis=0)
+    return {"J": float(volume_ratio.min()), "r": float(centroid[0]), "z": float(centroid[1]),
+            "region": "nucleus" if body.mesh.region[element] else "cytoplasm"}
+
+
+def at_deltas(record: dict) -> np.ndarray:
+    """F at DELTAS, interpolated in log F against log delta between the rows (F ~ delta^1.5 near the start: a
+    linear interpolation there would err by 0.3 % at delta 0.1 with 40 steps); NaN beyond the last row."""
+    delta, force = np.asarray(record["delta"][1:]), np.asarray(record["force"][1:])
+    values = np.exp(np.interp(np.log(DELTAS), np.log(delta), np.log(np.maximum(force, 1e-300))))
+    return np.where(DELTAS <= delta[-1] + 1e-12, values, np.nan)
+
+
+def three_d_jobs(ratios: list[float]) -> list[dict]:
+    """Every 3D cell the page needs, the most needed first: the defaults of the stiff cells, the other defaults,
+    the budget's variations (gamma 10 before 20)."""
+    stiff = [ratio for ratio in BUDGET_RATIOS if ratio in ratios]
+    variations = [cell_options(ratio, **changes) for ratio in stiff for _, changes, _ in BUDGET if changes]
+    jobs = [cell_options(ratio) for ratio in stiff]
+    jobs += [cell_options(ratio) for ratio in ratios if ratio not in stiff] + variations
+    return jobs
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--only", nargs="+", choices=["refinement", "three-d", "budget", "peer"],
+                        default=["refinement", "three-d", "budget", "peer"])
+    parser.add_argument("--ratios", nargs="+", type=float, default=RATIOS)
+    parser.add_argument("--fill-cache", action="store_true", help="compute the missing 3D curves, no page")
+    parser.add_argument("--fresh", action="store_true", help="recompute every curve")
+    parser.add_argument("--scales", nargs="+", type=float, default=[2.0, 1.0],
+                        help="meridian mesh scales, coarsest first (the last is the truth)")
+    args = parser.parse_args()
+    if args.fill_cache:
+        for options in three_d_jobs(args.ratios):
+            record = three_d_curve(options, args.fresh)
+            print(f"3D {options}: {record['nodes']} nodes, {record['seconds']:.0f} s, delta {record['delta'][-1]:.3f}"
+                  + (f" ({record['error']})" if record["error"] else ""), flush=True)
+        return
+    page = Page("axisymmetric", "axisymmetric.py", intro=(
+        "F/(E_c R^2) between rigid frictionless plates, 40 load steps to delta 0.75, neo-Hookean, nu 0.48, "
+        "nucleus of size ratio 0.5 (stiffness ratio 1: the homogeneous cell). The truth is the axisymmetric "
+        "solver (`compress_axisymmetric`: meridian section, 6-node triangles, exact frictionless contact) on its "
+        "finest meridian mesh of this run; every error is F/F_truth - 1 at the same delta, F interpolated in "
+        "log-log between rows. Times are of a shared 2-core machine under load (see the footer), not of the "
+        "solvers alone."))
+    truth = {}
+    if "refinement" in args.only or "three-d" in args.only or "budget" in args.only:
+        rows = []
+        for ratio in args.ratios:
+            curves = [axisymmetric_curve(cell_options(ratio), scale, args.fresh) for scale in args.scales]
+            finest = curves[-1]
+            truth[ratio] = at_deltas(finest)
+            for curve in curves:
+                errors = at_deltas(curve) / truth[ratio] - 1
+                weakest = curve.get("weakest_point")
+                rows.append({"gamma": ratio, "scale": curve["scale"], "nodes": curve["nodes"],
+                             "time_s": curve["seconds"], "delta_reached": curve["delta"][-1],
+                             **{f"err@{d:g}": e for d, e in zip(DELTAS, errors, strict=True)},
+                             "stop": (f"J {weakest['J']:.2f} at r {weakest['r']:.3f}, z {weakest['z']:.3f} "
+                                      f"({weakest['region']})") if weakest else ""})
+        page.table(rows, "Axisymmetric refinement: every meridian size times scale, against the finest (stop: "
+                   "the smallest J of the last converged row and where)",
+                   formats={"time_s": ".0f", "delta_reached": ".3f", **{f"err@{d:g}": "+.3%" for d in DELTAS}})
+    if "three-d" in args.only:
+        rows = []
+        for ratio in args.ratios:
+            record = three_d_curve(cell_options(ratio), args.fresh)
+            errors = at_deltas(record) / truth[ratio] - 1
+            rows.append({"gamma": ratio, "nodes": record["nodes"], "degree": record["quadrature_degree"] or 2,
+                         "time_s": record["seconds"], "delta_reached": record["delta"][-1],
+                         **{f"err@{d:g}": e for d, e in zip(DELTAS, errors, strict=True)}})
+        page.table(rows, "3D defaults (`elastocell.compress`) against the axisymmetric truth (nan: the truth "
+                   "stopped before this delta)",
+                   formats={"time_s": ".0f", "delta_reached": ".3f", **{f"err@{d:g}": "+.2%" for d in DELTAS}})
+    if "budget" in args.only:
+        rows = []
+        for ratio in [r for r in BUDGET_RATIOS if r in args.ratios]:
+            for label, changes, truth_changes in BUDGET:
+                options = cell_options(ratio, **changes)
+                record = three_d_curve(options, args.fresh) if args.fresh or _cached(options) else None
+                if record is None:
+                    rows.append({"gamma": ratio, "variation": label, "nodes": "not run"})
+                    continue
+                reference = (truth[ratio] if not truth_changes else
+                             at_deltas(axisymmetric_curve(cell_options(ratio, **truth_changes), args.scales[-1],
+                                                          args.fresh)))
+                errors = at_deltas(record) / reference - 1
+                rows.append({"gamma": ratio, "variation": label, "nodes": record["nodes"],
+                             "time_s": record["seconds"], "delta_reached": record["delta"][-1],
+                             **{f"err@{d:g}": e for d, e in zip(DELTAS, errors, strict=True)}})
+        page.table(rows, "Error budget of the 3D default, one factor changed at a time (the Poisson ratio also "
+                   "in the truth)",
+                   formats={"time_s": ".0f", "delta_reached": ".3f", **{f"err@{d:g}": "+.2%" for d in DELTAS}})
+    if "peer" in args.only:
+        page.print("FElupe's axisymmetric mode: not run by this script (no frictionless rigid-plate contact set up "
+                   "for FElupe's axisymmetric fields yet).")
+    page.write()
+
+
+def _cached(options: dict) -> bool:
+    return _cache_path(compression_parameters_for(cell_parameters(**options)), STEPS).exists()
+
+
+if __name__ == "__main__":
+    main()
