@@ -24,7 +24,6 @@ wall guard, VTK slice and summary.
 from __future__ import annotations
 
 import math
-import os
 import signal
 import threading
 import time
@@ -33,12 +32,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-# =========================================================================== shear flow
 import numpy as np
 
 from elastocell.coupling.immersed import ImmersedCell
 from elastocell.coupling.markers import FlowError
-from elastocell.files import array_digest, parameter_hash
+from elastocell.files import array_digest, parameter_hash, replace_atomically
 from elastocell.parameters.units import ParameterError
 from elastocell.simulation.directory import waiting_while_in_use
 
@@ -392,8 +390,7 @@ class FlowRun:
             format_version=CHECKPOINT_VERSION)
 
     def save(self, path: str | Path) -> None:
-        """Write the complete state to ``path`` atomically (temporary file, then ``os.replace``)."""
-        path = Path(path)
+        """Write the complete state to ``path`` atomically (``files.replace_atomically``)."""
         arrays = {
             "version": np.array(CHECKPOINT_VERSION), "fingerprint": np.array(self.fingerprint()),
             "backend": np.array(self.system.backend), **self.system.state_arrays(), "volume0": np.array(self.volume0),
@@ -402,12 +399,12 @@ class FlowRun:
         arrays.update(self._extra_state())
         for name, values in self.series.items():
             arrays[f"series_{name}"] = np.asarray(values, dtype=np.float64)
-        temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        with open(temporary, "wb") as handle:
-            np.savez(handle, **arrays)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temporary, path)
+
+        def write(temporary: Path) -> None:
+            with temporary.open("wb") as handle:  # a file object: np.savez would append .npz to the temporary name
+                np.savez(handle, **arrays)
+
+        replace_atomically(Path(path), write)
 
     def load(self, path: str | Path) -> None:
         """Restore the state saved by :meth:`save` (same cell, parameters and record interval). A damaged file
