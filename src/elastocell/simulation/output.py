@@ -60,8 +60,6 @@ class VTKWriter:
     def write(self, index: int, run: FlowRun) -> None:
         import meshio
 
-        pass
-
         self.directory.mkdir(parents=True, exist_ok=True)
         mesh = run.cell.mesh
         x = run.system.positions_in_radii()
@@ -87,13 +85,8 @@ class VTKWriter:
         if not self.directory.exists():
             return
         for stem in ("cell", "fluid"):
-            entries = [
-                f'    <DataSet timestep="{index * self.interval:.8g}" group="" part="0" file="{path.name}"/>'
-                for index, path in self._snapshots(stem)
-            ]
-            (self.directory / f"{stem}.pvd").write_text(
-                '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
-                + "\n".join(entries) + "\n  </Collection>\n</VTKFile>\n")
+            write_pvd(self.directory / f"{stem}.pvd",
+                      [(index * self.interval, path.name) for index, path in self._snapshots(stem)])
 
 
 def progress_bar(enabled: bool, time_format: str = "strain {task.completed:.2f}", label: str | None = "D"):
@@ -218,13 +211,17 @@ def write_vtk_series(directory: Path, stem: str, mesh: CellMesh, positions: np.n
             x, [(cell_type, mesh.elements)], point_data={"displacement": displacement},
             cell_data={k: [v] for k, v in data.items()},
         ).write(directory / name)
-        entries.append(f'    <DataSet timestep="{float(t):.8g}" group="" part="0" file="{name}"/>')
+        entries.append((float(t), name))
     collection = directory / f"{stem}.pvd"
-    collection.write_text(
-        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
-        + "\n".join(entries) + "\n  </Collection>\n</VTKFile>\n"
-    )
+    write_pvd(collection, entries)
     return collection
+
+
+def write_pvd(path: Path, entries: list[tuple[float, str]]) -> None:
+    """A ParaView ``.pvd`` collection of ``(time, file name)`` entries (files beside it)."""
+    lines = [f'    <DataSet timestep="{t:.8g}" group="" part="0" file="{name}"/>' for t, name in entries]
+    path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
+                    + "\n".join(lines) + "\n  </Collection>\n</VTKFile>\n")
 
 
 def run_in_directory(run: FlowRun, out: Path, stop: StopCriteria, *, resume: bool, progress: bool,
