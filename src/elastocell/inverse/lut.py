@@ -50,7 +50,7 @@ import numpy as np
 from elastocell.api.pipe import pipe
 from elastocell.api.resolved import resolved_parameters
 from elastocell.body.cell import Cell
-from elastocell.files import parameter_hash, write_json
+from elastocell.files import parameter_hash, replace_atomically, write_json
 from elastocell.parameters.flow import flow_cell
 from elastocell.parameters.units import ParameterError, parse_quantity
 from elastocell.scenarios.pipe import PipeFlowParameters, pipe_lattice_units
@@ -344,7 +344,8 @@ def write_lut(path: str | Path, records: list[dict], metadata: dict) -> Path:
                "Approximation: cylindrical channel standing for a square one of width channel_width.")
     body = "".join(f"{a:.6e}\t{d:.6e}\t{e:.6e}\n" for a, d, e in _rows(records))
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(_header(metadata, comment) + body)
+    text = _header(metadata, comment) + body
+    replace_atomically(path, lambda temporary: temporary.write_text(text))  # a killed run leaves no cut table
     return path
 
 
@@ -356,7 +357,8 @@ def write_isoelastics(path: str | Path, records: list[dict], metadata: dict) -> 
     meta["lut identifier"] = meta.pop("identifier")
     comment = "Isoelasticity lines computed with elastocell: one line per emodulus value, sorted by area."
     body = "".join(f"{a:.6e}\t{d:.6e}\t{e:.6e}\n" for a, d, e in _rows(records))
-    path.write_text(_header(meta, comment) + body)
+    text = _header(meta, comment) + body
+    replace_atomically(path, lambda temporary: temporary.write_text(text))
     return path
 
 
