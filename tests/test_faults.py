@@ -107,7 +107,8 @@ def test_compare_interrupted_during_the_equivalent_resumes_the_equivalent_only(t
 
 def test_a_checkpoint_of_another_mesh_with_the_same_parameters_is_refused(tmp_path, monkeypatch):
     """The checkpoint's fingerprint hashes the mesh arrays: a mesh that changed under the same parameters (another
-    mesher version, another cached mesh; here every node moved by 1e-3 R) does not continue the old curve."""
+    mesher version, another cached mesh; here every node moved by 1e-3 R) does not continue the curve made on the
+    first mesh."""
     import dataclasses
 
     from elastocell.body.cell import Cell

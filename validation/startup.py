@@ -5,9 +5,9 @@ built) and then again (what every later run pays).
 
     python validation/startup.py [--repeat 3] [--code-path SRC]
 
-``--code-path`` runs another copy of the package (e.g. a checkout of an earlier commit: ``git worktree add
-/tmp/before <commit>`` and ``--code-path /tmp/before/src``) in the same run, so that before and after are
-measured on the same machine at the same time. The cell is the homogeneous default p2 cell, whose curve the
+``--code-path`` runs another copy of the package with the same module layout (e.g. a checkout of another
+commit: ``git worktree add /tmp/other <commit>`` and ``--code-path /tmp/other/src``) in the same run, so that
+both are measured on the same machine at the same time. The cell is the homogeneous default p2 cell, whose curve the
 README's first command computes; the row is delta = delta_max / steps.
 """
 
@@ -31,14 +31,9 @@ marks = {"interpreter": time.time()}
 import elastocell
 marks["import"] = time.time()
 from elastocell import cell_parameters
-try:
-    from elastocell.body.cell import Cell, enable_compilation_cache
-    from elastocell.scenarios.compression import CompressionParameters, compress
-    enable_compilation_cache()
-except ImportError:  # the layout before the stage packages
-    from elastocell.cell import Cell
-    from elastocell.compression import compress
-    from elastocell.parameters import CompressionParameters
+from elastocell.body.cell import Cell, enable_compilation_cache
+from elastocell.scenarios.compression import CompressionParameters, compress
+enable_compilation_cache()
 cell = Cell.from_parameters(cell_parameters(nucleus="none"))
 marks["cell"] = time.time()
 

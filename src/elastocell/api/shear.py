@@ -48,7 +48,7 @@ def shear(
 
     capillary_number: Ca = eta shear_rate / mu_c (mu_eff = gamma_eff mu_c with ``equivalent``).
     cell: :class:`~elastocell.parameters.cell.CellParameters` or the CELL OPTIONS of ``cell_parameters``; without
-    an explicit mesh size the mesh is uniform with edges of 2 dx (``flow.shear_mesh_size``) and linear
+    an explicit mesh size the mesh is uniform with edges of 2 dx (``elastocell.parameters.flow.shear_mesh_size``) and linear
     tetrahedra (``element="p1"``) unless another element is given.
     capillary_number_modulus: "reference" (Ca against the simulated cell's mu: mu_eff with ``equivalent``) or
     "mu_c" (Ca against the described cell's mu_c, as physical eta, shear rate and E_c give it; with

@@ -64,7 +64,7 @@ SHIPPED_POISSON_RATIOS = (0.48,)
 CAPILLARY_NUMBERS = (0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4)
 RESOLUTIONS = (6.0, 8.0)  # R/dx: coarse, default (the default is ShearFlowParameters.resolution)
 DURATION = 4.0  # strain; stationary means over the second half
-CONVERGENCE_ORDER = 2.0  # D/Ca - 5/4 ~ (dx/R)^2, README / flow.ShearFlowParameters
+CONVERGENCE_ORDER = 2.0  # D/Ca - 5/4 ~ (dx/R)^2, README / scenarios.shear.ShearFlowParameters
 SMALL_CA_DEFORMATION_SLOPE = 1.25  # D -> (5/4) Ca (Taylor/Roscoe, neo-Hookean sphere, Stokes flow)
 SMALL_CA_INCLINATION_DEG = 45.0
 SMALL_CA_TANK_TREADING = 0.5
@@ -348,7 +348,7 @@ def compute_shear_master_curve(poisson_ratio: float = 0.48, material: str = "neo
                  "order-2 convergence at every Ca, not a bound)",
         "resolutions": list(resolutions), "duration_strain": duration, "averaging": "strain >= duration/2",
         "flow": "elastocell.shear defaults (confinement 0.2, box 8R, Re_p 0.1, tau 1, trilinear kernel, float32)",
-        "mesh": "p1, uniform, edge 2 dx (flow.shear_mesh_size), nucleus none",
+        "mesh": "p1, uniform, edge 2 dx (parameters.flow.shear_mesh_size), nucleus none",
         "small_ca_check": {"capillary_number": capillary_numbers[0], "deformation_over_ca_extrapolated": first,
                            "deformation_over_ca_fine": raw[fine]["deformation"][0] / capillary_numbers[0],
                            "theory": SMALL_CA_DEFORMATION_SLOPE},

@@ -672,7 +672,7 @@ def _sweep(
     with n_x > 0 makes the step also write the velocity u its collision used, ``(sum c_i f_i + F/2)/rho``, to
     ``out[0:3, x, y, z]`` (out: (>= 3, nx, ny, nz)) at the fluid nodes inside the box; other nodes of ``out``
     are left as they were. The immersed boundary reads the marker velocities there instead of re-reading the
-    populations (see ``flow._coupled_steps``)."""
+    populations (see ``elastocell.coupling.immersed._coupled_steps``)."""
     nx = A.shape[0]
     ny = A.shape[1]
     local = mode == MODE_EVEN or mode == MODE_EXPORT_EVEN or mode == MODE_MOMENTS_EVEN

@@ -17,8 +17,9 @@ from elastocell.parameters.units import ParameterError
 
 
 class FlowLatticeParameters(BaseModel):
-    """Lattice and coupling settings shared by the flow scenarios (:class:`ShearFlowParameters`,
-    ``pipe_flow.PipeFlowParameters``); each scenario documents their defaults and adds its own driving.
+    """Lattice and coupling settings shared by the flow scenarios
+    (``elastocell.scenarios.shear.ShearFlowParameters``, ``elastocell.scenarios.pipe.PipeFlowParameters``); each
+    scenario documents their defaults and adds its own driving.
 
     resolution: R/dx in [2, 64]. box_length: periodic length in units of R (>= 2.5: the cell is 2R across).
     relaxation_time: LB tau in [0.55, 5]. reynolds_number: upper limit of the particle Reynolds number, in
@@ -67,9 +68,8 @@ def shear_mesh_size(resolution: float, edge: float = DEFAULT_MESH_EDGE) -> float
 
 def flow_cell(cell, cell_options: dict, resolution: float):
     """The CellParameters of a flow run: ``cell`` or the CELL OPTIONS of ``cell_parameters``; without an
-    explicit mesh size the mesh is uniform with edges of 2 dx (``flow.shear_mesh_size``) and linear
+    explicit mesh size the mesh is uniform with edges of 2 dx (:func:`shear_mesh_size`) and linear
     tetrahedra (``element="p1"``) unless another element is given."""
-    pass
 
     if cell is not None and cell_options:
         raise ParameterError("cell", f"give either cell= or cell options, not both ({', '.join(cell_options)})")
