@@ -47,6 +47,9 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "axisymmetric.py": ("Its refinement, the 3D defaults against it, and their error budget",
                              "nice python validation/axisymmetric.py"),
     }),
+    "indentation": ("A bead indenting a cell on a dish", {
+        "indentation.py": ("Hertz limits, mesh refinement and the layer's width", "nice python validation/indentation.py"),
+    }),
     "startup": ("Start-up of a command in a new process", {
         "startup.py": ("Import, cell and first converged row, empty and warm caches",
                        "python validation/startup.py --code-path /tmp/baseline/src"),
