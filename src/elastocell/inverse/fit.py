@@ -5,8 +5,11 @@ Geometry: parallel plates (docs/theory.md; ``plates`` is the same). The plate's 
 increasing towards the cell) and the ``force`` (N) are converted to ``delta = (displacement - contact_point) / (2 R)``
 (the gap is ``h = 2R - (displacement - contact_point)``, so ``delta = 1 - h/(2R)``) and fitted by
 ``F = E R^2 f(delta)`` with ``f`` the homogeneous master curve (:mod:`elastocell.inverse.mastercurve`) or Hertz's
-two-contact law ``f = 4/(3(1-nu^2)) delta^(3/2)``. ``sphere-indenter`` is refused until its master surfaces exist;
-:func:`fit_hertz_sphere` is its Hertz estimate, ``F = 4/3 E/(1-nu^2) sqrt(R_b) d^(3/2)`` for a bead of radius R_b.
+two-contact law ``f = 4/(3(1-nu^2)) delta^(3/2)``. ``sphere-indenter``: a bead of radius R_b
+(``indenter_radius``) pressed into a suspended cell on a dish; the displacement after contact is the bead's depth
+and ``F = E R^2 s(depth/R, R_b/R)`` with ``s`` the master surface (:mod:`elastocell.inverse.indentation_surface`),
+Hertz's sphere on a half-space ``F = 4/3 E/(1-nu^2) sqrt(R_b) d^(3/2)`` beside it (``youngs_modulus_hertz``, the
+formula of :func:`fit_hertz_sphere`); the same contact point, intervals and checks as the plates.
 
 Reading (:func:`read_curves`): a ``.csv``/``.tsv``/``.txt`` whose header names the columns ``displacement`` (m)
 and ``force`` (N) is elastocell's plain CSV, read as it is (its displacement is the plate's own). Every other file
