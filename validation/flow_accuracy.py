@@ -194,7 +194,11 @@ KEYS = ("problem", "R/dx", "kernel", "edge_dx", "c_dx", "Ca")
 def load_cache(path: Path) -> list[dict]:
     if not path.exists():
         return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    for row in rows:  # rows of the held-sphere problems carry no Ca
+        row.setdefault("Ca", None)
+        row.setdefault("mesh_edge_dx", shear_mesh_size(row["R/dx"], row["edge_dx"]) * row["R/dx"])
+    return rows
 
 
 def cached(rows: list[dict], case: dict) -> dict | None:
@@ -228,6 +232,7 @@ def diagnosis(rows: list[dict], resolutions=(4.0, 6.0, 8.0)) -> list[dict]:
 
     excess = lambda v: 100.0 * (v / 1.25 - 1.0)  # noqa: E731  D/Ca over 5/4, %
     edges = sorted({r["edge_dx"] for r in rows if r["problem"] == "deformation" and r["R/dx"] == resolutions[0]})
+    torque_edges = sorted({r["edge_dx"] for r in rows if r["problem"] == "torque"})
     mesh_edges = [find(rows, "mesh_edge_dx", problem="deformation", R=resolutions[0], Ca=0.05, edge_dx=e)
                   for e in edges]
     corrections = sorted({r["c_dx"] for r in rows if r["problem"] == "deformation" and r["R/dx"] == resolutions[0]})
@@ -239,6 +244,10 @@ def diagnosis(rows: list[dict], resolutions=(4.0, 6.0, 8.0)) -> list[dict]:
         {"source": "hydrodynamic radius, peskin4: (R_h - R)/dx torque / stresslet",
          "measured": each("(R_h-R)/dx torque", "torque", kernel="peskin4") + "  |  "
          + each("(R_h-R)/dx stresslet", "torque", kernel="peskin4")},
+        *({"source": f"(R_h - R)/dx from torque at R/dx = {r:g}, mesh edges "
+                     f"{_join([find(rows, 'mesh_edge_dx', problem='torque', R=r, edge_dx=e) for e in torque_edges], '.3g')} dx",
+           "measured": _join([find(rows, "(R_h-R)/dx torque", problem="torque", R=r, edge_dx=e) for e in torque_edges])}
+          for r in resolutions[:2]),
         {"source": "stresslet excess S/S_Stokes - 1 (%), trilinear",
          "measured": each("S/S_Stokes", "torque", ".1f", lambda v: 100 * (v - 1))},
         {"source": "cell: D/Ca over 5/4 (%), Ca = 0.05, trilinear", "measured": each("D/Ca", "deformation", ".1f", excess, Ca=0.05)},
@@ -277,6 +286,8 @@ def write_page(rows: list[dict]) -> None:
     page.table(richardson(rows), "The cell's D/Ca extrapolated from R/dx = 6 and 8 (small-Ca limit 1.25)",
                formats={"Richardson (dx/R)^2": ".4f", "over 5/4 (%)": ".1f", "Richardson dx/R": ".4f",
                         "cost (pair / fine run)": ".2f", "D/Ca R/dx=6": ".4f", "D/Ca R/dx=8": ".4f"})
+    page.print("Wall times are of runs sharing 2 cores with other work (load average 10-18), one Numba thread "
+               "each: the cost ratio is indicative only.")
     formats = {"wall_s": ".0f", "T/T_Stokes": ".4f", "S/S_Stokes": ".4f", "F/F_Hasimoto": ".4f", "D/Ca": ".4g",
                "(R_h-R)/dx torque": ".3f", "(R_h-R)/dx stresslet": ".3f", "(R_h-R)/dx drag": ".3f",
                "net_force": ".1e", "markers_force/F": ".5f", "incl_deg": ".2f", "tt_freq": ".4f",
@@ -287,7 +298,8 @@ def write_page(rows: list[dict]) -> None:
                              ("deformation", "Homogeneous cell: D/Ca against 5/4 (small-Ca limit)")):
         chosen = sorted((r for r in rows if r["problem"] == problem), key=order)
         if chosen:
-            page.table(chosen, heading, columns=[c for c in chosen[0] if c != "problem"], formats=formats)
+            drop = {"problem"} if problem == "deformation" else {"problem", "Ca"}
+            page.table(chosen, heading, columns=[c for c in chosen[0] if c not in drop], formats=formats)
     page.write()
 
 

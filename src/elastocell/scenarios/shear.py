@@ -70,8 +70,10 @@ class ShearFlowParameters(FlowLatticeParameters):
     velocity_limit: upper limit of the wall speed |U| (dx/dt).
     kernel: immersed-boundary kernel ("trilinear", the paper's 2-point one, or "peskin4").
     hydrodynamic_radius_correction: c in dx: the markers lie on a sphere of radius R - c dx, so that the
-        body the fluid sees (larger than the marker surface by a constant of the kernel: 0.28-0.36 dx for
-        trilinear, 0.6-0.9 dx for peskin4, docs/validation/flow_accuracy.md) has radius R: it corrects the
+        body the fluid sees (larger than the marker surface by a constant of the kernel and the marker spacing:
+        0.28-0.36 dx for trilinear with edges of 2 dx at R/dx = 4-8, 0.36-0.49 dx with edges of 1.33 dx,
+        0.15-0.25 dx with edges of 2.4-3 dx, 0.6-0.9 dx for peskin4; docs/validation/flow_accuracy.md) has radius R: 0.3 puts the held sphere's
+        torque within 2 % of Stokes' at R/dx = 4-8. It corrects the
         cell's size in the flow (drag, torque, confinement), not D/Ca, which depends on the ratio of the
         hydrodynamic to the elastic radius (measured: D/Ca rises from 1.670 to 1.734 with c = 0.3 at R/dx = 4).
         Default 0: markers at R.
