@@ -93,6 +93,7 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
         cache_path,
         check_inputs,
         compute_indentation_surface,
+        depth_limit,
         shipped,
     )
 
@@ -107,7 +108,8 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
         surface.to_csv(out)
     if not quiet:
         error = surface.error / surface.force.clip(1e-300)
-        worst = float(np.nanmax(np.where(surface.depth >= 0.1 * surface.depth.max(), error, np.nan)))
+        past = surface.depth >= 0.1 * depth_limit(surface.indenter_ratio)
+        worst = float(np.nanmax(np.where(past, error, np.nan)))
         typer.echo(f"nu={poisson_ratio:g} {material} ({source}): R_b/R {surface.ratio_range[0]:g}..."
                    f"{surface.ratio_range[1]:g}; largest relative mesh error past a tenth of the depth range: "
                    f"{100 * worst:.2f} %" + (f" -> {out}" if out else ""))
