@@ -144,12 +144,13 @@ def test_thick_layer_tends_to_hertz_on_a_half_space():
 
 
 @pytest.mark.slow
-def test_cap_force_changes_little_under_refinement():
-    """A cap H = 0.6 R with a nucleus (gamma 2, radius 0.2 R) under a bead of 0.5 R to depth 0.3 R: the default
-    mesh against every size x 0.7. Measured: see the TOLERANCE comment."""
-    cell = cell_parameters(size_ratio=0.2)
-    curves = [indentation_curve(cell, "cap", 0.5, cap_height=0.6, depth_max=0.3, steps=3, mesh=mesh)
+def test_layer_force_changes_little_under_refinement():
+    """A layer 5 R_b thick under a bead to depth 0.3 R_b, 3 steps: the default mesh against every size x 0.7.
+    Measured F_default/F_fine - 1: +0.0021, -0.0031, -0.0028 at depth 0.1, 0.2, 0.3 R_b (1,772 and 2,752 nodes).
+    Tolerance: the 1 % target at depth >= 0.1."""
+    cell = cell_parameters(nucleus="none")
+    curves = [indentation_curve(cell, "layer", 1.0, layer_thickness=5.0, depth_max=0.3, steps=3, mesh=mesh)
               for mesh in (None, MeridianMeshParameters().scaled(0.7))]
     error = curves[0].force[1:] / curves[1].force[1:] - 1
     print("F_default/F_fine - 1", error)
-    assert np.all(np.abs(error) < TOLERANCE_REFINEMENT)
+    assert np.all(np.abs(error) < 0.01)
