@@ -20,7 +20,7 @@ FElupe's axisymmetric mode on the same problem.
 The 3D curves cost minutes each; they are kept in the cache directory (``elastocell.files.cache_directory``,
 ``validation-axisymmetric/``) under the hash of the resolved cell parameters and the load steps, so that a rerun
 takes them from there (``--fresh`` recomputes; ``--fill-cache`` computes the missing ones and writes no page, to
-run in the background).
+run in the background; ``--cached-only`` lists a curve not in the cache as not run).
 """
 
 from __future__ import annotations
@@ -50,6 +50,7 @@ from elastocell.scenarios.compression import (
 )
 
 DELTAS = np.array([0.1, 0.3, 0.5, 0.7])
+ERRORS = [f"err@{d:g}" for d in DELTAS]
 RATIOS = [1, 2, 5, 10, 20]
 STEPS = 40
 DELTA_MAX = 0.75
@@ -75,13 +76,16 @@ def _cache_path(cell, steps: int):
     return cache_directory() / "validation-axisymmetric" / f"3d-{key}.json"
 
 
-def three_d_curve(options: dict, fresh: bool = False, steps: int = STEPS) -> dict:
+def three_d_curve(options: dict, fresh: bool = False, steps: int = STEPS, cached_only: bool = False) -> dict | None:
     """The 3D curve of ``elastocell.compress``'s defaults for the cell of ``options`` (from the cache unless
-    ``fresh``): delta, force (E_c R^2), nodes, seconds, the delta reached and the error message if it stopped."""
+    ``fresh``; None when ``cached_only`` and not cached): delta, force (E_c R^2), nodes, seconds, the delta
+    reached and the error message if it stopped."""
     cell = compression_parameters_for(cell_parameters(**options))
     path = _cache_path(cell, steps)
     if path.exists() and not fresh:
         return json.loads(path.read_text())
+    if cached_only:
+        return None
     body = Cell.from_parameters(cell)
     start = time.perf_counter()
     try:
@@ -96,9 +100,10 @@ def three_d_curve(options: dict, fresh: bool = False, steps: int = STEPS) -> dic
     return record
 
 
-def axisymmetric_curve(options: dict, scale: float, fresh: bool = False, steps: int = STEPS) -> dict:
+def axisymmetric_curve(options: dict, scale: float, fresh: bool = False, steps: int = STEPS,
+                       cached_only: bool = False) -> dict | None:
     """The curve of ``compress_axisymmetric`` for the cell of ``options`` on the default meridian mesh with every
-    size times ``scale`` (cached as the 3D curves): delta, force, nodes, seconds, the stop message, and where it
+    size times ``scale`` (cached as the 3D curves; None when ``cached_only`` and not cached): delta, force, nodes, seconds, the stop message, and where it
     stopped the smallest J of the last converged row and the (r, z) of that point's element."""
     cell = cell_parameters(**options)
     mesh = MeridianMeshParameters().scaled(scale)
@@ -106,6 +111,8 @@ def axisymmetric_curve(options: dict, scale: float, fresh: bool = False, steps: 
     path = cache_directory() / "validation-axisymmetric" / f"axi-{key}.json"
     if path.exists() and not fresh:
         return json.loads(path.read_text())
+    if cached_only:
+        return None
     body = AxisymmetricCell.from_parameters(cell, mesh)
     start = time.perf_counter()
     try:
@@ -161,6 +168,7 @@ def main() -> None:
     parser.add_argument("--ratios", nargs="+", type=float, default=RATIOS)
     parser.add_argument("--fill-cache", action="store_true", help="compute the missing 3D curves, no page")
     parser.add_argument("--fresh", action="store_true", help="recompute every curve")
+    parser.add_argument("--cached-only", action="store_true", help="list a curve not in the cache as not run")
     parser.add_argument("--scales", nargs="+", type=float, default=[2.0, 1.0],
                         help="meridian mesh scales, coarsest first (the last is the truth)")
     args = parser.parse_args()
@@ -181,10 +189,14 @@ def main() -> None:
     if "refinement" in args.only or "three-d" in args.only or "budget" in args.only:
         rows = []
         for ratio in args.ratios:
-            curves = [axisymmetric_curve(cell_options(ratio), scale, args.fresh) for scale in args.scales]
-            finest = curves[-1]
-            truth[ratio] = at_deltas(finest)
-            for curve in curves:
+            curves = [axisymmetric_curve(cell_options(ratio), scale, args.fresh, cached_only=args.cached_only)
+                      for scale in args.scales]
+            finest = next((curve for curve in curves[::-1] if curve is not None), None)
+            truth[ratio] = at_deltas(finest) if finest is not None else np.full(len(DELTAS), np.nan)
+            for scale, curve in zip(args.scales, curves, strict=True):
+                if curve is None:
+                    rows.append({"gamma": ratio, "scale": scale, "nodes": "not run"})
+                    continue
                 errors = at_deltas(curve) / truth[ratio] - 1
                 weakest = curve.get("weakest_point")
                 rows.append({"gamma": ratio, "scale": curve["scale"], "nodes": curve["nodes"],
@@ -194,45 +206,47 @@ def main() -> None:
                                       f"({weakest['region']})") if weakest else ""})
         page.table(rows, "Axisymmetric refinement: every meridian size times scale, against the finest (stop: "
                    "the smallest J of the last converged row and where)",
+                   columns=["gamma", "scale", "nodes", "time_s", "delta_reached", *ERRORS, "stop"],
                    formats={"time_s": ".0f", "delta_reached": ".3f", **{f"err@{d:g}": "+.3%" for d in DELTAS}})
     if "three-d" in args.only:
         rows = []
         for ratio in args.ratios:
-            record = three_d_curve(cell_options(ratio), args.fresh)
+            record = three_d_curve(cell_options(ratio), args.fresh, cached_only=args.cached_only)
+            if record is None:
+                rows.append({"gamma": ratio, "nodes": "not run"})
+                continue
             errors = at_deltas(record) / truth[ratio] - 1
             rows.append({"gamma": ratio, "nodes": record["nodes"], "degree": record["quadrature_degree"] or 2,
                          "time_s": record["seconds"], "delta_reached": record["delta"][-1],
                          **{f"err@{d:g}": e for d, e in zip(DELTAS, errors, strict=True)}})
         page.table(rows, "3D defaults (`elastocell.compress`) against the axisymmetric truth (nan: the truth "
-                   "stopped before this delta)",
+                   "stopped before this delta)", columns=["gamma", "nodes", "degree", "time_s", "delta_reached", *ERRORS],
                    formats={"time_s": ".0f", "delta_reached": ".3f", **{f"err@{d:g}": "+.2%" for d in DELTAS}})
     if "budget" in args.only:
         rows = []
         for ratio in [r for r in BUDGET_RATIOS if r in args.ratios]:
             for label, changes, truth_changes in BUDGET:
                 options = cell_options(ratio, **changes)
-                record = three_d_curve(options, args.fresh) if args.fresh or _cached(options) else None
+                record = three_d_curve(options, args.fresh, cached_only=not args.fresh)
                 if record is None:
                     rows.append({"gamma": ratio, "variation": label, "nodes": "not run"})
                     continue
+                changed = (axisymmetric_curve(cell_options(ratio, **truth_changes), args.scales[-1], args.fresh,
+                                              cached_only=args.cached_only) if truth_changes else None)
                 reference = (truth[ratio] if not truth_changes else
-                             at_deltas(axisymmetric_curve(cell_options(ratio, **truth_changes), args.scales[-1],
-                                                          args.fresh)))
+                             at_deltas(changed) if changed is not None else np.full(len(DELTAS), np.nan))
                 errors = at_deltas(record) / reference - 1
                 rows.append({"gamma": ratio, "variation": label, "nodes": record["nodes"],
                              "time_s": record["seconds"], "delta_reached": record["delta"][-1],
                              **{f"err@{d:g}": e for d, e in zip(DELTAS, errors, strict=True)}})
         page.table(rows, "Error budget of the 3D default, one factor changed at a time (the Poisson ratio also "
-                   "in the truth)",
+                   "in the truth)", columns=["gamma", "variation", "nodes", "time_s", "delta_reached", *ERRORS],
                    formats={"time_s": ".0f", "delta_reached": ".3f", **{f"err@{d:g}": "+.2%" for d in DELTAS}})
     if "peer" in args.only:
         page.print("FElupe's axisymmetric mode: not run by this script (no frictionless rigid-plate contact set up "
                    "for FElupe's axisymmetric fields yet).")
     page.write()
 
-
-def _cached(options: dict) -> bool:
-    return _cache_path(compression_parameters_for(cell_parameters(**options)), STEPS).exists()
 
 
 if __name__ == "__main__":
