@@ -185,6 +185,10 @@ def main() -> None:
         "finest meridian mesh of this run; every error is F/F_truth - 1 at the same delta, F interpolated in "
         "log-log between rows. Times are of a shared 2-core machine under load (see the footer), not of the "
         "solvers alone."))
+    if not args.fresh:
+        page.print("Curves found in the cache were computed by earlier runs of this script (--fill-cache) on this "
+                   "machine: time_s is the wall time of the run that computed each, on a machine shared with other "
+                   "jobs, so it is not a cost of the solver alone; this run's wall time and load are in the footer.")
     truth = {}
     if "refinement" in args.only or "three-d" in args.only or "budget" in args.only:
         rows = []
