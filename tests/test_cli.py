@@ -179,6 +179,10 @@ EXPECTED_OPTIONS = {
                  '--tank-treading-frequency=None --tank-treading-frequency-error=0 --shear-rate=None --radius=None '
                  '--table=None --poisson-ratio=0.48 --material=neo-hookean --confidence=0.95 --out=fits '
                  '--quiet=False',
+    'indent': '--out! --indenter-radius! --cell-shape=sphere --cap-height=None --layer-thickness=None '
+              '--depth-max=0.3 --steps=20 --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 '
+              '--offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 '
+              '--poisson-ratio=0.48 --youngs-modulus=1 --radius=1 --material=neo-hookean --quiet=False --json=False',
     'lut': '--channel-radius=None --channel-width=None --flow-rate! --viscosity! --out! --radii=None --moduli=None '
            '--quick=False --poisson-ratio=0.48 --material=neo-hookean --resolution=None --duration=None '
            '--stationary-tolerance=None --identifier=None --scheduler=None --workers=None --quiet=False',
@@ -302,6 +306,13 @@ QUANTITY_OPTIONS = [
                      "--tank-treading-frequency-error", "--shear-rate", "--radius")],
     *[("lut", option, [*LUT, "--out", "{out}/lut.txt"])
       for option in ("--channel-radius", "--flow-rate", "--viscosity", "--radii", "--moduli")],
+    *[("fit afm", option, ["fit", "afm", "{out}/curve.csv", "--radius", "8um", "--geometry", "sphere-indenter",
+                           "--indenter-radius", "5um"])
+      for option in ("--indenter-radius", "--cap-height", "--layer-thickness")],
+    *[("indent", option, ["indent", "--out", "{out}", "--indenter-radius", "0.5"])
+      for option in ("--indenter-radius", "--radius", "--youngs-modulus", "--cap-height", "--layer-thickness")],
+    *[("pipe", option, ["pipe", "--out", "{out}", "--radius", "8um", "--youngs-modulus", "1kPa"])
+      for option in ("--channel-width", "--channel-height")],
     ("lut", "--channel-width", ["lut", "--flow-rate", "0.04uL/s", "--viscosity", "15mPa*s", "--quick", "--out",
                                 "{out}/lut.txt"]),
 ]
@@ -337,7 +348,8 @@ def parse_timer(monkeypatch):
 def test_a_hostile_quantity_is_one_line_exit_2_naming_the_option(tmp_path, parse_timer, command, option, arguments,
                                                                   text):
     if text == "wrong dimension":  # 1kPa where a length is expected, 8um anywhere else
-        length = option in ("--radius", "--contact-point", "--channel-radius", "--channel-width", "--radii")
+        length = option in ("--radius", "--contact-point", "--channel-radius", "--channel-width", "--radii",
+                            "--indenter-radius", "--cap-height", "--layer-thickness", "--channel-height")
         text = "1kPa" if length else "8um"
     out = tmp_path / "x"
     result = runner.invoke(app, [a.replace("{out}", str(out)) for a in arguments] + [option, text])

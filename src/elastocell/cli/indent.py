@@ -10,10 +10,13 @@ import typer
 from elastocell.cli.common import user_errors
 from elastocell.cli.options import CELL, opt, plain, takes
 
+# the meridian mesh of the axisymmetric solver is its own: the 3D mesh and element options are not offered
+INDENT_CELL = CELL.but(without=("mesh_size", "pole_size", "interface_size", "element", "quadrature_degree"))
+
 
 @user_errors
 @takes("out", "indenter_radius", "cell_shape", "cap_height", "layer_thickness", "depth_max",
-       opt("steps", default=20, help="Load steps (output rows after depth = 0)."), CELL, "quiet", "as_json")
+       opt("steps", default=20, help="Load steps (output rows after depth = 0)."), INDENT_CELL, "quiet", "as_json")
 def indent(out: Path, indenter_radius: str, cell_shape: str, cap_height: str | None, layer_thickness: str | None,
            depth_max: float, steps: int, cell: dict, quiet: bool, as_json: bool):
     """A rigid frictionless sphere of radius --indenter-radius pressed quasistatically into a cell on a rigid dish
