@@ -57,6 +57,7 @@ from elastocell.inverse.mastercurve import (
     write_cached_curve,
 )
 from elastocell.parameters.units import ParameterError
+from elastocell.simulation.extrapolation import CONVERGENCE_ORDER, richardson
 from elastocell.simulation.runner import resume_or_restart
 from elastocell.version import __version__
 
@@ -64,7 +65,6 @@ SHIPPED_POISSON_RATIOS = (0.48,)
 CAPILLARY_NUMBERS = (0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4)
 RESOLUTIONS = (6.0, 8.0)  # R/dx: coarse, default (the default is ShearFlowParameters.resolution)
 DURATION = 4.0  # strain; stationary means over the second half
-CONVERGENCE_ORDER = 2.0  # D/Ca - 5/4 ~ (dx/R)^2, README / scenarios.shear.ShearFlowParameters
 SMALL_CA_DEFORMATION_SLOPE = 1.25  # D -> (5/4) Ca (Taylor/Roscoe, neo-Hookean sphere, Stokes flow)
 SMALL_CA_INCLINATION_DEG = 45.0
 SMALL_CA_TANK_TREADING = 0.5
@@ -81,12 +81,6 @@ def check_inputs(poisson_ratio: float, material: str) -> None:
         raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {poisson_ratio}")
     if material not in ("neo-hookean", "mooney-rivlin"):
         raise ParameterError("material", f"must be neo-hookean or mooney-rivlin, got {material!r}")
-
-
-def richardson(fine, coarse, ratio: float, order: float = CONVERGENCE_ORDER):
-    """Richardson extrapolation of ``fine`` (spacing h) and ``coarse`` (spacing ratio * h) to h -> 0."""
-    fine, coarse = np.asarray(fine, float), np.asarray(coarse, float)
-    return fine + (fine - coarse) / (ratio**order - 1.0)
 
 
 @dataclass
