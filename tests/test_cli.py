@@ -161,12 +161,12 @@ def test_folded_elements_and_collapsed_volume_are_warned_in_one_line_each(capsys
 EXPECTED_OPTIONS = {
     'bench lattice': '--size=128 --dtype=float32 --no-cell=False --threads=None --backend=numba --json=False',
     'compress': '--out! --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 --offset-axis=x '
-                '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 --mesh-size=None --pole-size=None '
+                '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None --mesh-size=None --pole-size=None '
                 '--interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 --material=neo-hookean '
                 '--element=p2 --quadrature-degree=None --delta-max=0.75 --steps=40 --equivalent=False '
                 '--compare=False --axisymmetric=False --resume=False --quiet=False',
     'equivalent': '--nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 --offset-axis=x '
-                  '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 --mesh-size=None '
+                  '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None --mesh-size=None '
                   '--pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 '
                   '--material=neo-hookean --element=p2 --json=False',
     'fit afm': 'files! --radius! --geometry=parallel-plates --cell-shape=sphere --indenter-radius=None '
@@ -181,7 +181,7 @@ EXPECTED_OPTIONS = {
                  '--quiet=False',
     'indent': '--out! --indenter-radius! --cell-shape=sphere --cap-height=None --layer-thickness=None '
               '--depth-max=0.3 --steps=20 --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 '
-              '--offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 '
+              '--offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None '
               '--poisson-ratio=0.48 --youngs-modulus=1 --radius=1 --material=neo-hookean --quiet=False --json=False',
     'lut': '--channel-radius=None --channel-width=None --flow-rate! --viscosity! --out! --radii=None --moduli=None '
            '--quick=False --poisson-ratio=0.48 --material=neo-hookean --resolution=None --duration=None '
@@ -192,19 +192,20 @@ EXPECTED_OPTIONS = {
     'mastercurve indentation': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False '
                                '--quiet=False --workers=1',
     'pipe': '--out! --capillary-number-wall=None --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 '
-            '--offset=0.0 --offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 '
+            '--offset=0.0 --offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None '
             '--mesh-size=None --pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 '
             '--radius=1 --material=neo-hookean --element=p1 --equivalent=False --channel-radius-ratio=2.0 '
-            '--start-offset=0.0 --resolution=8.0 --channel-shape=None --channel-width=None --channel-height=None '
+            '--start-offset=0.0 --resolution=8.0 --extrapolate=True --coarse-resolution=None --channel-shape=None --channel-width=None --channel-height=None '
             '--channel-aspect-ratio=None --medium=newtonian --temperature=None --flow-index=None '
             '--duration=10.0 --pressure-gradient=None --wall-clock=None '
             '--stationary-tolerance=None --stationary-observable=strain_axial --record-interval=0.1 '
             '--checkpoint-every=20 --vtk-interval=1.0 --resume=False --backend=numba --quiet=False',
     'reproduce': '--quick=False --scheduler=None --workers=None --out! --quiet=False',
     'shear': '--out! --capillary-number=None --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 '
-             '--offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=0 --mesh-size=None '
+             '--offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None --mesh-size=None '
              '--pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 '
-             '--material=neo-hookean --element=p1 --equivalent=False --resolution=8.0 --duration=6.0 '
+             '--material=neo-hookean --element=p1 --equivalent=False --resolution=8.0 '
+             '--extrapolate=True --coarse-resolution=None --duration=6.0 '
              '--confinement=0.2 --viscosity=None --shear-rate=None --wall-clock=None --stationary-tolerance=None '
              '--record-interval=0.05 --checkpoint-every=20 --vtk-interval=1.0 --resume=False --backend=numba '
              '--quiet=False',

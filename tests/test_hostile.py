@@ -41,6 +41,7 @@ CASES = [
     # options that nothing would read, given away from their defaults
     (["compress", "--seed", "3"], "--seed"),
     (["equivalent", "--seed", "3"], "--seed"),
+    (["compress", "--seed", "0"], "--seed"),  # given, even at the default value, it is read by nothing
     (["compress", "--nucleus", "none", "--interface-size", "0.05"], "--interface-size"),
     (["compress", "--random", "--interface-size", "0.05"], "--interface-size"),
     (["shear", "--capillary-number", "0.1", "--nucleus", "none", "--interface-size", "0.05", *FLOW],
@@ -122,6 +123,7 @@ def test_options_at_their_defaults_or_read_are_not_refused():
     from elastocell.simulation.runner import StopCriteria
 
     assert cell_parameters(random=True, seed=3).random.seed == 3
+    assert cell_parameters(random=True).random.seed == 0
     assert cell_parameters(nucleus="sphere", interface_size=0.05).mesh.interface_size == 0.05
     assert cell_parameters(nucleus="none", mesh_size=0.4, interface_size=0.4).nucleus.shape == "none"
     assert flow_cell(None, {"nucleus": "none"}, 6.0).nucleus.shape == "none"

@@ -128,7 +128,7 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
        "sensitivity", opt("poisson_ratio", help="nu (shipped: 0.45, 0.48, 0.49)."),
        opt("material", help="Master curve's law."),
        "model", opt("delta_max", help="Fit the data up to this delta = 1 - h/(2R) (<= 0.75)."), "contact_point",
-       "bootstrap", opt("seed", help="Seed of the bootstrap."), "nucleus_size_ratio",
+       "bootstrap", opt("seed", annotation=int, default=0, help="Seed of the bootstrap."), "nucleus_size_ratio",
        opt("stiffness_ratio", annotation=float | None, default=None, help="gamma = E_n/E_c.",
            shown="none: homogeneous"),
        "baseline_fraction", "threshold", "baseline_tilt", opt("out", default=Path("fits")), "no_plots",

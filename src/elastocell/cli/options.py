@@ -179,7 +179,7 @@ OPTIONS: dict[str, Opt] = _declare(
         "Ellipsoid semi-axes A B C; A along --nucleus-axis.", units="R"),
     Opt("nucleus_axis", AxisName, AxisName.x, "Direction of the ellipsoid's first semi-axis."),
     Opt("random", bool, False, "Random cell: gamma_i ~ U[1, 10] per tetrahedron.", shown="off"),
-    Opt("seed", int, 0, "Seed of the random cell."),
+    Opt("seed", int | None, None, "Seed of the random cell (needs --random).", shown="0"),
     Opt("mesh_size", float | None, None, "Element size far from the poles.", units="R",
         shown=f"{_P2['mesh_size']:g} for p2, {_P1['mesh_size']:g} for p1"),
     Opt("pole_size", float | None, None, "Element size at the plate contacts.", units="R",

@@ -306,7 +306,7 @@ def cell_parameters(
     semi_axes: tuple[float, float, float] = (0.8, 0.4, 0.4),
     nucleus_axis: str = "x",
     random: bool = False,
-    seed: int = 0,
+    seed: int | None = None,
     mesh_size: float | None = None,
     pole_size: float | None = None,
     interface_size: float | None = None,
@@ -346,7 +346,7 @@ def cell_parameters(
             shape=nucleus, stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, offset=offset,
             offset_axis=offset_axis, semi_axes=tuple(semi_axes), nucleus_axis=nucleus_axis,
         ),
-        random=RandomParameters(seed=seed) if random else None,
+        random=RandomParameters(seed=0 if seed is None else seed) if random else None,
         material=MaterialParameters(law=material, poisson_ratio=poisson_ratio),
         mesh=mesh,
         radius=radius_value,
@@ -387,13 +387,14 @@ def _refuse_conflicts(nucleus: str, random: bool, options: dict) -> None:
         raise ParameterError("offset_axis", "needs an offset (--offset > 0) to apply")
 
 
-def _refuse_unread(nucleus: str, random: bool, seed: int, mesh_size: float | None,
+def _refuse_unread(nucleus: str, random: bool, seed: int | None, mesh_size: float | None,
                    interface_size: float | None) -> None:
     """Cell options that nothing would read, given away from their defaults, are refused in one line: ``seed``
-    without ``random``, and ``interface_size`` (the element size on the nucleus surface) of a cell without a
+    (any value, 0 included; None stands for the default seed 0) without ``random``, and ``interface_size`` (the
+    element size on the nucleus surface) of a cell without a
     nucleus (``nucleus="none"`` or ``random``). An interface size equal to ``mesh_size`` refines nothing and is
     accepted (the flow scenarios' uniform mesh sets it so)."""
-    if seed != 0 and not random:
+    if seed is not None and not random:
         raise ParameterError("seed", "applies only to the random cell; add --random (random=True) or drop it")
     if (interface_size is not None and (nucleus == "none" or random)
             and (mesh_size is None or interface_size != mesh_size)):
