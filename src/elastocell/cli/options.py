@@ -208,6 +208,12 @@ OPTIONS: dict[str, Opt] = _declare(
     Opt("capillary_number", float | None, None, "Ca = eta*shear_rate/mu_c (mu_eff with --equivalent).",
         units=_DIMENSIONLESS, shown="required, or --viscosity with --shear-rate"),
     Opt("resolution", float, 8.0, "R/dx, lattice nodes per cell radius.", units="lattice nodes per R"),
+    Opt("extrapolate", bool, True, "Also run --coarse-resolution (in DIR/resolution-<R/dx>/, beside "
+        "DIR/resolution-<--resolution>/) and report the stationary values Richardson-extrapolated to dx -> 0 "
+        "(order 2), with both resolutions' values and the size of the correction.",
+        flag="--extrapolate/--no-extrapolate"),
+    Opt("coarse_resolution", float | None, None, "R/dx of the cheaper run of --extrapolate; below --resolution.",
+        units="lattice nodes per R", shown="6, when --resolution is above 6 (else no extrapolation)"),
     Opt("duration", float, 6.0, "Run length.", units="strain, shear_rate*t"),
     Opt("confinement", float, 0.2, "2R/H, cell diameter over the wall distance.", units=_DIMENSIONLESS),
     Opt("viscosity", str | None, None, "eta of the medium, with --shear-rate and a physical --youngs-modulus "
