@@ -1,5 +1,7 @@
 """``elastocell.pipe``, the API behind ``elastocell pipe``: writes ``timeseries.csv``, ``summary.json``, a plot
-and VTK files to a directory, and resumes from its checkpoint.
+and VTK files to a directory, and resumes from its checkpoint. By default a run at R/dx above 6 is two runs, at
+R/dx 6 and at the resolution, whose stationary values are Richardson-extrapolated
+(``elastocell.simulation.extrapolation``).
 """
 
 from __future__ import annotations
@@ -15,8 +17,14 @@ from elastocell.parameters.flow import flow_cell
 from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.pipe import STATIONARY_OBSERVABLES, PipeFlowParameters, PipeRun, plot_pipe
 from elastocell.simulation.directory import interruptible, output_directory
+from elastocell.simulation.extrapolation import coarse_resolution_of, run_extrapolated
 from elastocell.simulation.output import directory_summary, run_in_directory, warn_if_not_stationary
 from elastocell.simulation.runner import StopCriteria, check_run_cost
+
+EXTRAPOLATED = ("strain_axial_mean", "strain_radial_mean", "strain_transverse_mean", "deformation_mean",
+                "projected_area_mean", "axial_velocity_mean")
+"""The stationary shape and velocity an extrapolated run reports extrapolated (the others, the radial migration
+among them, are the finer run's)."""
 
 
 def pipe(
@@ -43,6 +51,8 @@ def pipe(
     vtk_interval: float | None = 1.0,
     flow_options: dict | None = None,
     capillary_number_modulus: str = "reference",
+    extrapolate: bool = True,
+    coarse_resolution: float | None = None,
     **cell_options,
 ) -> dict:
     """A cell in a capillary; writes ``out/timeseries.csv``, ``summary.json``, ``pipe.png``, ``vtk/`` and
@@ -60,6 +70,12 @@ def pipe(
     capillary_number_modulus: "reference" (Ca_w against the simulated cell's mu: mu_eff with ``equivalent``)
     or "mu_c" (against the described cell's mu_c; with ``equivalent`` the run uses Ca_w / gamma_eff, i.e. the
     same pressure gradient G as the heterogeneous cell, as the paper compares them).
+    extrapolate, coarse_resolution: run R/dx ``coarse_resolution`` (default 6, only when the resolution is above
+    it) too, in ``out/resolution-<R/dx>/`` beside ``out/resolution-<resolution>/`` (each resumable, each with
+    its own time series, checkpoint and VTK files), and report the stationary strains, deformation, projected
+    area and axial velocity (:data:`EXTRAPOLATED`) extrapolated to dx -> 0 with order 2
+    (``summary["extrapolation"]``; the top-level time series and plot are the finer run's). Without cell= the
+    mesh (edges 2 dx) follows each resolution.
     """
 
     flow_options = dict(flow_options or {})
@@ -70,6 +86,30 @@ def pipe(
         if value is not None:
             flow_options[name] = value
     params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)
+    coarse = coarse_resolution_of(extrapolate, params.resolution, coarse_resolution)
+    arguments = (capillary_number_wall, cell, equivalent, duration, resume, progress, wall_clock, stationary_tolerance,
+                 stationary_observable, record_interval, checkpoint_every, vtk_interval, capillary_number_modulus,
+                 cell_options)
+    if coarse is None:
+        return _single(out, params, *arguments)[0]
+
+    def run_part(directory, r, label):
+        return _single(directory, PipeFlowParameters(**{**params.model_dump(), "resolution": r}), *arguments,
+                       part=label)
+
+    summary, fine, series = run_extrapolated(out, params.resolution, coarse, run_part, EXTRAPOLATED)
+    plot_pipe(Path(out) / "pipe.png", series, fine,
+              title=f"{summary['label']}, {params.channel_shape} channel, {params.medium}, Ca_w = "
+                    f"{summary['capillary_number_wall']:g}, R/dx = {params.resolution:g}; extrapolated "
+                    f"D = {summary['deformation_mean']:.4g}")
+    return summary
+
+
+def _single(out, params, capillary_number_wall, cell, equivalent, duration, resume, progress, wall_clock,
+            stationary_tolerance, stationary_observable, record_interval, checkpoint_every, vtk_interval,
+            capillary_number_modulus, cell_options, part: str = "") -> tuple[dict, dict]:
+    """One run at ``params.resolution`` in ``out`` (:func:`pipe`'s arguments; ``part`` labels its progress):
+    (its summary, its time series)."""
     if stationary_observable not in STATIONARY_OBSERVABLES:
         raise ParameterError("stationary_observable", f"must be one of {', '.join(STATIONARY_OBSERVABLES)}, "
                              f"got {stationary_observable!r}")
@@ -97,7 +137,7 @@ def pipe(
     check_run_cost(stop.duration * run.units.steps_per_time * float(np.prod(run.units.shape)))
     with output_directory(out) as out, interruptible():
         resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
-                                        description=f"pipe Ca_w={capillary_number_wall:g}",
+                                        description=f"pipe Ca_w={capillary_number_wall:g}{part}",
                                         checkpoint_every=checkpoint_every, vtk_interval=vtk_interval)
         label = "homogeneous equivalent" if equivalent else describe_cell(cell)
         summary = {"scenario": "pipe", "label": label}
@@ -112,4 +152,4 @@ def pipe(
                         f"r0/R_ch = {params.start_offset:g}, R/dx = {params.resolution:g}")
         if vtk is not None:
             vtk.close(run)
-    return summary
+    return summary, run.arrays()

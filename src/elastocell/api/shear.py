@@ -1,6 +1,7 @@
 """``elastocell.shear``, the API behind ``elastocell shear``: writes ``timeseries.csv``, ``summary.json``,
 ``taylor_deformation.png`` and VTK files (cell snapshots and the mid-plane fluid velocity) to a directory,
-and resumes from its checkpoint.
+and resumes from its checkpoint. By default a run at R/dx above 6 is two runs, at R/dx 6 and at the resolution,
+whose stationary values are Richardson-extrapolated (``elastocell.simulation.extrapolation``).
 """
 
 from __future__ import annotations
@@ -20,8 +21,12 @@ from elastocell.scenarios.shear import (
     plot_taylor_deformation,
 )
 from elastocell.simulation.directory import interruptible, output_directory
+from elastocell.simulation.extrapolation import coarse_resolution_of, run_extrapolated
 from elastocell.simulation.output import directory_summary, run_in_directory, warn_if_not_stationary
 from elastocell.simulation.runner import StopCriteria, check_run_cost
+
+EXTRAPOLATED = ("taylor_deformation_mean", "inclination_deg_mean", "tank_treading_frequency")
+"""The stationary values an extrapolated run reports extrapolated (the others are the finer run's)."""
 
 
 # =========================================================================== API
@@ -41,6 +46,8 @@ def shear(
     vtk_interval: float | None = 1.0,
     flow_options: dict | None = None,
     capillary_number_modulus: str = "reference",
+    extrapolate: bool = True,
+    coarse_resolution: float | None = None,
     **cell_options,
 ) -> dict:
     """A cell in plane Couette flow; writes ``out/timeseries.csv``, ``summary.json``,
@@ -55,12 +62,41 @@ def shear(
     ``equivalent`` the run then uses Ca_eff = Ca / gamma_eff, the same physical shear rate).
     resolution: R/dx (default 8). duration: strain shear_rate * t. resume: continue from
     ``out/checkpoint.npz`` (same options) if it exists. flow_options: further :class:`ShearFlowParameters`.
+    extrapolate, coarse_resolution: run R/dx ``coarse_resolution`` (default 6, only when the resolution is above
+    it) too, in ``out/resolution-<R/dx>/`` beside ``out/resolution-<resolution>/`` (each resumable, each with
+    its own time series, checkpoint and VTK files), and report D, the inclination and the tank-treading
+    frequency extrapolated to dx -> 0 with order 2 (``summary["extrapolation"]``; the top-level time series and
+    plot are the finer run's). Without cell= the mesh (edges 2 dx) follows each resolution.
     """
 
     flow_options = dict(flow_options or {})
     if resolution is not None:
         flow_options["resolution"] = resolution
     params = ShearFlowParameters(capillary_number=capillary_number, **flow_options)
+    coarse = coarse_resolution_of(extrapolate, params.resolution, coarse_resolution)
+    if coarse is None:
+        return _single(out, capillary_number, cell, equivalent, params, duration, resume, progress, wall_clock,
+                       stationary_tolerance, record_interval, checkpoint_every, vtk_interval,
+                       capillary_number_modulus, cell_options)[0]
+
+    def run_part(directory, r, label):
+        return _single(directory, capillary_number, cell, equivalent,
+                       ShearFlowParameters(**{**params.model_dump(), "resolution": r}), duration, resume, progress,
+                       wall_clock, stationary_tolerance, record_interval, checkpoint_every, vtk_interval,
+                       capillary_number_modulus, cell_options, label)
+
+    summary, fine, series = run_extrapolated(out, params.resolution, coarse, run_part, EXTRAPOLATED)
+    plot_taylor_deformation(Path(out) / "taylor_deformation.png", series, fine,
+                            title=f"{summary['label']}, Ca = {summary['capillary_number']:g}, R/dx = "
+                                  f"{params.resolution:g}; extrapolated D = {summary['taylor_deformation_mean']:.4g}")
+    return summary
+
+
+def _single(out, capillary_number, cell, equivalent, params, duration, resume, progress, wall_clock,
+            stationary_tolerance, record_interval, checkpoint_every, vtk_interval, capillary_number_modulus,
+            cell_options, part: str = "") -> tuple[dict, dict]:
+    """One run at ``params.resolution`` in ``out`` (:func:`shear`'s arguments; ``part`` labels its progress):
+    (its summary, its time series)."""
     stop = StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance)
     if vtk_interval is not None and not vtk_interval > 0:
         raise ParameterError("vtk_interval", f"must be > 0 (strain), got {vtk_interval}")
@@ -82,7 +118,7 @@ def shear(
     check_run_cost(stop.duration * run.units.steps_per_strain * float(np.prod(run.units.shape)))
     with output_directory(out) as out, interruptible():
         resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
-                                        description=f"shear Ca={capillary_number:g}", checkpoint_every=checkpoint_every,
+                                        description=f"shear Ca={capillary_number:g}{part}", checkpoint_every=checkpoint_every,
                                         vtk_interval=vtk_interval)
         label = "homogeneous equivalent" if equivalent else describe_cell(cell)
         summary = {"scenario": "shear", "label": label}
@@ -96,4 +132,4 @@ def shear(
                                 title=f"{label}, Ca = {capillary_number:g}, R/dx = {params.resolution:g}")
         if vtk is not None:
             vtk.close(run)
-    return summary
+    return summary, run.arrays()

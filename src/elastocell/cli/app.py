@@ -140,10 +140,11 @@ def compress(out: Path, cell: dict, delta_max: float, steps: int, equivalent: bo
 @user_errors
 @takes("out", "capillary_number", FLOW_CELL,
        opt("equivalent", help="Simulate the homogeneous equivalent (Ca with mu_eff)."),
-       "resolution", "duration", "confinement", "viscosity", "shear_rate", "wall_clock", "stationary_tolerance",
-       "record_interval", "checkpoint_every", "vtk_interval", "resume", "backend", "quiet")
+       "resolution", "extrapolate", "coarse_resolution", "duration", "confinement", "viscosity", "shear_rate",
+       "wall_clock", "stationary_tolerance", "record_interval", "checkpoint_every", "vtk_interval", "resume", "backend",
+       "quiet")
 def shear(out: Path, capillary_number: float | None, cell: dict, equivalent: bool, resolution: float,
-          duration: float, confinement: float, viscosity: str | None, shear_rate: str | None,
+          extrapolate: bool, coarse_resolution: float | None, duration: float, confinement: float, viscosity: str | None, shear_rate: str | None,
           wall_clock: float | None, stationary_tolerance: float | None, record_interval: float,
           checkpoint_every: int, vtk_interval: float, resume: bool, backend, quiet: bool):
     """A cell in plane Couette (shear) flow: lattice Boltzmann fluid + immersed boundary."""
@@ -159,7 +160,11 @@ def shear(out: Path, capillary_number: float | None, cell: dict, equivalent: boo
     from elastocell.simulation.runner import (
         StopCriteria,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
+    from elastocell.simulation.extrapolation import (
+        coarse_resolution_of,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+    )
 
+    cell_options = {name: plain(value) for name, value in cell.items()}  # the mesh follows each resolution run
     cell = _cell(_uniform_flow_mesh(cell, resolution))
     if (viscosity is None) != (shear_rate is None):
         raise ParameterError("viscosity", "give both --viscosity and --shear-rate, or neither")
@@ -176,12 +181,14 @@ def shear(out: Path, capillary_number: float | None, cell: dict, equivalent: boo
     flow_options = {"confinement": confinement, "backend": backend.value}
     ShearFlowParameters(capillary_number=capillary_number, resolution=resolution, **flow_options)  # validate early
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance)
+    coarse_resolution_of(extrapolate, resolution, coarse_resolution)
     try:
-        summary = run(out, capillary_number, cell=cell, equivalent=equivalent, resolution=resolution,
-                      duration=duration, resume=resume, progress=not quiet,
+        summary = run(out, capillary_number, equivalent=equivalent, resolution=resolution, extrapolate=extrapolate,
+                      coarse_resolution=coarse_resolution, duration=duration, resume=resume, progress=not quiet,
                       wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                       record_interval=record_interval, checkpoint_every=checkpoint_every, vtk_interval=vtk_interval,
-                      flow_options=flow_options, capillary_number_modulus="mu_c" if viscosity is not None else "reference")
+                      flow_options=flow_options, capillary_number_modulus="mu_c" if viscosity is not None else "reference",
+                      **cell_options)
     except FlowError as error:
         typer.echo(f"elastocell: shear flow failed: {error}", err=True)
         raise typer.Exit(code=1) from None
@@ -190,6 +197,22 @@ def shear(out: Path, capillary_number: float | None, cell: dict, equivalent: boo
                    f"+- {summary['taylor_deformation_std']:.1e}, inclination {summary['inclination_deg_mean']:.1f} deg, "
                    f"tank treading {summary['tank_treading_frequency']:.3f} shear_rate, strain "
                    f"{summary['duration_strain']:.2f} in {summary['wall_time_s']:.1f} s -> {out}")
+        _echo_extrapolation(summary, ("taylor_deformation_mean", "D"), ("inclination_deg_mean", "inclination"),
+                            ("tank_treading_frequency", "tank treading"))
+
+
+def _echo_extrapolation(summary: dict, *names: tuple[str, str]) -> None:
+    """The lines of an extrapolated flow run: each value at both resolutions and the size of the correction."""
+    extrapolation = summary.get("extrapolation")
+    if not extrapolation:
+        return
+    fine, coarse = extrapolation["fine_resolution"], extrapolation["coarse_resolution"]
+    typer.echo(f"extrapolated (Richardson, order {extrapolation['order']:g}) from R/dx = {fine:g} and {coarse:g}; "
+               "uncertainty: the size of the correction, an estimate, not a bound")
+    for name, label in names:
+        value = extrapolation["values"][name]
+        typer.echo(f"  {label}: {value['value']:.4g} (R/dx {fine:g}: {value['fine']:.4g}, R/dx {coarse:g}: "
+                   f"{value['coarse']:.4g}, correction {value['correction']:.2g})")
 
 
 @app.command("equivalent")
@@ -213,7 +236,7 @@ def equivalent_command(cell: dict, as_json: bool):
 @user_errors
 @takes("out", "capillary_number_wall", FLOW_CELL,
        opt("equivalent", help="Simulate the homogeneous equivalent (Ca_w with mu_eff)."),
-       "channel_radius_ratio", "start_offset", "resolution", "channel_shape",
+       "channel_radius_ratio", "start_offset", "resolution", "extrapolate", "coarse_resolution", "channel_shape",
        opt("channel_width", help="Width W of a square or rectangular channel, with a physical --radius: sets "
            "--channel-radius-ratio to W/(2R)."), "channel_height", "channel_aspect_ratio", "medium", "temperature",
        "flow_index",
@@ -227,7 +250,7 @@ def equivalent_command(cell: dict, as_json: bool):
        opt("vtk_interval", help="Time between VTK snapshots.", units="1/gdot_w"),
        "resume", "backend", "quiet")
 def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent: bool, channel_radius_ratio: float,
-         start_offset: float, resolution: float, channel_shape, channel_width: str | None, channel_height: str | None,
+         start_offset: float, resolution: float, extrapolate: bool, coarse_resolution: float | None, channel_shape, channel_width: str | None, channel_height: str | None,
          channel_aspect_ratio: float | None, medium: str, temperature: float | None, flow_index: float | None,
          duration: float, pressure_gradient: str | None,
          wall_clock: float | None, stationary_tolerance: float | None, stationary_observable, record_interval: float,
@@ -249,7 +272,11 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
     from elastocell.simulation.runner import (
         StopCriteria,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
+    from elastocell.simulation.extrapolation import (
+        coarse_resolution_of,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+    )
 
+    cell_options = {name: plain(value) for name, value in cell.items()}  # the mesh follows each resolution run
     cell = _cell(_uniform_flow_mesh(cell, resolution))
     shape, channel_radius_ratio, channel_aspect_ratio = _pipe_channel(cell, channel_shape, channel_width, channel_height,
                                                                       channel_aspect_ratio, channel_radius_ratio)
@@ -276,12 +303,14 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
     PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)  # validate early
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                  stationary_observable=stationary_observable.value, unit="units of 1/gdot_w")
+    coarse_resolution_of(extrapolate, resolution, coarse_resolution)
     try:
-        summary = run(out, capillary_number_wall, cell=cell, equivalent=equivalent, duration=duration, resume=resume,
+        summary = run(out, capillary_number_wall, equivalent=equivalent, extrapolate=extrapolate,
+                      coarse_resolution=coarse_resolution, duration=duration, resume=resume,
                       progress=not quiet, wall_clock=wall_clock,
                       stationary_tolerance=stationary_tolerance, stationary_observable=stationary_observable.value,
                       record_interval=record_interval, checkpoint_every=checkpoint_every, vtk_interval=vtk_interval,
-                      flow_options=flow_options)
+                      flow_options=flow_options, **cell_options)
     except FlowError as error:
         typer.echo(f"elastocell: pipe flow failed: {error}", err=True)
         raise typer.Exit(code=1) from None
@@ -291,6 +320,8 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
                    f"+- {summary['strain_radial_std']:.1e}, r/R_ch {summary['radial_position_initial']:.3f} -> "
                    f"{summary['radial_position']:.3f}, t = {summary['duration']:.2f}/gdot_w in "
                    f"{summary['wall_time_s']:.1f} s -> {out}")
+        _echo_extrapolation(summary, ("strain_axial_mean", "eps_x"), ("strain_radial_mean", "eps_r"),
+                            ("deformation_mean", "deformation"), ("projected_area_mean", "projected area"))
 
 
 def _pipe_channel(cell, shape, width: str | None, height: str | None, aspect: float | None,

@@ -196,7 +196,7 @@ def shipped_name(poisson_ratio: float, material: str = "neo-hookean") -> str:
 def _run_options(poisson_ratio: float, material: str, ca: float, resolution: float, duration: float) -> dict:
     """The ``elastocell.shear`` options of one run of the curve (:func:`_run_one` calls it with them)."""
     return {"capillary_number": float(ca), "resolution": float(resolution), "duration": float(duration),
-            "vtk_interval": None, "nucleus": "none", "poisson_ratio": float(poisson_ratio), "material": material}
+            "vtk_interval": None, "extrapolate": False, "nucleus": "none", "poisson_ratio": float(poisson_ratio), "material": material}
 
 
 def curve_parameters(poisson_ratio: float, material: str = "neo-hookean", capillary_numbers=CAPILLARY_NUMBERS,

@@ -9,11 +9,21 @@ X_H at the coarser spacing H = ratio * h combine to the h -> 0 estimate
 The size of the correction, ``|X - X_h|``, is the uncertainty estimate reported with it: the distance of the
 finer run from the extrapolation. It is an estimate, not a bound: it assumes the order-2 convergence holds for
 the value at hand (two resolutions cannot check the order).
+
+The flow runners (``elastocell.shear``, ``elastocell.pipe``) use it by default: :func:`coarse_resolution_of`
+decides whether a run is extrapolated, :func:`extrapolated_summary` merges the two runs' summaries.
 """
 
 from __future__ import annotations
 
+import math
+from pathlib import Path
+
 import numpy as np
+
+from elastocell.files import Stopwatch, write_json, write_table
+from elastocell.parameters.units import ParameterError
+from elastocell.simulation.directory import output_directory
 
 CONVERGENCE_ORDER = 2.0  # D/Ca - 5/4 ~ (dx/R)^2, docs/validation/flow_accuracy.md
 DEFAULT_COARSE_RESOLUTION = 6.0  # R/dx of the cheap second run; with the default 8 it costs ~0.25x the fine run
@@ -42,4 +52,89 @@ def extrapolate_values(fine: dict, coarse: dict, fine_resolution: float, coarse_
     return out
 
 
-__all__ = ["CONVERGENCE_ORDER", "DEFAULT_COARSE_RESOLUTION", "richardson", "extrapolate_values"]
+UNCERTAINTY = ("correction = |extrapolated - fine|, the distance of the finer run from the extrapolation: an estimate "
+               "assuming convergence of order 2 in dx/R (measured for the cell's deformation in shear flow), not a "
+               "bound")
+
+
+def coarse_resolution_of(extrapolate: bool, resolution: float, coarse_resolution: float | None) -> float | None:
+    """The coarse R/dx of a flow run, or None for a single-resolution run.
+
+    ``extrapolate`` off: None. A ``coarse_resolution`` given must be > 0 and below ``resolution`` (a
+    ParameterError naming it otherwise). Not given: :data:`DEFAULT_COARSE_RESOLUTION` when ``resolution`` is
+    above it; a run at R/dx <= 6 (a quick, coarse run) has no cheaper partner and runs at its one resolution."""
+    if not extrapolate:
+        return None
+    if coarse_resolution is None:
+        return DEFAULT_COARSE_RESOLUTION if resolution > DEFAULT_COARSE_RESOLUTION else None
+    coarse = float(coarse_resolution)
+    if not (math.isfinite(coarse) and coarse > 0):
+        raise ParameterError("coarse_resolution", f"must be > 0 (R/dx), got {coarse_resolution}")
+    if coarse >= resolution:
+        raise ParameterError("coarse_resolution", f"must be below the resolution {resolution:g} (R/dx), got "
+                                                  f"{coarse:g}; or run without extrapolation")
+    return coarse
+
+
+def part_directory(out, resolution: float):
+    """The sub-directory of one resolution of an extrapolated run: ``out/resolution-<R/dx>``."""
+    return Path(out) / f"resolution-{resolution:g}"
+
+
+def extrapolated_summary(fine: dict, coarse: dict, names: tuple[str, ...], fine_resolution: float,
+                         coarse_resolution: float, series: str, order: float = CONVERGENCE_ORDER) -> dict:
+    """The summary of an extrapolated run: the fine run's summary with the values ``names`` replaced by their
+    extrapolation, each beside ``<name>_rdx<R>`` of both resolutions and ``<name>_correction`` (the uncertainty
+    estimate, :data:`UNCERTAINTY`); ``stationary`` when both runs are; ``wall_time_s`` and
+    ``wall_time_cumulative_s`` summed over both; and ``extrapolation``: order, resolutions, the values and what
+    the time series is (``series``)."""
+    values = extrapolate_values({n: fine[n] for n in names if n in fine}, coarse, fine_resolution,
+                                coarse_resolution, order)
+    out = dict(fine)
+    for name, entry in values.items():
+        out[name] = entry["value"]
+        out[f"{name}_rdx{fine_resolution:g}"] = entry["fine"]
+        out[f"{name}_rdx{coarse_resolution:g}"] = entry["coarse"]
+        out[f"{name}_correction"] = entry["correction"]
+    if "stationary" in fine:
+        out["stationary"] = bool(fine["stationary"]) and bool(coarse.get("stationary", True))
+    for name in ("wall_time_s", "wall_time_cumulative_s"):
+        if name in fine and name in coarse:
+            out[name] = float(fine[name]) + float(coarse[name])
+    out["extrapolation"] = {
+        "method": f"Richardson, order {order:g} in dx/R", "order": float(order),
+        "fine_resolution": float(fine_resolution), "coarse_resolution": float(coarse_resolution),
+        "ratio": float(fine_resolution) / float(coarse_resolution),
+        "directories": [part_directory("", fine_resolution).name, part_directory("", coarse_resolution).name],
+        "values": values, "uncertainty": UNCERTAINTY, "timeseries": series,
+        "wall_time_s": {f"rdx{fine_resolution:g}": fine.get("wall_time_s"),
+                        f"rdx{coarse_resolution:g}": coarse.get("wall_time_s")},
+    }
+    return out
+
+
+def run_extrapolated(out, fine_resolution: float, coarse_resolution: float, run_part, names: tuple[str, ...],
+                     order: float = CONVERGENCE_ORDER) -> tuple[dict, dict, dict]:
+    """Both runs of an extrapolated flow run and its top-level outputs: ``run_part(directory, resolution,
+    label)`` makes (or resumes) one resolution's run in :func:`part_directory` and returns (its summary, its time
+    series); the finer run first, so that its cost is checked before anything is computed or written. Writes
+    ``out/summary.json`` (:func:`extrapolated_summary`, ``wall_time_s`` of the whole call) and
+    ``out/timeseries.csv`` (the finer run's). Returns (the summary, the finer run's summary and series)."""
+    clock = Stopwatch()
+    parts = {}  # each run holds its own directory's lock; nothing is written before the finer run's checks
+    for index, resolution in enumerate((fine_resolution, coarse_resolution)):
+        parts[resolution] = run_part(part_directory(out, resolution), resolution,
+                                     f" R/dx={resolution:g} ({index + 1}/2)")
+    fine, series = parts[fine_resolution]
+    with output_directory(out) as out:
+        summary = extrapolated_summary(fine, parts[coarse_resolution][0], names, fine_resolution, coarse_resolution,
+                                       f"the finer run's (R/dx {fine_resolution:g}), not extrapolated: only the "
+                                       "stationary values are", order)
+        summary["wall_time_s"] = clock.elapsed
+        write_json(out / "summary.json", summary)
+        write_table(out / "timeseries.csv", series)
+    return summary, fine, series
+
+
+__all__ = ["CONVERGENCE_ORDER", "DEFAULT_COARSE_RESOLUTION", "UNCERTAINTY", "richardson", "extrapolate_values",
+           "coarse_resolution_of", "part_directory", "extrapolated_summary", "run_extrapolated"]
