@@ -62,6 +62,10 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                      "python validation/shear.py --only split homogeneous resolution --resolution 6 "
                      "--resolutions 4 6 8 --duration 4"),
     }),
+    "shear_targets": ("Shear targets against Roscoe's theory", {
+        "shear_targets.py": ("Deformation, inclination and tank treading at Ca 0.05-0.3, viscosity ratio 1",
+                             "nice python validation/shear_targets.py --run --threads 1 --page"),
+    }),
     "flow_accuracy": ("Accuracy of the immersed-boundary flow", {
         "flow_accuracy.py": ("Held sphere (torque, stresslet, drag) and the cell against closed forms",
                              "python validation/flow_accuracy.py --page"),
@@ -76,10 +80,18 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "medium.py": ("Power-law slab, rectangular duct and the cost of the power-law collision",
                       "python validation/medium.py --baseline-kernels /tmp/kernels_before.py"),
     }),
+    "pipe_dclab": ("Pipe flow against dclab's LE-2D-FEM-19", {
+        "pipe_dclab.py": ("RT-DC deformation and area, one resolution and extrapolated",
+                          "nice python validation/pipe_dclab.py"),
+    }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",
                          "python validation/lut_dclab.py --radii 6 --moduli 2,5 --duration 8 --workers 2 "
                          "--out /tmp/lut-dclab"),
+    }),
+    "lut_square": ("RT-DC look-up table in the square channel with MC-PBS, against dclab", {
+        "lut_square.py": ("Square-channel MC-PBS points against dclab's HE-3D-FEM-22 and HE-2D-FEM-22",
+                          "nice python validation/lut_square.py --workers 1 --out /tmp/lut-square"),
     }),
     "fit": ("Fits of AFM curves and master curves", {
         "fit.py": ("Accuracy, Hertz's bias, interval coverage and cost of the AFM fit",
