@@ -257,6 +257,7 @@ def test_checkpoint_fingerprint_ignores_field_order_and_a_sweep_restarts_a_stale
         (["--capillary-number-wall", "0.2", "--medium", "honey"], "--medium"),
         (["--capillary-number-wall", "0.2", "--medium", "0.59%MC-PBS", "--temperature", "150"], "--temperature"),
         (["--capillary-number-wall", "0.2", "--medium", "power-law"], "--flow-index"),
+        (["--capillary-number-wall", "0.2", "--resolution", "4", "--coarse-resolution", "4"], "--coarse-resolution"),
     ],
 )
 def test_cli_refuses_impossible_input_in_one_line(tmp_path, arguments, option):
@@ -306,3 +307,32 @@ def test_jax_backend_carries_the_cell_like_the_numba_kernels(cell):
     for name in ("radial_position", "axial_velocity", "strain_axial", "strain_radial", "volume_change"):
         np.testing.assert_allclose(series["jax"][name], series["numba"][name], rtol=0, atol=1e-9, err_msg=name)
     assert series["jax"]["radial_position"][-1] < series["jax"]["radial_position"][0]  # it moved
+
+
+def test_cli_extrapolates_two_resolutions_by_richardson(tmp_path):
+    # Reference: the Richardson formula X = X_f + (X_f - X_c) / ((R_f/R_c)^2 - 1), written out here, applied to the
+    # two sub-runs' own summary.json (R/dx 4 and 3); the wiring must reproduce it to round-off.
+    from typer.testing import CliRunner
+
+    from elastocell.cli.app import app
+
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, [
+        "pipe", "--nucleus", "none", "--resolution", "4", "--coarse-resolution", "3", "--channel-radius-ratio", "2.5",
+        "--capillary-number-wall", "0.2", "--duration", "0.5", "--record-interval", "0.25", "--vtk-interval", "0.5",
+        "--out", str(out)])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    fine, coarse, top = (json.loads((out / name / "summary.json").read_text())
+                         for name in ("resolution-4", "resolution-3", "."))
+    assert fine["lattice"]["radius"] == 4 and coarse["lattice"]["radius"] == 3
+    factor = 1.0 / ((4.0 / 3.0) ** 2 - 1.0)
+    for name in ("strain_axial_mean", "strain_radial_mean", "deformation_mean", "projected_area_mean",
+                 "axial_velocity_mean"):
+        expected = fine[name] + (fine[name] - coarse[name]) * factor
+        assert top[name] == pytest.approx(expected, rel=1e-12, abs=1e-15)
+        assert top[f"{name}_rdx4"] == fine[name] and top[f"{name}_rdx3"] == coarse[name]
+        assert top[f"{name}_correction"] == pytest.approx(abs(expected - fine[name]), rel=1e-12, abs=1e-15)
+    assert top["radial_position"] == fine["radial_position"]  # migration: the finer run's
+    assert top["extrapolation"]["order"] == 2 and "finer run's" in top["extrapolation"]["timeseries"]
+    assert (out / "timeseries.csv").read_text() == (out / "resolution-4" / "timeseries.csv").read_text()
+    assert (out / "pipe.png").exists() and "eps_x: " in result.output

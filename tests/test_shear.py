@@ -361,3 +361,101 @@ def test_cli_shear_sigkill_then_resume_equals_the_uninterrupted_run(tmp_path):
     assert len(a) == 31
     for name in a.dtype.names:
         np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+
+
+# --------------------------------------------------------------------------- Richardson extrapolation (default)
+_SMALL = ["--nucleus", "none", "--confinement", "0.3", "--duration", "0.3", "--record-interval", "0.1",
+          "--checkpoint-every", "1", "--vtk-interval", "0.3", "--quiet"]
+
+
+def _read(path):
+    import json
+
+    return json.loads(path.read_text())
+
+
+def test_cli_shear_extrapolates_two_resolutions_by_richardson(tmp_path):
+    # Reference: the Richardson formula X = X_f + (X_f - X_c) / ((R_f/R_c)^2 - 1), written out here, applied to the
+    # two sub-runs' own summary.json (R/dx 4 and 3); the wiring must reproduce it to round-off.
+    out = tmp_path / "run"
+    result = _cli("--out", str(out), "--capillary-number", "0.1", "--resolution", "4", "--coarse-resolution", "3",
+                  *_SMALL[:-1])
+    assert result.exit_code == 0, result.output
+    fine, coarse, top = (_read(out / "resolution-4" / "summary.json"), _read(out / "resolution-3" / "summary.json"),
+                         _read(out / "summary.json"))
+    assert fine["lattice"]["radius"] == 4 and coarse["lattice"]["radius"] == 3
+    assert coarse["mesh"]["n_nodes"] < fine["mesh"]["n_nodes"]  # the mesh (edges 2 dx) follows each resolution
+    factor = 1.0 / ((4.0 / 3.0) ** 2 - 1.0)
+    for name in ("taylor_deformation_mean", "inclination_deg_mean", "tank_treading_frequency"):
+        expected = fine[name] + (fine[name] - coarse[name]) * factor
+        assert top[name] == pytest.approx(expected, rel=1e-12, abs=1e-15)
+        assert top[f"{name}_rdx4"] == fine[name] and top[f"{name}_rdx3"] == coarse[name]
+        assert top[f"{name}_correction"] == pytest.approx(abs(expected - fine[name]), rel=1e-12, abs=1e-15)
+        assert top["extrapolation"]["values"][name]["value"] == top[name]
+    assert top["extrapolation"]["order"] == 2 and top["extrapolation"]["fine_resolution"] == 4
+    assert top["extrapolation"]["coarse_resolution"] == 3
+    assert top["taylor_deformation_std"] == fine["taylor_deformation_std"]  # not extrapolated: the finer run's
+    # the top-level time series is the finer run's, as its metadata says
+    assert (out / "timeseries.csv").read_text() == (out / "resolution-4" / "timeseries.csv").read_text()
+    assert "finer run's" in top["extrapolation"]["timeseries"]
+    assert (out / "taylor_deformation.png").stat().st_size > 1000
+    for part in ("resolution-4", "resolution-3"):
+        assert (out / part / "checkpoint.npz").exists() and (out / part / "vtk" / "cell.pvd").exists()
+    assert "extrapolated (Richardson, order 2) from R/dx = 4 and 3" in result.output
+
+
+def test_cli_shear_no_extrapolate_is_the_single_run(tmp_path):
+    # Reference: the finer sub-run of an extrapolated run with the same options; --no-extrapolate must write the
+    # same time series (the same deterministic steps, tolerance 0) and no sub-runs.
+    single, both = tmp_path / "single", tmp_path / "both"
+    options = ["--capillary-number", "0.1", "--resolution", "4", *_SMALL]
+    assert _cli("--out", str(single), "--no-extrapolate", *options).exit_code == 0
+    assert _cli("--out", str(both), "--coarse-resolution", "3", *options).exit_code == 0
+    assert (single / "timeseries.csv").read_text() == (both / "resolution-4" / "timeseries.csv").read_text()
+    assert not list(single.glob("resolution-*")) and "extrapolation" not in _read(single / "summary.json")
+    assert _read(single / "summary.json")["taylor_deformation_mean"] == _read(both / "summary.json")[
+        "taylor_deformation_mean_rdx4"]
+
+
+@pytest.mark.parametrize("coarse", ["4", "5", "0", "-1"])
+def test_cli_shear_refuses_a_coarse_resolution_not_below_the_resolution(tmp_path, coarse):
+    result = _cli("--out", str(tmp_path / "x"), "--capillary-number", "0.1", "--resolution", "4",
+                  "--coarse-resolution", coarse, *_SMALL)
+    assert result.exit_code == 2, result.output
+    lines = [line for line in result.output.strip().splitlines() if line]
+    assert len(lines) == 1 and "--coarse-resolution" in lines[0] and "Traceback" not in result.output
+    assert not (tmp_path / "x").exists()
+
+
+def test_extrapolation_defaults_to_r_dx_6_above_it_and_to_none_at_or_below_it(tmp_path):
+    from elastocell.simulation.extrapolation import coarse_resolution_of
+
+    assert coarse_resolution_of(True, 8.0, None) == 6.0 and coarse_resolution_of(True, 12.0, None) == 6.0
+    assert coarse_resolution_of(True, 6.0, None) is None and coarse_resolution_of(True, 4.0, None) is None
+    assert coarse_resolution_of(False, 8.0, 6.0) is None and coarse_resolution_of(True, 8.0, 7.0) == 7.0
+    with pytest.raises(ParameterError) as error:
+        elastocell.shear(tmp_path / "x", 0.1, resolution=8, coarse_resolution=8)
+    assert error.value.parameter == "coarse_resolution" and not (tmp_path / "x").exists()
+
+
+def test_resume_of_an_extrapolated_run_recomputes_nothing_finished(tmp_path):
+    # What an interruption of the second sub-run (the coarse one: the finer runs first) leaves: the finer run
+    # finished (strain 0.3) and the coarse one's checkpoint at strain 0.1. Resumed, the finer run takes no step
+    # (its series and steps unchanged) and the coarse one continues from its checkpoint (its first records kept).
+    out = tmp_path / "run"
+    options = dict(capillary_number=0.1, nucleus="none", flow_options={"confinement": 0.3}, record_interval=0.1,
+                   checkpoint_every=1, vtk_interval=None, progress=False)
+    elastocell.shear(out / "resolution-4", resolution=4, extrapolate=False, duration=0.3, **options)
+    elastocell.shear(out / "resolution-3", resolution=3, extrapolate=False, duration=0.1, **options)
+    fine_before = (out / "resolution-4" / "timeseries.csv").read_text()
+    coarse_before = np.genfromtxt(out / "resolution-3" / "timeseries.csv", delimiter=",", names=True)
+    steps = _read(out / "resolution-4" / "summary.json")["steps"]
+    top = elastocell.shear(out, resolution=4, coarse_resolution=3, duration=0.3, resume=True, **options)
+    fine = _read(out / "resolution-4" / "summary.json")
+    assert fine["resumed"] and fine["steps"] == steps and fine["time_stepping_session_s"] == 0.0
+    assert (out / "resolution-4" / "timeseries.csv").read_text() == fine_before
+    coarse = np.genfromtxt(out / "resolution-3" / "timeseries.csv", delimiter=",", names=True)
+    assert _read(out / "resolution-3" / "summary.json")["resumed"] and len(coarse) == 4
+    np.testing.assert_array_equal(coarse[:2]["taylor_deformation"], coarse_before["taylor_deformation"])
+    assert top["extrapolation"]["values"]["taylor_deformation_mean"]["coarse"] == pytest.approx(
+        _read(out / "resolution-3" / "summary.json")["taylor_deformation_mean"], rel=0)

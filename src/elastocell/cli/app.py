@@ -157,11 +157,11 @@ def shear(out: Path, capillary_number: float | None, cell: dict, equivalent: boo
     from elastocell.scenarios.shear import (
         ShearFlowParameters,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
-    from elastocell.simulation.runner import (
-        StopCriteria,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
-    )
     from elastocell.simulation.extrapolation import (
         coarse_resolution_of,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+    )
+    from elastocell.simulation.runner import (
+        StopCriteria,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
 
     cell_options = {name: plain(value) for name, value in cell.items()}  # the mesh follows each resolution run
@@ -269,11 +269,11 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
     from elastocell.scenarios.pipe import (
         PipeFlowParameters,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
-    from elastocell.simulation.runner import (
-        StopCriteria,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
-    )
     from elastocell.simulation.extrapolation import (
         coarse_resolution_of,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+    )
+    from elastocell.simulation.runner import (
+        StopCriteria,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
 
     cell_options = {name: plain(value) for name, value in cell.items()}  # the mesh follows each resolution run
