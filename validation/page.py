@@ -70,6 +70,10 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "flow_accuracy.py": ("Held sphere (torque, stresslet, drag) and the cell against closed forms",
                              "python validation/flow_accuracy.py --page"),
     }),
+    "flow_default": ("Cost of the extrapolated flow default", {
+        "flow_default_cost.py": ("elastocell shear at its defaults (R/dx 8 and 6, extrapolated) against one R/dx 8 run",
+                                 "nice python validation/flow_default_cost.py --page"),
+    }),
     "pipe": ("Cell in pipe flow", {
         "pipe.py": ("Poiseuille flow, the centred cell, and the cost of a coupled step",
                     "python validation/pipe.py"),
