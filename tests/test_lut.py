@@ -133,7 +133,13 @@ def test_dclab_loads_the_lut_and_isoelastics(tmp_path):
     (["--channel-width", "20um"], "--channel-radius"),
 ])
 def test_one_line_refusals(tmp_path, extra, option):
-    args = BASE + ["--out", str(tmp_path / "lut.txt"), "--quick"]
+    _refused(BASE, extra, option, tmp_path)
+
+
+def _refused(base: list[str], extra: list[str], option: str, tmp_path) -> None:
+    """``base`` with the pairs of ``extra`` replaced or added exits 2 with one line naming ``option``, and runs
+    nothing."""
+    args = base + ["--out", str(tmp_path / "lut.txt"), "--quick"]
     for i in range(0, len(extra), 2):  # replace or add
         if extra[i] in args:
             args[args.index(extra[i]) + 1] = extra[i + 1]
@@ -142,7 +148,7 @@ def test_one_line_refusals(tmp_path, extra, option):
     result = runner.invoke(app, args)
     assert result.exit_code == 2
     lines = [line for line in result.output.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith(f"elastocell: error: {option}:")
+    assert len(lines) == 1 and lines[0].startswith(f"elastocell: error: {option}:"), result.output
     assert not (tmp_path / "lut_runs").exists()
 
 
@@ -204,3 +210,134 @@ def test_a_point_reads_its_shape_over_the_final_window(tmp_path):
     assert final["projected_area"] == pytest.approx(area[last].mean(), rel=1e-12)
     assert final["deformation_std"] == pytest.approx(deformation[last].std(), rel=1e-12)
     assert final["deformation"] > deformation[time >= 3.0].mean()
+
+
+# --------------------------------------------------------------------------- square channel, MC-PBS medium
+SQUARE = ["lut", "--channel-shape", "square", "--channel-width", "20um", "--flow-rate", "0.04uL/s"]
+
+
+def test_driving_carries_the_flow_rate():
+    """G of channel_driving, put back into the flow-rate laws, returns Q. References: the closed forms of the tube
+    (Newtonian and power law), White's series for the Newtonian duct, and the finite-volume power-law duct solver
+    run at other G, K and half-width than the unit problem q1(n) was solved for (the scaling law
+    Q = q1 (G/K)^(1/n) a^(3+1/n)), on 48 cells against q1's 64: measured 8.4e-6 apart (tolerance 1e-4)."""
+    from elastocell.inverse.lut import channel_driving
+    from elastocell.lattice.rheology import PowerLaw, tube_flow_rate
+    from elastocell.parameters.medium import mc_pbs
+    from elastocell.scenarios.pipe import duct_flow_rate, finite_difference_duct_flow_rate
+
+    fluid = mc_pbs("0.59%MC-PBS", 23.0)
+    n, k = fluid.flow_index, fluid.consistency
+    q, a = 4e-11, 1e-5
+    tube = channel_driving("cylinder", a, q, fluid)
+    assert tube_flow_rate(tube["pressure_gradient"], k, n, a) == pytest.approx(q, rel=1e-12)
+    newtonian = channel_driving("square", a, q, None, 0.015)
+    assert duct_flow_rate(newtonian["pressure_gradient"], 0.015, a, a) == pytest.approx(q, rel=1e-12)
+    assert newtonian["wall_shear_rate"] == pytest.approx(newtonian["wall_shear_stress"] / 0.015, rel=1e-12)
+    duct = channel_driving("square", a, q, fluid)
+    assert duct["wall_shear_stress"] == pytest.approx(duct["pressure_gradient"] * 2 * a / 4, rel=1e-12)  # G W/4
+    assert k * duct["wall_shear_rate"] ** n == pytest.approx(duct["wall_shear_stress"], rel=1e-12)
+    # the same duct in other units: half-width 3, K = 2, G from the scaling law, solved directly
+    scaled = channel_driving("square", 3.0, 5.0, type(fluid)(name="p", model="power-law", flow_index=n,
+                                                             consistency=2.0))
+    law = PowerLaw(n, 2.0, relaxation_time_min=0.5 + 3e-12, relaxation_time_max=0.5 + 3e9)
+    solved = finite_difference_duct_flow_rate(law, scaled["pressure_gradient"], 3.0, 3.0, cells=48, tolerance=1e-12)
+    assert solved == pytest.approx(5.0, rel=1e-4)
+
+
+def test_dclab_fluid_viscosity_is_dclabs():
+    # Reference: dclab's own viscosity of the medium in the square channel (Buyukurganci 2022, Kozicki shear rate)
+    pytest.importorskip("dclab")
+    from dclab.features.emodulus.viscosity import get_viscosity
+
+    for name in ("0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS"):
+        for t in (22.0, 23.0, 37.0):
+            _, settings = plan(None, "0.04uL/s", None, quick=True, channel_width="20um", channel_shape="square",
+                               medium=name, temperature=t, radii=[5], moduli=[1000])
+            eta = get_viscosity(medium=name.replace("%", "% "), channel_width=20.0, flow_rate=0.04, temperature=t,
+                                model="buyukurganci-2022")
+            assert settings["viscosity_mpa_s"] == pytest.approx(float(eta), rel=1e-10)
+
+
+def test_plan_square_channel_in_mc_pbs():
+    from elastocell.inverse.lut import channel_driving
+    from elastocell.parameters.medium import mc_pbs
+
+    points, settings = plan(None, "0.04uL/s", None, radii="5um", moduli="1kPa,2kPa", quick=True,
+                            channel_width="20um", channel_shape="square", medium="0.59% MC-PBS", temperature=23)
+    options = points[0]["options"]
+    assert options["channel_shape"] == "square" and options["medium"] == "0.59%MC-PBS"
+    assert options["temperature"] == 23.0
+    assert options["channel_radius_ratio"] == pytest.approx(2.0)  # W/(2R): the duct itself, no 1.094
+    tau = channel_driving("square", 1e-5, 4e-11, mc_pbs("0.59%MC-PBS", 23.0))["wall_shear_stress"]
+    assert options["capillary_number_wall"] == pytest.approx(tau / (1000 / (2 * 1.48)), rel=1e-12)  # tau_w/mu
+    assert points[1]["options"]["capillary_number_wall"] == pytest.approx(options["capillary_number_wall"] / 2)
+    meta = lut_metadata(settings, "sq")
+    assert meta["channel_width"] == pytest.approx(20.0)
+    assert meta["fluid_flow_behaviour_index"] == pytest.approx(settings["flow_index"])
+    assert meta["fluid_temperature"] == 23.0 and meta["medium"] == "0.59%MC-PBS"
+    assert "square" in meta["summary"].lower() and "G W/4" in meta["summary"]
+    # the Newtonian cylinder's points keep their keys (no channel or medium options added)
+    cylinder, _ = plan("10um", "0.04uL/s", "15mPa*s", radii="5", moduli="1kPa", quick=True)
+    assert "channel_shape" not in cylinder[0]["options"] and "medium" not in cylinder[0]["options"]
+
+
+def test_dclab_interpolates_a_square_mc_pbs_table(tmp_path):
+    """dclab reads a table written here (square channel, MC-PBS metadata) and interpolates E at a point inside it.
+    Reference: the synthetic table's own law deform = 0.02 (r/5)^2 / E (kPa); a point between the grid lines reads
+    back its E to the interpolation error (measured 0.9 %; tolerance 2 %), and at the table's own medium, channel and flow rate
+    dclab applies no viscosity scaling."""
+    pytest.importorskip("dclab")
+    from dclab.features import emodulus
+
+    _, settings = plan(None, "0.04uL/s", None, quick=True, channel_width="20um", channel_shape="square",
+                       medium="0.59%MC-PBS", temperature=23, radii=[5], moduli=[1000])
+    records = [{"radius_um": r, "emodulus_kpa": e, "area_um": math.pi * r**2, "deform": 0.02 * (r / 5) ** 2 / e}
+               for e in (1.0, 1.25, 1.5, 2.0, 2.5, 3.0) for r in (4.5, 5.0, 5.5, 6.0, 6.5, 7.0)]
+    path = write_lut(tmp_path / "square.txt", records, lut_metadata(settings, "elastocell-square-test"))
+    r, e = 5.75, 1.75
+    kwargs = dict(area_um=np.array([math.pi * r**2]), deform=np.array([0.02 * (r / 5) ** 2 / e]), channel_width=20.0,
+                  flow_rate=0.04, px_um=0, temperature=23.0, visc_model="buyukurganci-2022", lut_data=str(path))
+    found = emodulus.get_emodulus(medium="0.59% MC-PBS", **kwargs)
+    assert found[0] == pytest.approx(e, rel=0.02)
+    # dclab's scaling with the viscosity (a Newtonian medium of twice the table's viscosity: twice the modulus)
+    doubled = emodulus.get_emodulus(medium=2 * settings["viscosity_mpa_s"], **{**kwargs, "temperature": None,
+                                                                              "visc_model": None})
+    assert doubled[0] == pytest.approx(2 * found[0], rel=1e-9)
+
+
+@pytest.mark.parametrize("extra, option", [
+    (["--medium", "newtonian", "--viscosity", "15mPa*s", "--temperature", "23"], "--temperature"),
+    (["--medium", "newtonian", "--viscosity", "15mPa*s", "--flow-index", "0.6"], "--flow-index"),
+    (["--medium", "0.59%MC-PBS", "--temperature", "45"], "--temperature"),
+    (["--medium", "0.59%MC-PBS", "--temperature", "15"], "--temperature"),
+    (["--medium", "0.59%MC-PBS", "--viscosity", "15mPa*s"], "--viscosity"),
+    (["--medium", "power-law", "--flow-index", "0.6"], "--medium"),
+    (["--medium", "0.59%MC-PBS", "--channel-height", "30um"], "--channel-height"),
+    (["--medium", "0.59%MC-PBS", "--channel-shape", "rectangle"], "--channel-shape"),
+    (["--medium", "newtonian"], "--viscosity"),
+])
+def test_square_and_medium_refusals(tmp_path, extra, option):
+    _refused(SQUARE, extra, option, tmp_path)
+
+
+def test_square_mc_pbs_options_reach_the_pipe_runs(tmp_path, monkeypatch):
+    """One tiny real run (R/dx 4, 0.1 units of time) of the square MC-PBS table: the pipe run's own summary holds
+    the duct, the medium and the temperature, and the table's metadata the medium."""
+    import distributed
+
+    monkeypatch.setattr(distributed, "as_completed", lambda futures: list(futures))
+    out = tmp_path / "lut.txt"
+    result = compute_lut(out, None, "0.04uL/s", None, radii="5", moduli="2kPa", quick=True, duration=0.1,
+                         client=_Client(), channel_width="20um", channel_shape="square", medium="0.59%MC-PBS",
+                         temperature=25)
+    assert not result["failures"], result["failures"]
+    run = next((tmp_path / "lut_runs").iterdir())
+    summary = json.loads(next(run.rglob("summary.json")).read_text())
+    assert summary["flow"]["channel_shape"] == "square"
+    assert summary["flow"]["medium"] == "0.59%MC-PBS" and summary["flow"]["temperature"] == 25.0
+    assert summary["flow"]["capillary_number_wall"] == pytest.approx(result["records"][0]["options"]
+                                                                     ["capillary_number_wall"])
+    data, meta, _ = read_lut(out)
+    assert data.shape == (1, 3) and meta["elastocell"]["channel_shape"] == "square"
+    assert meta["fluid_temperature"] == 25.0

@@ -12,8 +12,17 @@ from elastocell.cli.options import opt, takes
 
 
 @user_errors
-@takes("channel_radius", "channel_width", "flow_rate", opt("viscosity", annotation=str, default=...,
-                                                           help="Medium viscosity (Newtonian)."),
+@takes("channel_radius", "channel_width",
+       opt("channel_shape", help="cylinder (the cylinder R_ch = 1.094 W/2 stands for a square channel of width W, "
+                                 "as dclab's LE-2D-FEM-19) | square (the square duct itself, as HE-3D-FEM-22); a "
+                                 "rectangle is refused.", shown="cylinder"),
+       opt("channel_height", help="Height H of the channel: a table is made for square channels only (H = W).",
+           shown="--channel-width"),
+       "flow_rate", opt("viscosity", help="Viscosity of a Newtonian medium.",
+                        shown="none: required with --medium newtonian"),
+       opt("medium", help="newtonian (with --viscosity) | 0.49%MC-PBS | 0.59%MC-PBS | 0.83%MC-PBS (RT-DC buffers: "
+                          "power laws of Buyukurganci et al. 2022 at --temperature, as dclab)."),
+       opt("temperature", help="Temperature of an MC-PBS medium, within its fit (22-37 degC)."), "flow_index",
        opt("out", help="LUT file to write (dclab text format); the isoelastics go to <stem>_isoelastics.txt and the "
                        "runs to <stem>_runs/."),
        "radii", "moduli", opt("quick", help="2 x 2 grid at R/dx 4 for one unit of time (tests; not converged)."),
@@ -25,7 +34,9 @@ from elastocell.cli.options import opt, takes
            shown="1e-3; --quick: off"),
        "identifier", opt("scheduler", help="Dask scheduler address."),
        opt("workers", help="Local Dask workers."), "quiet")
-def lut(channel_radius: str | None, channel_width: str | None, flow_rate: str, viscosity: str, out: Path,
+def lut(channel_radius: str | None, channel_width: str | None, channel_shape, channel_height: str | None,
+        flow_rate: str, viscosity: str | None, medium: str, temperature: float | None, flow_index: float | None,
+        out: Path,
         radii: str | None, moduli: str | None, quick: bool, poisson_ratio: float, material: str,
         resolution: float | None, duration: float | None, stationary_tolerance: float | None,
         identifier: str | None, scheduler: str | None, workers: int | None, quiet: bool):
@@ -39,11 +50,15 @@ def lut(channel_radius: str | None, channel_width: str | None, flow_rate: str, v
     result = compute_lut(out, channel_radius, flow_rate, viscosity, radii=radii, moduli=moduli, quick=quick,
                          poisson_ratio=poisson_ratio, material=material, resolution=resolution, duration=duration,
                          stationary_tolerance=stationary_tolerance, identifier=identifier, scheduler=scheduler,
-                         workers=workers, progress=not quiet, channel_width=channel_width)
+                         workers=workers, progress=not quiet, channel_width=channel_width,
+                         channel_shape=None if channel_shape is None else channel_shape.value,
+                         channel_height=channel_height, medium=medium, temperature=temperature,
+                         flow_index=flow_index)
     if not quiet:
         settings = result["settings"]
-        typer.echo(f"gdot_w = {settings['wall_shear_rate_1_s']:.4g} 1/s, G = {settings['pressure_gradient_pa_m']:.4g} "
-                   f"Pa/m; {len(result['records'])} of {len(result['records']) + len(result['failures'])} points "
+        typer.echo(f"{settings['channel_shape']} channel, {settings['medium']}: G = "
+                   f"{settings['pressure_gradient_pa_m']:.4g} Pa/m, tau_w = {settings['wall_shear_stress_pa']:.4g} Pa, "
+                   f"gdot_w = {settings['wall_shear_rate_1_s']:.4g} 1/s; {len(result['records'])} of {len(result['records']) + len(result['failures'])} points "
                    f"in {result['wall_time_s']:.1f} s")
         if result["not_stationary"]:
             typer.echo(f"warning: {len(result['not_stationary'])} point(s) reached the duration cap before a "

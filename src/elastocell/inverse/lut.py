@@ -17,12 +17,29 @@ the convex hull of the mesh nodes projected on the x-y plane), ``deform`` = the 
 that hull), both averaged over the last unit of 1/gdot_w (:data:`FINAL_WINDOW`), ``emodulus`` = E (kPa). A run
 stops once the mean deformation over that window differs from the window before by less than the tolerance.
 
-Approximation: elastocell's channel is a cylinder of radius R_ch; RT-DC channels are square. A square channel
-of width W stands for the cylinder of radius R_ch = 1.094 W/2 (:data:`SQUARE_CHANNEL_RADIUS_FACTOR`), the
-equivalent radius of Mietke et al. 2015 (Biophys. J. 109, 2023, supplement S3) with which the axisymmetric FEM
-of dclab's own LE-2D-FEM-19 table was computed; ``--channel-width W`` uses it, and the metadata give
-``channel_width`` = 2 R_ch/1.094, so a table made here and LE-2D-FEM-19 describe the same channel. The fluid is
-Newtonian (one viscosity).
+Channel: by default a cylinder of radius R_ch. A square channel of width W stands for the cylinder of radius
+R_ch = 1.094 W/2 (:data:`SQUARE_CHANNEL_RADIUS_FACTOR`), the equivalent radius of Mietke et al. 2015 (Biophys. J.
+109, 2023, supplement S3) with which the axisymmetric FEM of dclab's own LE-2D-FEM-19 table was computed;
+``--channel-width W`` uses it, and the metadata give ``channel_width`` = 2 R_ch/1.094, so a table made here and
+LE-2D-FEM-19 describe the same channel. ``--channel-shape square`` runs the square duct itself (half-width
+a = W/2 plays R_ch: R_ch/R = W/(2R)), as the RT-DC field and dclab's HE-3D-FEM-22 do.
+
+Medium: Newtonian (``--viscosity``) or an MC-PBS preset (``--medium 0.59%MC-PBS --temperature 23``, power law
+eta = K gdot^(n-1), :mod:`elastocell.parameters.medium`). For every channel and medium the driving is the one
+that carries Q (:func:`channel_driving`):
+
+    Q = q1(n) (G/K)^(1/n) a^(3 + 1/n)  ->  G        (K = eta, n = 1 for a Newtonian medium)
+    tau_w = G a / 2   (the mean wall shear stress: G A = tau_w P; cylinder G R_ch/2, square G W/4)
+    Ca_w = tau_w / mu,   unit of time 1/gdot_w with gdot_w = (tau_w/K)^(1/n)
+
+with q1(n) the flow rate at G = K = a = 1: pi n/(3n+1) 2^(-1/n) for the cylinder (closed form), White's series
+for the Newtonian square duct, and the finite-volume solution of the power-law duct
+(:func:`elastocell.scenarios.pipe.finite_difference_duct_flow_rate`) for the shear-thinning one. These are the
+dimensionless groups of the pipe scenario (its Ca_w = G R_ch/(2 mu); its power law matched to eta at gdot_w),
+so (n, Ca_w, R_ch/R) fix a point. dclab rescales a table to other viscosities with ``fluid_viscosity``: for an
+MC-PBS medium it is written as dclab computes it (the viscosity at the wall shear rate of Kozicki's formula,
+``dclab.features.emodulus.viscosity.shear_rate_square_channel``), so a measurement in the table's own medium,
+channel and flow rate is read unscaled.
 
 File format (dclab ``dclab/features/emodulus/load.py``, ``load_mtext``; checked against dclab 0.73.4): comment
 lines, the metadata as JSON between ``# BEGIN METADATA`` and ``# END METADATA`` (every line prefixed by
@@ -39,6 +56,7 @@ hash of every input of the run, so changing the flow rate or the resolution make
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import time
@@ -51,9 +69,23 @@ from elastocell.api.pipe import pipe
 from elastocell.api.resolved import resolved_parameters
 from elastocell.body.cell import Cell
 from elastocell.files import parameter_hash, replace_atomically, write_json
+from elastocell.lattice.rheology import PowerLaw, tube_flow_rate
 from elastocell.parameters.flow import flow_cell
+from elastocell.parameters.medium import (
+    KOZICKI_SQUARE,
+    MC_PBS,
+    MC_PBS_TEMPERATURES,
+    Medium,
+    canonical_name,
+    medium,
+)
 from elastocell.parameters.units import ParameterError, parse_quantity
-from elastocell.scenarios.pipe import PipeFlowParameters, pipe_lattice_units
+from elastocell.scenarios.pipe import (
+    PipeFlowParameters,
+    duct_flow_rate,
+    finite_difference_duct_flow_rate,
+    pipe_lattice_units,
+)
 from elastocell.scenarios.shear import compile_kernels
 from elastocell.simulation.directory import output_directory
 from elastocell.simulation.distributed import TaskFailure, check_execution, run_tasks
@@ -99,6 +131,59 @@ def wall_shear_rate(flow_rate: float, channel_radius: float, viscosity: float) -
     return pressure_gradient(flow_rate, channel_radius, viscosity) * channel_radius / (2.0 * viscosity)
 
 
+LUT_CHANNELS = ("cylinder", "square")
+"""Channel shapes a table can be made for (a rectangle is a pipe option only)."""
+
+DUCT_CELLS = 64
+"""Finite-volume cells across the square duct for q1(n) of a power law. Measured at n = 1 against White's series:
+relative error 9.4e-4 (64 cells), 2.4e-4 (128); at n = 0.586 the 32, 64 and 128 cell values agree to 9e-5."""
+
+DCLAB_KOZICKI_B = 0.6671
+"""b of the Kozicki wall shear rate as dclab's ``shear_rate_square_channel`` writes it (the literature's 0.6771 is
+:data:`elastocell.parameters.medium.KOZICKI_SQUARE`): the metadata's ``fluid_viscosity`` is dclab's own."""
+
+
+@functools.lru_cache(maxsize=16)
+def unit_flow_rate(channel: str, flow_index: float) -> float:
+    """q1(n): the flow rate at G = K = 1 through the cylinder of radius 1 or the square duct of half-width 1
+    (eta = K gdot^(n-1)); Q = q1 (G/K)^(1/n) a^(3+1/n) for any G, K and a."""
+    n = float(flow_index)
+    if channel == "cylinder":
+        return tube_flow_rate(1.0, 1.0, n, 1.0)
+    if n == 1.0:
+        return duct_flow_rate(1.0, 1.0, 1.0, 1.0)
+    # the tau clamp of the lattice law opened to nu in [1e-12, 1e9]: the continuum power law
+    law = PowerLaw(n, 1.0, relaxation_time_min=0.5 + 3e-12, relaxation_time_max=0.5 + 3e9)
+    return finite_difference_duct_flow_rate(law, 1.0, 1.0, 1.0, cells=DUCT_CELLS, tolerance=1e-12)
+
+
+def channel_driving(channel: str, half_width: float, flow_rate: float, fluid: Medium | None,
+                    viscosity: float | None = None) -> dict:
+    """The flow that carries Q (m^3/s) through the cylinder of radius ``half_width`` (m) or the square duct of
+    width 2 ``half_width``: ``pressure_gradient`` G (Pa/m), ``wall_shear_stress`` tau_w = G a/2 (Pa), and
+    ``wall_shear_rate`` gdot_w = (tau_w/K)^(1/n) (1/s, the unit of time of the runs); a Newtonian medium by its
+    ``viscosity`` (Pa s), a power law by ``fluid`` (K, n)."""
+    if fluid is None or fluid.is_newtonian:
+        k, n = float(viscosity), 1.0
+    else:
+        k, n = float(fluid.consistency), float(fluid.flow_index)
+    a = float(half_width)
+    if channel == "cylinder" and n == 1.0:  # Poiseuille, written as the table's keys were always computed
+        g = pressure_gradient(flow_rate, a, k)
+    else:
+        g = k * (flow_rate / (unit_flow_rate(channel, n) * a ** (3.0 + 1.0 / n))) ** n
+    tau = g * a / 2.0
+    return {"pressure_gradient": g, "wall_shear_stress": tau, "wall_shear_rate": (tau / k) ** (1.0 / n)}
+
+
+def dclab_viscosity(fluid: Medium, flow_rate: float, channel_width: float) -> float:
+    """The viscosity (Pa s) dclab assigns a power-law medium in a square channel of width W (m) at Q (m^3/s):
+    K gdot^(n-1) at gdot = (8 Q/W^3)(0.6671 + 0.2121/n) (:data:`DCLAB_KOZICKI_B`)."""
+    n = fluid.flow_index
+    rate = 8.0 * flow_rate / channel_width**3 * (DCLAB_KOZICKI_B + KOZICKI_SQUARE[0] / n)
+    return fluid.consistency * rate ** (n - 1.0)
+
+
 # =========================================================================== inputs
 def _positive(value, unit: str, name: str) -> float:
     """A positive quantity in SI ``unit``; a bare number is in its documented unit (parse_quantity: um, uL/s,
@@ -132,30 +217,86 @@ def point_key(radius_um: float, emodulus_kpa: float, options: dict) -> str:
     return f"R{radius_um:g}um_E{emodulus_kpa:g}kPa_{digest}"
 
 
-def channel_radius_from(channel_radius=None, channel_width=None) -> float:
+def channel_radius_from(channel_radius=None, channel_width=None, channel_shape: str | None = None,
+                        channel_height=None) -> float:
     """R_ch (m) from exactly one of ``channel_radius`` (the cylinder's) or ``channel_width`` (a square RT-DC
-    channel's W: R_ch = 1.094 W/2); quantities or numbers in um."""
+    channel's W: R_ch = 1.094 W/2 for the cylinder that stands for it, W/2 with ``channel_shape`` "square");
+    quantities or numbers in um. A rectangle (``channel_height`` other than W) is refused."""
+    shape = channel_shape_of(channel_shape)
+    if shape == "square" and channel_width is None:
+        raise ParameterError("channel_width", "a square channel is given by its width W (--channel-width)")
     if (channel_radius is None) == (channel_width is None):
         raise ParameterError("channel_radius", "give either the channel radius or the width of a square channel "
                              "(--channel-width), not both and not neither")
+    if channel_height is not None:
+        if channel_width is None:
+            raise ParameterError("channel_height", "needs --channel-width (a square channel: the height equals it)")
+        w = _positive(channel_width, "m", "channel_width")
+        h = _positive(channel_height, "m", "channel_height")
+        if abs(h - w) > 1e-9 * w:
+            raise ParameterError("channel_height", f"the look-up table supports square channels only (H = W), got "
+                                 f"W = {w * 1e6:g} um, H = {h * 1e6:g} um")
     if channel_width is not None:
-        return SQUARE_CHANNEL_RADIUS_FACTOR * _positive(channel_width, "m", "channel_width") / 2.0
+        factor = 1.0 if shape == "square" else SQUARE_CHANNEL_RADIUS_FACTOR
+        return factor * _positive(channel_width, "m", "channel_width") / 2.0
     return _positive(channel_radius, "m", "channel_radius")
+
+
+def channel_shape_of(channel_shape) -> str:
+    """"cylinder" (default) or "square"; a rectangle is refused (a look-up table is for one width)."""
+    shape = "cylinder" if channel_shape is None else str(getattr(channel_shape, "value", channel_shape))
+    if shape not in LUT_CHANNELS:
+        raise ParameterError("channel_shape", f"the look-up table supports {' and '.join(LUT_CHANNELS)} channels, "
+                             f"got {shape!r}")
+    return shape
+
+
+def lut_medium(name=None, temperature=None, flow_index=None, viscosity=None) -> tuple[Medium, float | None]:
+    """(medium, Newtonian viscosity in Pa s or None) of the table: "newtonian" needs ``viscosity`` and takes no
+    temperature or flow index; an MC-PBS preset takes ``temperature`` (degC, within its fit, default 23) and no
+    viscosity; the bare "power-law" is refused (its consistency K sets the physical flow and is no option)."""
+    key = canonical_name("newtonian" if name is None else name)
+    if key == "power-law":
+        raise ParameterError("medium", "a table needs the medium's consistency K as well as n: use an MC-PBS preset "
+                             f"({', '.join(MC_PBS)}) or newtonian with --viscosity")
+    if key == "newtonian":
+        if flow_index is not None:
+            raise ParameterError("flow_index", "a Newtonian medium has n = 1; a shear-thinning table takes an "
+                                 "MC-PBS preset (--medium 0.59%MC-PBS)")
+        if temperature is not None:
+            raise ParameterError("temperature", "sets an MC-PBS medium's K and n; a Newtonian medium is given by "
+                                 "--viscosity")
+        if viscosity is None:
+            raise ParameterError("viscosity", "required with a Newtonian medium (or give --medium 0.59%MC-PBS)")
+        return medium(key, None, flow_index), _positive(viscosity, "Pa*s", "viscosity")
+    if viscosity is not None:
+        raise ParameterError("viscosity", f"the {key} medium sets its own shear-rate dependent viscosity: give "
+                             "--temperature, not --viscosity")
+    if temperature is not None:
+        t = float(temperature)
+        lo, hi = MC_PBS_TEMPERATURES
+        if not (math.isfinite(t) and lo <= t <= hi):
+            raise ParameterError("temperature", f"must be within the MC-PBS fit, {lo:g}-{hi:g} degC, got "
+                                 f"{temperature}")
+    return medium(key, temperature, flow_index), None
 
 
 def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: bool = False,
          poisson_ratio: float = 0.48, material: str = "neo-hookean", resolution: float | None = None,
          duration: float | None = None, stationary_tolerance: float | None = None,
-         channel_width=None) -> tuple[list[dict], dict]:
+         channel_width=None, channel_shape=None, channel_height=None, medium=None, temperature=None,
+         flow_index=None) -> tuple[list[dict], dict]:
     """Check every input and return (grid points, settings); raises ParameterError (named option) on an
     impossible one, before anything runs. Each point holds its key and the keyword arguments of ``pipe``.
-    ``channel_width`` (a square channel's W) replaces ``channel_radius`` (give None for it)."""
+    ``channel_width`` (a square channel's W) replaces ``channel_radius`` (give None for it); ``channel_shape``
+    "square" runs the duct itself; ``medium`` an MC-PBS preset at ``temperature`` replaces ``viscosity``."""
     from pydantic import ValidationError
 
 
-    r_ch = channel_radius_from(channel_radius, channel_width)
+    shape = channel_shape_of(channel_shape)
+    r_ch = channel_radius_from(channel_radius, channel_width, shape, channel_height)
     q = _positive(flow_rate, "m^3/s", "flow_rate")
-    eta = _positive(viscosity, "Pa*s", "viscosity")
+    fluid, eta = lut_medium(medium, temperature, flow_index, viscosity)
     defaults = QUICK if quick else FULL
     radii_m = _list(radii if radii is not None else
                     [f"{r}um" for r in (QUICK_RADII_UM if quick else FULL_RADII_UM)], "m", "radii")
@@ -174,11 +315,16 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
     if too_large:
         raise ParameterError("radii", f"a cell of radius {too_large[0] * 1e6:g} um does not fit in a channel of "
                              f"radius {r_ch * 1e6:g} um (need R < R_ch)")
+    # the pipe options that differ from its defaults (a cylinder in a Newtonian medium adds none: its keys stay)
+    flow = {} if shape == "cylinder" else {"channel_shape": shape}
+    if not fluid.is_newtonian:
+        flow.update(medium=fluid.name, temperature=fluid.temperature)
+    driving = channel_driving(shape, r_ch, q, fluid, eta)
     points = []
     for radius in radii_m:
         ratio = r_ch / radius
         try:  # the pipe scenario's own refusals (ratio range, wall gap at this resolution)
-            PipeFlowParameters(capillary_number_wall=1.0, channel_radius_ratio=ratio, resolution=resolution)
+            PipeFlowParameters(capillary_number_wall=1.0, channel_radius_ratio=ratio, resolution=resolution, **flow)
         except (ParameterError, ValidationError) as error:
             if isinstance(error, ValidationError):
                 error = (error.errors()[0].get("ctx") or {}).get("error", error)
@@ -188,15 +334,20 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
             raise ParameterError(name, f"cell radius {radius * 1e6:g} um in a channel of radius {r_ch * 1e6:g} um: "
                                  f"{str(error).split(': ', 1)[1]}") from None
         for modulus in moduli_pa:
-            ca = capillary_number_wall(q, r_ch, eta, modulus, poisson_ratio)
+            ca = driving["wall_shear_stress"] * 2.0 * (1.0 + poisson_ratio) / modulus  # tau_w / mu
             options = {"capillary_number_wall": ca, "channel_radius_ratio": ratio, "start_offset": 0.0,
                        "resolution": resolution, "duration": duration, "stationary_tolerance": tolerance,
-                       "stationary_observable": "deformation", "nucleus": "none", "material": material, "poisson_ratio": float(poisson_ratio)}
+                       "stationary_observable": "deformation", "nucleus": "none", "material": material,
+                       "poisson_ratio": float(poisson_ratio), **flow}
             points.append({"key": point_key(radius * 1e6, modulus * 1e-3, options), "radius_um": radius * 1e6,
                            "emodulus_kpa": modulus * 1e-3, "options": options})
-    settings = {"channel_radius_um": r_ch * 1e6, "flow_rate_ul_s": q * 1e9, "viscosity_mpa_s": eta * 1e3,
-                "pressure_gradient_pa_m": pressure_gradient(q, r_ch, eta),
-                "wall_shear_rate_1_s": wall_shear_rate(q, r_ch, eta), "poisson_ratio": float(poisson_ratio),
+    width = 2.0 * r_ch if shape == "square" else 2.0 * r_ch / SQUARE_CHANNEL_RADIUS_FACTOR
+    viscosity_mpa_s = 1e3 * (eta if eta is not None else dclab_viscosity(fluid, q, width))
+    settings = {"channel_shape": shape, "channel_radius_um": r_ch * 1e6, "channel_width_um": width * 1e6,
+                "flow_rate_ul_s": q * 1e9, "viscosity_mpa_s": viscosity_mpa_s, **fluid.as_dict(),
+                "pressure_gradient_pa_m": driving["pressure_gradient"],
+                "wall_shear_stress_pa": driving["wall_shear_stress"],
+                "wall_shear_rate_1_s": driving["wall_shear_rate"], "poisson_ratio": float(poisson_ratio),
                 "material": material, "resolution": resolution, "duration": duration,
                 "stationary_tolerance": tolerance, "quick": bool(quick)}
     return points, settings
@@ -217,9 +368,8 @@ def check_lattice(points: list[dict]) -> list[dict]:
         if key not in cells:
             cells[key] = Cell.from_parameters(flow_cell(None, cell_options, options["resolution"]))
         try:
-            params = PipeFlowParameters(capillary_number_wall=options["capillary_number_wall"],
-                                        channel_radius_ratio=options["channel_radius_ratio"],
-                                        start_offset=0.0, resolution=options["resolution"])
+            flow = {k: v for k, v in options.items() if k in PipeFlowParameters.model_fields}
+            params = PipeFlowParameters(**flow)
             units = pipe_lattice_units(cells[key], params)
         except (ParameterError, ValidationError) as error:
             if isinstance(error, ValidationError):
@@ -295,12 +445,30 @@ def run_point(task: tuple[dict, str]) -> dict:
 
 # =========================================================================== output
 def lut_metadata(settings: dict, identifier: str) -> dict:
-    """dclab's metadata keys (units as dclab asserts them) plus elastocell's own settings."""
+    """dclab's metadata keys (units as dclab asserts them; for a power law also those of dclab's HE-*-FEM-22
+    tables) plus elastocell's own settings."""
 
     nu = settings["poisson_ratio"]
-    return {
+    square = settings.get("channel_shape") == "square"
+    power_law = settings.get("medium_model") == "power-law"
+    if square:
+        channel = (f"a homogeneous cell centred in a SQUARE channel (duct) of width W = {settings['channel_width_um']:g} "
+                   "um, plane walls")
+    else:
+        channel = (f"a homogeneous cell centred in a CYLINDRICAL channel of radius R_ch = "
+                   f"{settings['channel_radius_um']:g} um; channel_width = 2 R_ch/1.094 is the width of the SQUARE "
+                   "RT-DC channel it stands for (the equivalent radius of Mietke et al. 2015, as in dclab's "
+                   "LE-2D-FEM-19)")
+    if power_law:
+        fluid = (f"{settings['medium']} at {settings['temperature_c']:g} degC, power law eta = K gdot^(n-1) with "
+                 f"K = {settings['consistency_pa_s_n']:.5g} Pa s^n, n = {settings['flow_index']:.5g} (Buyukurganci "
+                 "et al. 2022); fluid_viscosity is dclab's (K at the Kozicki wall shear rate)")
+    else:
+        fluid = "Newtonian fluid of viscosity fluid_viscosity"
+    metadata = {
         "identifier": identifier,
-        "channel_width": 2.0 * settings["channel_radius_um"] / SQUARE_CHANNEL_RADIUS_FACTOR,
+        "channel_width": (settings["channel_width_um"] if "channel_width_um" in settings
+                          else 2.0 * settings["channel_radius_um"] / SQUARE_CHANNEL_RADIUS_FACTOR),
         "channel_width_unit": "um",
         "flow_rate": settings["flow_rate_ul_s"],
         "flow_rate_unit": "uL/s",
@@ -309,17 +477,24 @@ def lut_metadata(settings: dict, identifier: str) -> dict:
         "date": date.today().isoformat(),
         "dimensionality": "3D",
         "method": "LBM-IBM (lattice Boltzmann + immersed boundary, tetrahedral FEM cell)",
-        "model": f"hyper-elastic solid ({settings['material']}, Poisson ratio {nu:g}) / Newtonian fluid",
+        "model": (f"hyper-elastic solid ({settings['material']}, Poisson ratio {nu:g}) / "
+                  f"{'non-Newtonian' if power_law else 'Newtonian'} fluid"),
         "software": f"elastocell {__version__}",
         "authors": "elastocell",
         "summary": (
-            "Stationary shape of a homogeneous cell centred in a CYLINDRICAL channel of radius R_ch = "
-            f"{settings['channel_radius_um']:g} um; channel_width = 2 R_ch/1.094 is the width of the SQUARE RT-DC "
-            "channel it stands for (the equivalent radius of Mietke et al. 2015, as in dclab's LE-2D-FEM-19). "
+            f"Stationary shape of {channel}. {fluid}. Driving: the pressure gradient G that carries flow_rate, "
+            "wall shear stress tau_w = G A/P (cylinder G R_ch/2, square G W/4), Ca_w = tau_w/mu. "
             "area_um and deform are the convex hull of the mesh nodes seen from the side (deform = 1 - "
             "circularity)."),
         "elastocell": settings,
     }
+    if power_law:
+        metadata.update({"fluid_consistency_coefficient": settings["consistency_pa_s_n"],
+                         "fluid_consistency_coefficient_unit": "Pa s^n",
+                         "fluid_flow_behaviour_index": settings["flow_index"],
+                         "fluid_flow_behaviour_index_unit": "", "fluid_temperature": settings["temperature_c"],
+                         "fluid_temperature_unit": "degC", "medium": settings["medium"]})
+    return metadata
 
 
 def _header(metadata: dict, comment: str) -> str:
@@ -340,8 +515,10 @@ def _rows(records: list[dict]) -> np.ndarray:
 def write_lut(path: str | Path, records: list[dict], metadata: dict) -> Path:
     """The look-up table: dclab's commented-JSON text format, columns area_um, deform, emodulus."""
     path = Path(path)
+    square = metadata.get("elastocell", {}).get("channel_shape") == "square"
     comment = ("Look-up table for RT-DC computed with elastocell (pipe flow, centred homogeneous cell).\n"
-               "Approximation: cylindrical channel standing for a square one of width channel_width.")
+               + ("Square channel of width channel_width." if square else
+                  "Approximation: cylindrical channel standing for a square one of width channel_width."))
     body = "".join(f"{a:.6e}\t{d:.6e}\t{e:.6e}\n" for a, d, e in _rows(records))
     path.parent.mkdir(parents=True, exist_ok=True)
     text = _header(metadata, comment) + body
@@ -396,13 +573,15 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                 resolution: float | None = None, duration: float | None = None,
                 stationary_tolerance: float | None = None, identifier: str | None = None,
                 scheduler: str | None = None, workers: int | None = None, progress: bool = False,
-                client=None, channel_width=None, security=None) -> dict:
+                client=None, channel_width=None, security=None, channel_shape=None, channel_height=None,
+                medium=None, temperature=None, flow_index=None) -> dict:
     """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``. ``security``:
     a ``distributed.Security`` for a TLS scheduler (docs/usage/cluster.md).
 
     channel_radius, flow_rate, viscosity: quantities ("10um", "0.04uL/s", "15mPa*s") or numbers in um, uL/s,
-    mPa s; or ``channel_radius=None`` and ``channel_width`` the width W of a square RT-DC channel (R_ch =
-    1.094 W/2). radii, moduli: comma-separated lists or sequences (bare numbers in um and Pa); default the full grid
+    mPa s; or ``channel_radius=None`` and ``channel_width`` the width W of a square RT-DC channel (the cylinder
+    R_ch = 1.094 W/2 stands for it; ``channel_shape="square"`` runs the square duct). ``medium``: "newtonian"
+    (with ``viscosity``) or an MC-PBS preset at ``temperature`` degC (``viscosity=None``). radii, moduli: comma-separated lists or sequences (bare numbers in um and Pa); default the full grid
     (:data:`FULL_RADII_UM` x :data:`FULL_MODULI_KPA`) or, with ``quick``, the 2 x 2 test grid. Returns a
     summary: paths, the finished records, the failed points (key and one-line error; left out of the table and
     rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion
@@ -414,7 +593,9 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     if out.exists() and out.is_dir():
         raise ParameterError("out", f"{out} is a directory; give a file name such as lut.txt")
     points, settings = plan(channel_radius, flow_rate, viscosity, radii, moduli, quick, poisson_ratio, material,
-                            resolution, duration, stationary_tolerance, channel_width=channel_width)
+                            resolution, duration, stationary_tolerance, channel_width=channel_width,
+                            channel_shape=channel_shape, channel_height=channel_height, medium=medium,
+                            temperature=temperature, flow_index=flow_index)
     lattice = check_lattice(points)
     identifier = identifier or f"elastocell-{out.stem}"
     runs = runs_directory(out)

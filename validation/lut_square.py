@@ -1,0 +1,110 @@
+"""elastocell's look-up-table points in the square RT-DC channel with MC-PBS, against dclab's HE tables.
+
+    nice python validation/lut_square.py [--radii 5,6] [--moduli 1,2] [--workers 1] [--out /tmp/lut-square]
+
+RT-DC measures in a square channel (20 um here) filled with a shear-thinning methylcellulose buffer. This script
+runs ``elastocell lut --channel-shape square --channel-width 20um --medium 0.59%MC-PBS --temperature 23
+--flow-rate 0.04uL/s`` (the duct itself, power-law medium, driving tau_w = G W/4 from the flow rate; resumable:
+finished points are read back from ``--out``), then asks dclab which Young's modulus its tables give for each
+(area_um, deform) elastocell measured, with dclab's own viscosity of that medium (Buyukurganci 2022) and no
+pixelation correction. The independent references are dclab's HE-3D-FEM-22 (Wittwer et al. 2022, 3D FEM,
+neo-Hookean cell in a square channel, shear-thinning fluid; the closest to this run) and HE-2D-FEM-22 (the same
+authors' axisymmetric cylinder), shipped with dclab. E_dclab/E_input is 1 where both agree. A point that reached
+the duration cap before a stationary shape is marked `no (cap)`: its deformation was still changing. The page is
+docs/validation/lut_square.md (``validation/page.py``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from elastocell.inverse.lut import compute_lut
+
+TABLES = ("HE-3D-FEM-22", "HE-2D-FEM-22")
+
+
+def _number(value) -> float:
+    return float("nan") if value is None else float(value)
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--radii", default="5,6", help="cell radii (um), comma-separated")
+    parser.add_argument("--moduli", default="1,2", help="Young's moduli (kPa), comma-separated",
+                        type=lambda text: [f"{m.strip()}kPa" for m in text.split(",")])
+    parser.add_argument("--medium", default="0.59%MC-PBS")
+    parser.add_argument("--temperature", type=float, default=23.0, help="degC")
+    parser.add_argument("--resolution", type=float, default=None, help="R/dx (default: the full grid's 8)")
+    parser.add_argument("--duration", type=float, default=None, help="cap per point, 1/gdot_w (default 20)")
+    parser.add_argument("--workers", type=int, default=None)
+    parser.add_argument("--out", type=Path, default=Path("results/lut-square"))
+    args = parser.parse_args(argv)
+    from dclab.features import emodulus
+    from page import Page
+
+    page = Page("lut_square", "lut_square.py", intro=(
+        f"Stationary shapes of a homogeneous cell (neo-Hookean, nu = 0.48, lattice Boltzmann + immersed boundary) "
+        f"centred in a SQUARE channel of width 20 um, at Q = 0.04 uL/s in {args.medium} at {args.temperature:g} degC "
+        "(power law of Buyukurganci et al. 2022), run by `elastocell lut --channel-shape square`. The driving is "
+        "the pressure gradient G that carries Q through the duct in that power-law medium, Ca_w = tau_w/mu with "
+        "tau_w = G W/4. The independent references are dclab's HE-3D-FEM-22 (Wittwer et al. 2022: 3D FEM, "
+        "neo-Hookean cell, square channel, shear-thinning fluid) and HE-2D-FEM-22 (axisymmetric, cylinder), "
+        "shipped with dclab: dclab is asked which Young's modulus its table gives for each (area_um, deform) "
+        "elastocell measured, with dclab's viscosity of the same medium (visc_model buyukurganci-2022) and no "
+        "pixelation correction. E_dclab/E_input is 1 where both agree; NaN where the point lies outside dclab's "
+        "table. A point that reached the duration cap before a stationary shape is marked `no (cap)`."),
+        versions=("dclab", "numba"))
+    args.out.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    result = compute_lut(args.out / "lut.txt", None, "0.04uL/s", None, radii=args.radii, moduli=args.moduli,
+                         resolution=args.resolution, duration=args.duration, workers=args.workers,
+                         channel_width="20um", channel_shape="square", medium=args.medium,
+                         temperature=args.temperature)
+    records, settings = result["records"], result["settings"]
+    area = np.array([r["area_um"] for r in records])
+    deform = np.array([r["deform"] for r in records])
+    dclab_medium = args.medium.replace("%", "% ")
+    e_dclab = {}
+    for table in TABLES:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # points outside the table come back as NaN
+            e_dclab[table] = emodulus.get_emodulus(area_um=area, deform=deform, medium=dclab_medium,
+                                                   channel_width=20.0, flow_rate=0.04, px_um=0,
+                                                   temperature=args.temperature, visc_model="buyukurganci-2022",
+                                                   lut_data=table)
+    page.print(f"elastocell lut --channel-shape square --channel-width 20um --flow-rate 0.04uL/s --medium "
+               f"{args.medium} --temperature {args.temperature:g}: {len(records)} points, "
+               f"{time.perf_counter() - start:.0f} s (finished points read back from {args.out})")
+    page.print(f"K = {settings['consistency_pa_s_n']:.4g} Pa s^n, n = {settings['flow_index']:.4f}; "
+               f"G = {settings['pressure_gradient_pa_m']:.4g} Pa/m, tau_w = G W/4 = "
+               f"{settings['wall_shear_stress_pa']:.4g} Pa, gdot_w = (tau_w/K)^(1/n) = "
+               f"{settings['wall_shear_rate_1_s']:.4g} 1/s; dclab's viscosity (fluid_viscosity) "
+               f"{settings['viscosity_mpa_s']:.4g} mPa s")
+    rows = []
+    for i, record in enumerate(records):
+        row = {"R [um]": record["radius_um"], "E [kPa]": record["emodulus_kpa"],
+               "Ca_w": record["options"]["capillary_number_wall"], "area_um": record["area_um"],
+               "deform": record["deform"], "deform_std": _number(record.get("deform_std")),
+               "stationary": "yes" if record.get("stationary") else "no (cap)",
+               "t_end": _number(record.get("duration"))}
+        for table in TABLES:
+            row[f"E {table} [kPa]"] = e_dclab[table][i]
+            row[f"ratio {table}"] = e_dclab[table][i] / record["emodulus_kpa"]
+        rows.append(row)
+    formats = {"R [um]": "g", "E [kPa]": "g", "Ca_w": ".3f", "area_um": ".2f", "deform": ".4f",
+               "deform_std": ".4f", "t_end": ".2f"}
+    formats.update({f"E {t} [kPa]": ".3f" for t in TABLES})
+    formats.update({f"ratio {t}": ".3f" for t in TABLES})
+    page.table(rows, formats=formats)
+    for failure in result["failures"]:
+        page.print(f"failed {failure['key']}: {failure['error']}")
+    page.write()
+
+
+if __name__ == "__main__":
+    main()
