@@ -26,6 +26,7 @@ from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.compression import CompressionParameters, compression_parameters_for
 from elastocell.scenarios.pipe import PipeFlowParameters
 from elastocell.scenarios.shear import ShearFlowParameters
+from elastocell.simulation.extrapolation import CONVERGENCE_ORDER, coarse_resolution_of
 from elastocell.simulation.runner import StopCriteria
 
 NOT_COMPUTED = ("out", "progress", "resume", "checkpoint_every")
@@ -77,5 +78,9 @@ def resolved_parameters(scenario: str, options: dict) -> dict:
         stop["stationary_observable"] = arguments.pop("stationary_observable")
     criteria = StopCriteria(**stop)
     stop = {field.name: getattr(criteria, field.name) for field in dataclasses.fields(criteria) if field.name != "unit"}
+    # a single-resolution run resolves as it did before the option existed; an extrapolated one names its partner
+    coarse = coarse_resolution_of(arguments.pop("extrapolate"), flow.resolution, arguments.pop("coarse_resolution"))
+    if coarse is not None:
+        arguments["extrapolation"] = {"coarse_resolution": coarse, "order": CONVERGENCE_ORDER}
     cell = flow_cell(cell, cell_options, flow.resolution)
     return {"scenario": scenario, "cell": cell, "flow": flow, "stop": stop, "options": arguments}
