@@ -78,7 +78,8 @@ def resolved_parameters(scenario: str, options: dict) -> dict:
         stop["stationary_observable"] = arguments.pop("stationary_observable")
     criteria = StopCriteria(**stop)
     stop = {field.name: getattr(criteria, field.name) for field in dataclasses.fields(criteria) if field.name != "unit"}
-    # a single-resolution run resolves as it did before the option existed; an extrapolated one names its partner
+    # a single-resolution run resolves without the extrapolation options (whether extrapolate was off or could not
+    # apply: the same computation, one key); an extrapolated one names its coarse resolution
     coarse = coarse_resolution_of(arguments.pop("extrapolate"), flow.resolution, arguments.pop("coarse_resolution"))
     if coarse is not None:
         arguments["extrapolation"] = {"coarse_resolution": coarse, "order": CONVERGENCE_ORDER}
