@@ -11,7 +11,7 @@ finer run from the extrapolation. It is an estimate, not a bound: it assumes the
 the value at hand (two resolutions cannot check the order).
 
 The flow runners (``elastocell.shear``, ``elastocell.pipe``) use it by default: :func:`coarse_resolution_of`
-decides whether a run is extrapolated, :func:`extrapolated_summary` merges the two runs' summaries.
+decides whether a run is extrapolated, :func:`run_extrapolated` makes both runs and merges their summaries.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from elastocell.parameters.units import ParameterError
 from elastocell.simulation.directory import output_directory
 
 CONVERGENCE_ORDER = 2.0  # D/Ca - 5/4 ~ (dx/R)^2, docs/validation/flow_accuracy.md
-DEFAULT_COARSE_RESOLUTION = 6.0  # R/dx of the cheap second run; with the default 8 it costs ~0.25x the fine run
+DEFAULT_COARSE_RESOLUTION = 6.0  # R/dx of the cheaper run (its cost beside R/dx 8: docs/validation/flow_default.md)
 
 
 def richardson(fine, coarse, ratio: float, order: float = CONVERGENCE_ORDER):
