@@ -55,6 +55,8 @@ RATIOS = [1, 2, 5, 10, 20]
 STEPS = 40
 DELTA_MAX = 0.75
 CACHE_FORMAT = 1
+AXISYMMETRIC_CACHE_FORMAT = 2
+"""Version of the cached axisymmetric curves (2: a pole on a plate stays in contact while its neighbour is)."""
 BUDGET_RATIOS = [10, 20]
 BUDGET = [  # (label, 3D cell options changed from the default, the same change of the axisymmetric truth)
     ("default", {}, {}),
@@ -107,7 +109,8 @@ def axisymmetric_curve(options: dict, scale: float, fresh: bool = False, steps: 
     stopped the smallest J of the last converged row and the (r, z) of that point's element."""
     cell = cell_parameters(**options)
     mesh = MeridianMeshParameters().scaled(scale)
-    key = parameter_hash(cell, mesh, {"delta_max": DELTA_MAX, "steps": steps}, format_version=CACHE_FORMAT)[:20]
+    key = parameter_hash(cell, mesh, {"delta_max": DELTA_MAX, "steps": steps},
+                         format_version=AXISYMMETRIC_CACHE_FORMAT)[:20]
     path = cache_directory() / "validation-axisymmetric" / f"axi-{key}.json"
     if path.exists() and not fresh:
         return json.loads(path.read_text())

@@ -162,6 +162,7 @@ class _Problem:
         self.bonded = cell.mesh.base_nodes  # held in r and z (a base bonded to the dish)
         self.pattern = cell.stiffness_pattern
         self.noise = 1e-13 * float(np.sum(cell.element_volumes * cell.youngs_moduli))
+        self.poles, self.pole_neighbours = _pole_neighbours(cell.mesh.elements, self.candidates, self.on_axis)
 
     def set_load(self, load: float, start: list[float]) -> None:
         for obstacle, level in zip(self.obstacles, start, strict=True):
@@ -191,6 +192,13 @@ class _Problem:
             obstacle_of[on], normals[on], best[on] = k, normal[on], gap[on]
         multipliers = np.where(obstacle_of >= 0, np.einsum("ij,ij->i", gradient[self.candidates], normals), 0.0)
         active = (obstacle_of >= 0) & (multipliers > 0)
+        # a pole (an axis node on the surface) lying on the obstacle its surface neighbour presses stays in contact
+        # whatever the sign of its multiplier: that is the ring force of a point, whose consistent share of a
+        # uniform pressure on its quadratic edge vanishes (int_0^1 (1 - s)(1 - 2 s) s ds = 0), so that it flipped
+        # with the pressure's curvature, released the pole and let the pole element fold into a dimple of one
+        # element (docs/validation/axisymmetric.md)
+        pressed = active[self.pole_neighbours] & (obstacle_of[self.pole_neighbours] == obstacle_of[self.poles])
+        active[self.poles] |= (obstacle_of[self.poles] >= 0) & pressed
         rotations = np.broadcast_to(np.eye(2), (self.n_nodes, 2, 2)).copy()
         rotated = (obstacle_of >= 0) & ~self.on_axis[self.candidates]
         n = normals[rotated]
@@ -258,6 +266,18 @@ class _Problem:
                     return direction, shift
             shift = max(shift * 100, RETRY_SHIFT)
         return None, shift
+
+
+def _pole_neighbours(elements: np.ndarray, candidates: np.ndarray, on_axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(poles, neighbours): the positions in ``candidates`` of each surface node on the axis and of the mid-side
+    node of the surface edge that ends at it."""
+    position = np.full(len(on_axis), -1)
+    position[candidates] = np.arange(len(candidates))
+    edges = elements[:, [[0, 3, 1], [1, 4, 2], [2, 5, 0]]].reshape(-1, 3)  # (corner, mid-side, corner)
+    boundary = edges[(position[edges] >= 0).all(axis=1)]
+    ends = np.concatenate([boundary[:, [0, 1]], boundary[:, [2, 1]]])
+    ends = ends[on_axis[ends[:, 0]]]
+    return position[ends[:, 0]], position[ends[:, 1]]
 
 
 def _newton(problem: _Problem, x: np.ndarray, tolerance: float, max_iterations: int):
