@@ -161,9 +161,11 @@ class FitSettings:
     geometry: ``parallel-plates`` (``plates``) or ``sphere-indenter`` (a bead of radius ``indenter_radius``, needed,
     pressed into a cell of shape ``cell_shape`` on a dish; the x-axis is the bead's depth). ``delta_max`` limits the
     plate fit (delta <= 0.75), ``depth_max`` (units of R; default the master surface's range) the indenter fit.
+    ``cell_shape="layer"``: a layer of thickness ``layer_thickness`` (needed) bonded to the dish; its length unit is
+    h (``length_unit``, ``depth_max`` in units of h) and ``radius`` is not needed (recorded when given).
     """
 
-    radius: float | str  # m after construction
+    radius: float | str | None = None  # m after construction; needed except by the layer
     poisson_ratio: float = 0.48
     material: str = "neo-hookean"
     geometry: str = "parallel-plates"
@@ -191,7 +193,10 @@ class FitSettings:
                                    ("indenter_radius", "m", True), ("cap_height", "m", True),
                                    ("layer_thickness", "m", True)):
             object.__setattr__(self, name, _setting(getattr(self, name), unit, name, legacy))
-        if not (math.isfinite(self.radius) and self.radius > 0):
+        layer = str(self.geometry).strip().lower() == "sphere-indenter" and self.cell_shape == "layer"
+        if self.radius is None and not layer:
+            raise ParameterError("radius", "required (the cell radius, e.g. 8um)")
+        if self.radius is not None and not (math.isfinite(self.radius) and self.radius > 0):
             raise ParameterError("radius", f"must be > 0, got {self.radius}")
         if not (math.isfinite(self.poisson_ratio) and -1 < self.poisson_ratio < 0.5):
             raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {self.poisson_ratio}")
@@ -204,8 +209,11 @@ class FitSettings:
             if self.indenter_radius is None:
                 raise ParameterError("indenter_radius", "required with --geometry sphere-indenter (e.g. 5um)")
             check_shape(self.cell_shape)
+            if layer and self.layer_thickness is None:
+                raise ParameterError("layer_thickness", "required with --cell-shape layer (e.g. 50um)")
             if self.depth_max is not None and not 0 < self.depth_max <= 1:
-                raise ParameterError("depth_max", f"must be in (0, 1] (units of R), got {self.depth_max}")
+                raise ParameterError("depth_max", f"must be in (0, 1] (units of {'h' if layer else 'R'}), got "
+                                                  f"{self.depth_max}")
         if self.model not in ("master", "hertz", "both"):
             raise ParameterError("model", f"must be master, hertz or both, got {self.model!r}")
         if not 0 < self.delta_max <= 0.75:
@@ -231,9 +239,16 @@ class FitSettings:
                 raise ParameterError(name, f"must be > 0, got {value}")
 
     @property
+    def length_unit(self) -> float:
+        """R of ``F = E R^2 f``: the cell radius, the layer's thickness h (sphere-indenter, ``cell_shape="layer"``)."""
+        if self.geometry == "sphere-indenter" and self.cell_shape == "layer":
+            return self.layer_thickness
+        return self.radius
+
+    @property
     def indenter_ratio(self) -> float:
-        """R_b/R of the sphere-indenter geometry."""
-        return self.indenter_radius / self.radius
+        """R_b/R of the sphere-indenter geometry (the layer: R_b/h)."""
+        return self.indenter_radius / self.length_unit
 
 
 def parse_length(value, parameter: str) -> float:
@@ -635,7 +650,7 @@ def _model_function(model: str, curve, settings: FitSettings):
         return (lambda delta: hertz_force(np.maximum(delta, 0.0), nu)), settings.delta_max
     ratio = settings.indenter_ratio
     depth_max = settings.depth_max if settings.depth_max is not None else (
-        curve.depth_max(ratio) if curve is not None else float(depth_limit(ratio)))
+        curve.depth_max(ratio) if curve is not None else float(depth_limit(ratio, settings.cell_shape)))
     if model == "master":
         s = curve.curve(ratio)
         return (lambda u: s(2 * np.asarray(u, float))), depth_max / 2
@@ -647,7 +662,9 @@ def load_model(settings: FitSettings):
     if settings.model == "hertz":
         return None
     if settings.geometry == "sphere-indenter":
-        return load_indentation_surface(settings.poisson_ratio, settings.material, settings.cell_shape)
+        surface = load_indentation_surface(settings.poisson_ratio, settings.material, settings.cell_shape)
+        surface.depth_max(settings.indenter_ratio)  # a ratio outside the surface: refused before any file is read
+        return surface
     return load_master_curve(settings.poisson_ratio, settings.material)
 
 
@@ -865,7 +882,8 @@ def check_fit(fit: dict, region: tuple[float, float] | None = None) -> list[str]
 def _geometry_columns(settings: FitSettings) -> dict:
     """The fits.csv columns that record the geometry (lengths in m; NaN where not given)."""
     nan = float("nan")
-    return {"radius": settings.radius, "poisson_ratio": settings.poisson_ratio, "geometry": settings.geometry,
+    return {"radius": nan if settings.radius is None else settings.radius, "poisson_ratio": settings.poisson_ratio,
+            "geometry": settings.geometry,
             "indenter_radius": nan if settings.indenter_radius is None else settings.indenter_radius,
             "cell_shape": settings.cell_shape if settings.geometry == "sphere-indenter" else "",
             "cap_height": nan if settings.cap_height is None else settings.cap_height,
@@ -900,7 +918,7 @@ def fit_curve(name: str, displacement, force, settings: FitSettings,
             continue
         f, limit = _model_function(model, curve, settings)
         try:
-            fits[model] = fit_model(displacement, corrected, settings.radius, f, limit, contact0, fit_contact,
+            fits[model] = fit_model(displacement, corrected, settings.length_unit, f, limit, contact0, fit_contact,
                                     baseline.sigma, settings.bootstrap, settings.seed,
                                     contact_bounds=region if fit_contact else None)
         except CurveError as error:
@@ -929,7 +947,7 @@ def fit_curve(name: str, displacement, force, settings: FitSettings,
     row["contact_region_high"] = region[1] if region else nan
     row["baseline_sigma"] = baseline.sigma
     if settings.geometry == "sphere-indenter":  # the x-axis is the bead's depth: u = depth/(2R)
-        row["depth_max"] = row.pop("delta_max") * 2 * settings.radius
+        row["depth_max"] = row.pop("delta_max") * 2 * settings.length_unit
         row["delta_max"] = float("nan")
         if "master" in fits and curve is not None:
             row["master_curve_relative_error"] = float(curve.relative_error_at(
@@ -940,7 +958,7 @@ def fit_curve(name: str, displacement, force, settings: FitSettings,
         row.update(heterogeneous_moduli(row, settings.nucleus_size_ratio, settings.stiffness_ratio,
                                         settings.poisson_ratio))
     row["fit_time_s"] = time.perf_counter() - start
-    row["_plot"] = {"displacement": displacement, "force": corrected, "fits": fits, "radius": settings.radius,
+    row["_plot"] = {"displacement": displacement, "force": corrected, "fits": fits, "radius": settings.length_unit,
                     "region": region}
     return row
 
@@ -1045,7 +1063,8 @@ def plot_fit(path: Path, row: dict) -> None:
     top.set_ylabel("force (nN)")
     title = f"{row['file']}: R = {radius * micro:.3g} um, delta up to {row.get('delta_max', float('nan')):.3f}"
     if row.get("geometry") == "sphere-indenter":
-        title = (f"{row['file']}: R = {radius * micro:.3g} um, bead R_b = {row['indenter_radius'] * micro:.3g} um, "
+        size = f"h = {radius * micro:.3g} um" if row.get("cell_shape") == "layer" else f"R = {radius * micro:.3g} um"
+        title = (f"{row['file']}: {size}, bead R_b = {row['indenter_radius'] * micro:.3g} um, "
                  f"depth up to {row.get('depth_max', float('nan')) * micro:.3g} um")
     if flagged:
         title = f"{row['file']}: FLAGGED\n" + "\n".join(_wrap(row["flag"], 90))
@@ -1109,7 +1128,7 @@ def _flagged_row(name: str, message: str, curve: Curve | None, settings: FitSett
            **_geometry_columns(settings)}
     if curve is not None:
         row["_plot"] = {"displacement": np.asarray(curve.displacement, float), "force": np.asarray(curve.force, float),
-                        "fits": {}, "radius": settings.radius, "region": None}
+                        "fits": {}, "radius": settings.length_unit, "region": None}
     return row
 
 

@@ -17,8 +17,13 @@ monotone cubics (PCHIP) in log(R_b/R) at the same fraction x = depth/depth_limit
 then in x with ``g(0) = 1``; outside the
 tabulated ratios the call is refused (:class:`ParameterError` naming ``indenter_radius``).
 
-Only the suspended sphere (``cell_shape="sphere"``) is tabulated. File format: comment lines ``# {json}``
-(metadata: the command, meshes, node counts, versions), then a CSV table
+The bonded layer (``cell_shape="layer"``, a gel or tissue section of thickness h on a rigid dish, laterally
+:func:`elastocell.body.axisymmetric.layer_width` wide) is tabulated the same way with h as the length unit R:
+``F = E h^2 s(depth/h, R_b/h)`` at the ratios R_b/h of :data:`LAYER`, to :func:`depth_limit` = min(h/2, R_b), its
+meshes in units of R_b (the layer's own unit), ``s`` stored as its ratio to Hertz's sphere on a half-space
+(:func:`elastocell.scenarios.axisymmetric.hertz_half_space_force`, the thick layer's limit). Caps have no surface.
+
+File format: comment lines ``# {json}`` (metadata: the command, meshes, node counts, versions), then a CSV table
 ``indenter_ratio,depth,force_per_E_R2,error,held_out`` (units of R and E R^2; error NaN where the fine mesh was not
 run).
 """
@@ -31,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from elastocell.body.axisymmetric import MeridianMeshParameters
+from elastocell.body.axisymmetric import MeridianMeshParameters, layer_width
 from elastocell.files import (
     cache_directory,
     curve_csv_text,
@@ -46,10 +51,16 @@ from elastocell.files import (
 from elastocell.inverse.mastercurve import check_inputs, shipped_file, shipped_or_cached
 from elastocell.parameters.cell import cell_parameters
 from elastocell.parameters.units import ParameterError
-from elastocell.scenarios.axisymmetric import AxisymmetricError, hertz_sphere_indentation_force, indent_axisymmetric
+from elastocell.scenarios.axisymmetric import (
+    AxisymmetricError,
+    hertz_half_space_force,
+    hertz_sphere_indentation_force,
+    indent_axisymmetric,
+)
+from elastocell.scenarios.indentation import indentation_curve
 from elastocell.version import __version__
 
-CELL_SHAPES = ("sphere",)
+CELL_SHAPES = ("sphere", "layer")
 """The cell shapes with a master surface."""
 SHIPPED_POISSON_RATIOS = (0.48,)
 INDENTER_RATIOS = (0.125, 0.25, 0.5, 1.0, 2.0, 4.0)
@@ -69,32 +80,94 @@ STEPS = 20
 FORMAT_VERSION = 1
 
 
-def depth_limit(indenter_ratio):
-    """The tabulated depth range at R_b/R (units of R): min(DEPTH_MAX, DEPTH_PER_RATIO R_b/R)."""
-    return np.minimum(DEPTH_MAX, DEPTH_PER_RATIO * np.asarray(indenter_ratio, float))
+@dataclass(frozen=True)
+class SurfaceGrid:
+    """What a cell shape's surface tabulates: the ratios R_b/R (R: the shape's length unit), held-out and
+    mesh-check ratios, the meshes (in the body's unit), the depth range min(depth_max R, depth_per_ratio R_b) and
+    the load steps per curve."""
+
+    ratios: tuple
+    held_out: tuple
+    mesh_check: tuple
+    meshes: dict
+    depth_max: float
+    depth_per_ratio: float
+    steps: int
 
 
-def curve_function(depth, force, indenter_ratio: float, poisson_ratio: float = 0.48):
+LAYER = SurfaceGrid(ratios=(0.1, 0.2, 0.4, 0.8, 1.4, 2.0), held_out=(0.28, 1.1), mesh_check=(0.4, 2.0),
+                    meshes={"default": MeridianMeshParameters(), "fine": MeridianMeshParameters().scaled(0.7)},
+                    depth_max=0.5, depth_per_ratio=0.5, steps=10)
+"""The layer's surface: R_b/h 0.1-2 (a 2-20 um bead on a tissue section 10-200 um thick, or on a thin cell or gel of
+a few um), to depth min(h/2, R_b/2), 10 load steps; meshes in units of R_b, the fine one every size x 0.7 at R_b/h
+0.4 and 2 (the curves' cost on a shared 2-core machine bounds the grid; validation/indentation.py measures every
+size x 0.5 at R_b/h = 0.4). Between and beyond the mesh-check ratios the error is interpolated, clamped."""
+GRIDS = {"sphere": SurfaceGrid(INDENTER_RATIOS, HELD_OUT_RATIOS, MESH_CHECK_RATIOS, MESHES, DEPTH_MAX,
+                               DEPTH_PER_RATIO, STEPS),
+         "layer": LAYER}
+
+
+def depth_limit(indenter_ratio, cell_shape: str = "sphere"):
+    """The tabulated depth range at R_b/R (units of R): min(DEPTH_MAX, DEPTH_PER_RATIO R_b/R) (the layer: the
+    same with :data:`LAYER`'s constants, R = h)."""
+    grid = GRIDS[cell_shape]
+    return np.minimum(grid.depth_max, grid.depth_per_ratio * np.asarray(indenter_ratio, float))
+
+
+def small_depth_limit(depth, indenter_ratio, poisson_ratio: float = 0.48, cell_shape: str = "sphere"):
+    """F/(E R^2) of Hertz's limit the surface is stored relative to: the two contacts in series (sphere on a
+    dish), the sphere on a half-space (layer)."""
+    if cell_shape == "layer":
+        return hertz_half_space_force(depth, indenter_ratio, poisson_ratio)
+    return hertz_sphere_indentation_force(depth, indenter_ratio, poisson_ratio)
+
+
+def dimitriadis_bonded_force(depth, indenter_radius, thickness=1.0, poisson_ratio: float = 0.48):
+    """F/E of a rigid sphere (radius R_b) pressed to ``depth`` into a layer of ``thickness`` h bonded to a rigid
+    substrate, Dimitriadis et al. (2002, Biophys. J. 82, 2798, eq. 12 with the bonded alpha_0, beta_0 of nu):
+    Hertz's half-space force times a series in chi = sqrt(R_b depth)/h (at nu = 0.5: 1 + 1.133 chi + 1.283 chi^2
+    + 0.769 chi^3 + 0.0975 chi^4), a small-chi expansion."""
+    chi = np.sqrt(indenter_radius * np.asarray(depth, float)) / thickness
+    nu = poisson_ratio
+    a0 = -(1.2876 - 1.4678 * nu + 1.3442 * nu**2) / (1 - nu)
+    b0 = (0.6387 - 1.0277 * nu + 1.5164 * nu**2) / (1 - nu)
+    factor = (1 - 2 * a0 / np.pi * chi + 4 * a0**2 / np.pi**2 * chi**2
+              - 8 / np.pi**3 * (a0**3 + 4 * np.pi**2 * b0 / 15) * chi**3
+              + 16 * a0 / np.pi**4 * (a0**3 + 3 * np.pi**2 * b0 / 5) * chi**4)
+    return hertz_half_space_force(depth, indenter_radius, nu) * factor
+
+
+def garcia_bonded_force(depth, indenter_radius, thickness=1.0, poisson_ratio: float = 0.48):
+    """F/E of the same bonded layer by Garcia & Garcia (2018, Biophys. J. 114, 2923)'s bottom-effect correction of
+    a paraboloid, 1 + 1.133 chi + 1.497 chi^2 + 1.469 chi^3 + 0.755 chi^4 (derived for nu = 0.5; applied here to
+    Hertz at ``poisson_ratio``)."""
+    chi = np.sqrt(indenter_radius * np.asarray(depth, float)) / thickness
+    factor = 1 + 1.133 * chi + 1.497 * chi**2 + 1.469 * chi**3 + 0.755 * chi**4
+    return hertz_half_space_force(depth, indenter_radius, poisson_ratio) * factor
+
+
+def curve_function(depth, force, indenter_ratio: float, poisson_ratio: float = 0.48, cell_shape: str = "sphere"):
     """s(depth) of one computed curve (rows from depth 0, units of R and E R^2): PCHIP in depth of its ratio to
-    Hertz's two contacts in series (1 at depth 0), clamped to the last depth; what the surface does along one
+    :func:`small_depth_limit` (1 at depth 0), clamped to the last depth; what the surface does along one
     tabulated ratio."""
     from scipy.interpolate import PchipInterpolator
 
     depth, force = np.asarray(depth, float), np.asarray(force, float)
     positive = depth > 0
-    hertz = hertz_sphere_indentation_force(depth[positive], indenter_ratio, poisson_ratio)
+    hertz = small_depth_limit(depth[positive], indenter_ratio, poisson_ratio, cell_shape)
     ratio = PchipInterpolator(np.r_[0.0, depth[positive]], np.r_[1.0, force[positive] / hertz])
 
     def s(x):
         x = np.clip(np.asarray(x, float), 0.0, depth[-1])
-        return hertz_sphere_indentation_force(x, indenter_ratio, poisson_ratio) * ratio(x)
+        return small_depth_limit(x, indenter_ratio, poisson_ratio, cell_shape) * ratio(x)
 
     return s
 
 
 @dataclass
 class IndentationSurface:
-    """s(depth, R_b/R) = F/(E R^2) of a homogeneous suspended cell indented by a bead (lengths in R).
+    """s(depth, R_b/R) = F/(E R^2) of a homogeneous suspended cell (or layer, R = h) indented by a bead (lengths
+    in R).
 
     indenter_ratio, depth, force, error: the tabulated rows (error = |fine - default mesh|, NaN where the fine mesh
     was not run), one per (ratio, step), the steps of every ratio at the same fractions of its
@@ -119,7 +192,7 @@ class IndentationSurface:
         self.held_out = held
         use = ~held
         self.ratios = np.unique(self.indenter_ratio[use])
-        fractions = self.depth[use] / depth_limit(self.indenter_ratio[use])
+        fractions = self.depth[use] / depth_limit(self.indenter_ratio[use], self.cell_shape)
         self.fractions = np.unique(np.round(fractions, 9))
         if len(self.ratios) < 2 or len(self.fractions) < 4:
             raise ValueError("indentation surface: fewer than 2 ratios or 4 depths")
@@ -138,9 +211,9 @@ class IndentationSurface:
         self._checked_ratios, self._relative_grid = self.ratios[checked], relative[checked]
 
     def hertz(self, depth, indenter_ratio) -> np.ndarray:
-        """Hertz's two contacts in series, F/(E R^2) (the small-depth limit of the surface)."""
-        return hertz_sphere_indentation_force(np.maximum(np.asarray(depth, float), 0.0),
-                                              np.asarray(indenter_ratio, float), self.poisson_ratio)
+        """Hertz's limit F/(E R^2) (:func:`small_depth_limit`) of the surface."""
+        return small_depth_limit(np.maximum(np.asarray(depth, float), 0.0), np.asarray(indenter_ratio, float),
+                                 self.poisson_ratio, self.cell_shape)
 
     @property
     def ratio_range(self) -> tuple[float, float]:
@@ -148,14 +221,15 @@ class IndentationSurface:
 
     def depth_max(self, indenter_ratio: float) -> float:
         """The tabulated depth range at R_b/R (units of R)."""
-        return float(depth_limit(self._check_ratio(indenter_ratio)))
+        return float(depth_limit(self._check_ratio(indenter_ratio), self.cell_shape))
 
     def _check_ratio(self, indenter_ratio: float) -> float:
         indenter_ratio = float(indenter_ratio)
         low, high = self.ratio_range
         if not low * (1 - 1e-9) <= indenter_ratio <= high * (1 + 1e-9):
-            raise ParameterError("indenter_radius", f"R_b/R = {indenter_ratio:.4g} is outside the indentation "
-                                 f"master surface's range [{low:g}, {high:g}]")
+            unit = "h" if self.cell_shape == "layer" else "R"
+            raise ParameterError("indenter_radius", f"R_b/{unit} = {indenter_ratio:.4g} is outside the "
+                                 f"{self.cell_shape}'s indentation master surface's range [{low:g}, {high:g}]")
         return indenter_ratio
 
     @staticmethod
@@ -174,7 +248,7 @@ class IndentationSurface:
         from scipy.interpolate import PchipInterpolator
 
         indenter_ratio = self._check_ratio(indenter_ratio)
-        end = float(depth_limit(indenter_ratio))
+        end = float(depth_limit(indenter_ratio, self.cell_shape))
         ratio = PchipInterpolator(self.fractions * end, self._across(self.ratios, self._ratio_grid, indenter_ratio))
         last = float(self.hertz(end, indenter_ratio) * ratio(end))
         slope = 1.5 + float(ratio.derivative()(end) / ratio(end)) * end
@@ -197,7 +271,8 @@ class IndentationSurface:
         if not len(self._checked_ratios):
             return np.full(np.shape(depth), np.nan)
         column = self._across(self._checked_ratios, self._relative_grid, indenter_ratio)
-        return np.abs(np.interp(np.asarray(depth, float) / depth_limit(indenter_ratio), self.fractions, column))
+        return np.abs(np.interp(np.asarray(depth, float) / depth_limit(indenter_ratio, self.cell_shape),
+                                self.fractions, column))
 
     def held_out_curves(self) -> dict[float, tuple[np.ndarray, np.ndarray]]:
         """{R_b/R: (depth, s)} of the held-out rows."""
@@ -241,8 +316,8 @@ def check_shape(cell_shape: str) -> str:
     if cell_shape not in ("sphere", "cap", "layer"):
         raise ParameterError("cell_shape", f"must be sphere, cap or layer, got {cell_shape!r}")
     if cell_shape not in CELL_SHAPES:
-        raise ParameterError("cell_shape", f"{cell_shape}: no master surface for this cell shape; available: "
-                                           + ", ".join(CELL_SHAPES))
+        raise ParameterError("cell_shape", f"{cell_shape}: no master surface for this cell shape (the cap's is not "
+                                           "computed); available: " + ", ".join(CELL_SHAPES))
     return cell_shape
 
 
@@ -251,11 +326,16 @@ def shipped_name(poisson_ratio: float, material: str = "neo-hookean", cell_shape
 
 
 def surface_parameters(poisson_ratio: float, material: str = "neo-hookean", cell_shape: str = "sphere") -> dict:
-    """What a computed surface is made from, resolved: the homogeneous cell, the meshes, ratios and stepping."""
-    return {"cell": cell_parameters(nucleus="none", poisson_ratio=poisson_ratio, material=material),
-            "cell_shape": cell_shape, "meshes": MESHES, "ratios": sorted(INDENTER_RATIOS + HELD_OUT_RATIOS),
-            "held_out": sorted(HELD_OUT_RATIOS), "mesh_check": sorted(MESH_CHECK_RATIOS), "depth_max": DEPTH_MAX,
-            "depth_per_ratio": DEPTH_PER_RATIO, "steps": STEPS}
+    """What a computed surface is made from, resolved: the homogeneous cell, the meshes, ratios and stepping
+    (the layer: also its width rule, 2 h + 4 R_b)."""
+    grid = GRIDS[cell_shape]
+    parameters = {"cell": cell_parameters(nucleus="none", poisson_ratio=poisson_ratio, material=material),
+                  "cell_shape": cell_shape, "meshes": grid.meshes, "ratios": sorted(grid.ratios + grid.held_out),
+                  "held_out": sorted(grid.held_out), "mesh_check": sorted(grid.mesh_check),
+                  "depth_max": grid.depth_max, "depth_per_ratio": grid.depth_per_ratio, "steps": grid.steps}
+    if cell_shape == "layer":
+        parameters["layer_width"] = layer_width(1.0 / np.array(grid.ratios + grid.held_out)).tolist()
+    return parameters
 
 
 def cache_path(poisson_ratio: float, material: str = "neo-hookean", cell_shape: str = "sphere") -> Path:
@@ -288,21 +368,33 @@ def load_indentation_surface(poisson_ratio: float = 0.48, material: str = "neo-h
 
 def _indentation_curve(task) -> tuple:
     """One curve of the surface (a process-pool task): (ratio, mesh name, depth, force, info)."""
-    cell, ratio, name, mesh, steps = task
+    cell, cell_shape, ratio, name, mesh, steps = task
     start = time.perf_counter()
-    limit = float(depth_limit(ratio))
-    result = indent_axisymmetric(cell, ratio, limit, steps=steps, mesh=mesh)
+    limit = float(depth_limit(ratio, cell_shape))
+    if cell_shape == "layer":  # R = h: the layer of thickness 1, meshed in its own unit R_b
+        result = indentation_curve(cell, "layer", ratio, layer_thickness=1.0, depth_max=limit, steps=steps,
+                                   mesh=mesh)
+    else:
+        result = indent_axisymmetric(cell, ratio, limit, steps=steps, mesh=mesh)
     if result.load[-1] < limit - 1e-9:
         raise AxisymmetricError(f"R_b/R = {ratio}: stopped at depth {result.load[-1]}", result)
     return ratio, name, result.load, result.force, {"n_nodes": int(result.n_nodes), "substeps": int(result.substeps),
                                                     "wall_time_s": round(time.perf_counter() - start, 2)}
 
 
+QUANTITIES = {
+    "sphere": "F/(E R^2) of a homogeneous suspended sphere on a rigid dish indented by a rigid frictionless bead of "
+              "radius R_b = indenter_ratio R",
+    "layer": "F/(E h^2) (column force_per_E_R2, R = h) of a homogeneous layer of thickness h bonded to a rigid dish, "
+             "2 h + 4 R_b wide, indented by a rigid frictionless bead of radius R_b = indenter_ratio h; meshes in "
+             "units of R_b"}
+
+
 def compute_indentation_surface(poisson_ratio: float = 0.48, material: str = "neo-hookean",
                                 cell_shape: str = "sphere", use_cache: bool = True, progress=None,
                                 workers: int = 1) -> IndentationSurface:
     """Compute (or read from the cache) the surface: one indentation curve per ratio on the default mesh, and on
-    the fine mesh at :data:`MESH_CHECK_RATIOS`, ``workers`` processes at a time.
+    the fine mesh at the mesh-check ratios (:data:`GRIDS`), ``workers`` processes at a time.
 
     ``progress(ratio, mesh_name, seconds)`` is called after each curve. A curve that stops before its depth limit
     raises :class:`AxisymmetricError` (the table must be a full grid)."""
@@ -315,9 +407,10 @@ def compute_indentation_surface(poisson_ratio: float = 0.48, material: str = "ne
         cached = read_cached(poisson_ratio, material, cell_shape)
         if cached is not None:
             return cached
-    tasks = [(parameters["cell"], ratio, name, mesh, STEPS) for ratio in parameters["ratios"]
-             for name, mesh in MESHES.items() if name == "default" or ratio in MESH_CHECK_RATIOS]
-    tasks.sort(key=lambda task: task[2] != "fine")  # the longest first
+    grid = GRIDS[cell_shape]
+    tasks = [(parameters["cell"], cell_shape, ratio, name, mesh, grid.steps) for ratio in parameters["ratios"]
+             for name, mesh in grid.meshes.items() if name == "default" or ratio in grid.mesh_check]
+    tasks.sort(key=lambda task: task[3] != "fine")  # the longest first
     curves, info = {}, {}
     with ProcessPoolExecutor(max(1, workers)) as pool:
         for ratio, name, depth, force, details in pool.map(_indentation_curve, tasks):
@@ -333,17 +426,19 @@ def compute_indentation_surface(poisson_ratio: float = 0.48, material: str = "ne
         columns["depth"] += list(depth)
         columns["force"] += list(force)
         columns["error"] += list(np.abs(np.asarray(fine) - force))
-        columns["held_out"] += [float(ratio in HELD_OUT_RATIOS)] * len(depth)
+        columns["held_out"] += [float(ratio in grid.held_out)] * len(depth)
     surface = IndentationSurface(
         **{key: np.array(values) for key, values in columns.items()}, poisson_ratio=poisson_ratio,
         material=material, cell_shape=cell_shape,
         metadata={"command": f"elastocell mastercurve indentation --poisson-ratio {poisson_ratio:g} "
-                             f"--material {material}",
-                  "quantity": "F/(E R^2) of a homogeneous suspended sphere on a rigid dish indented by a rigid "
-                              "frictionless bead of radius R_b = indenter_ratio R; depth (units of R) = the bead's "
-                              "displacement after first contact; default mesh; error = |fine - default mesh|",
-                  "meshes": {name: mesh.model_dump() for name, mesh in MESHES.items()},
-                  "curves": info, "steps": STEPS, "depth_max": DEPTH_MAX, "depth_per_ratio": DEPTH_PER_RATIO,
+                             f"--material {material}" + ("" if cell_shape == "sphere" else
+                                                         f" --cell-shape {cell_shape}"),
+                  "quantity": QUANTITIES[cell_shape] + "; depth (units of R) = the bead's displacement after first "
+                              "contact; default mesh; error = |fine - default mesh|",
+                  "meshes": {name: mesh.model_dump() for name, mesh in grid.meshes.items()},
+                  "curves": info, "steps": grid.steps, "depth_max": grid.depth_max,
+                  "depth_per_ratio": grid.depth_per_ratio, **({"layer_width": "2 h + 4 R_b"} if cell_shape ==
+                                                              "layer" else {}),
                   "elastocell_version": __version__, "software": software_versions()})
     if use_cache:
         write_cache_entry(cache_path(poisson_ratio, material, cell_shape), surface.csv_text().encode(),
