@@ -215,6 +215,11 @@ def main() -> None:
                    "the smallest J of the last converged row and where)",
                    columns=["gamma", "scale", "nodes", "time_s", "delta_reached", *ERRORS, "stop"],
                    formats={"time_s": ".0f", "delta_reached": ".3f", **{f"err@{d:g}": "+.3%" for d in DELTAS}})
+        page.print("A pole (the surface node on the axis) lying on a plate is held in contact while the mid-side node "
+                   "of its surface edge is: the share of a uniform pressure that a quadratic edge gives its node at "
+                   "radius 0 is zero, so the sign of the pole's own multiplier says nothing about contact "
+                   "(docs/theory.md, 'Axisymmetric path'). The error of the finest mesh itself is of the order of "
+                   "the difference between the two finest rows.")
     if "three-d" in args.only:
         rows = []
         for ratio in args.ratios:
