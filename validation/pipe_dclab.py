@@ -1,19 +1,21 @@
 """RT-DC deformation and projected area of the centred cell against dclab's LE-2D-FEM-19, at two lattice
 resolutions and their Richardson extrapolation.
 
-    nice python validation/pipe_dclab.py [--points 6:2,6:3,7.66:3,7.66:4.5] [--resolutions 8 6] [--duration 12]
-                                         [--workers 2] [--out results/pipe-dclab] [--cached-only]
+    nice python validation/pipe_dclab.py [--points 6:3,7.66:3,6:2,7.66:4.5] [--resolution 8]
+                                         [--coarse-resolution 6] [--duration 10] [--workers 2]
+                                         [--out results/pipe-dclab] [--cached-only]
 
 The reference, LE-2D-FEM-19 (Mokbel et al. 2017, ACS Biomater. Sci. Eng. 3, 2962; shipped with dclab and queried
 through ``dclab.features.emodulus.get_emodulus``, never copied), holds stationary shapes of an incompressible
 linear-elastic sphere in a cylinder of radius R_ch = 1.094 x 10 um (the equivalent radius of the 20 um square
 channel, Mietke et al. 2015, supplement S3), Q = 0.04 uL/s, eta = 15 mPa s, axisymmetric FEM. Its columns are
 (area_um, deform, emodulus) only; the radius of the cell behind a row is not in it. Each point here is a cell of
-radius R (um) and Young's modulus E (kPa) in that same cylinder and flow, run by ``elastocell.inverse.lut``'s grid
-point (``plan`` and ``run_point``: centred homogeneous neo-Hookean cell, nu = 0.48, stop once the mean deformation
-over a unit of 1/gdot_w is stationary to 1e-3 or at the duration cap; area and deformation means over the last
-unit), once per resolution R/dx. The fine and coarse values combine as
-``elastocell.simulation.extrapolation.richardson`` (order 2).
+radius R (um) and Young's modulus E (kPa) in that same cylinder and flow, run as one extrapolated grid point of
+``elastocell.inverse.lut`` (``plan`` and ``run_point``: centred homogeneous neo-Hookean cell, nu = 0.48; pipe's
+default extrapolation, runs at R/dx 8 and 6, each stopped once its mean deformation over a unit of 1/gdot_w is
+stationary to 1e-3 or at the duration cap; final-window means of each, combined by
+``elastocell.simulation.extrapolation``, order 2). Each resolution's run alone is listed too: R/dx 8 alone is
+the setting before the extrapolation became the default.
 
 The table holds no radius, so the comparison is made in its own plane, against the isoelastic of the same shear
 modulus, E_t = 3 mu = 3 E / (2 (1 + nu)) (the table's nu = 0.5):
@@ -35,7 +37,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -52,7 +53,7 @@ from elastocell.inverse.lut import plan, run_point
 from elastocell.scenarios.pipe import PipeFlowParameters
 from elastocell.scenarios.shear import compile_kernels
 from elastocell.simulation.distributed import TaskFailure, run_tasks
-from elastocell.simulation.extrapolation import CONVERGENCE_ORDER, richardson
+from elastocell.simulation.extrapolation import CONVERGENCE_ORDER, part_directory
 
 CHANNEL_WIDTH_UM = 20.0  # LE-2D-FEM-19's own channel, flow and medium: no scaling of the table is involved
 FLOW_RATE_UL_S = 0.04
@@ -111,15 +112,16 @@ def parse_points(text: str) -> list[tuple[float, float]]:
     return out
 
 
-def grid_points(points, resolutions, duration: float) -> list[dict]:
-    """``lut.plan``'s point (options and run key) for every (R, E) and resolution."""
+def grid_points(points, resolution: float, coarse_resolution: float | None, duration: float) -> list[dict]:
+    """``lut.plan``'s point (options and run key) for every (R, E): one extrapolated point each (R/dx
+    ``resolution`` and ``coarse_resolution``, lut's and pipe's default coarse one when None)."""
     out = []
-    for resolution in resolutions:
-        for radius, modulus in points:
-            planned, _ = plan(None, f"{FLOW_RATE_UL_S}uL/s", f"{VISCOSITY_MPA_S}mPa*s", radii=[f"{radius}um"],
-                              moduli=[f"{modulus}kPa"], resolution=resolution, duration=duration,
-                              channel_width=f"{CHANNEL_WIDTH_UM}um")
-            out.append({**planned[0], "resolution": float(resolution), "radius_um": radius, "emodulus_kpa": modulus})
+    for radius, modulus in points:
+        extra = {} if coarse_resolution is None else {"coarse_resolution": coarse_resolution}
+        planned, _ = plan(None, f"{FLOW_RATE_UL_S}uL/s", f"{VISCOSITY_MPA_S}mPa*s", radii=[f"{radius}um"],
+                          moduli=[f"{modulus}kPa"], resolution=resolution, duration=duration,
+                          channel_width=f"{CHANNEL_WIDTH_UM}um", **extra)
+        out.append({**planned[0], "resolution": float(resolution), "radius_um": radius, "emodulus_kpa": modulus})
     return out
 
 
@@ -131,19 +133,65 @@ def case(record: dict) -> tuple:
 
 
 def read_cache(path: Path) -> dict:
-    """case -> record of every finished run in the JSON-lines cache (the last one of a case)."""
+    """case -> record of every finished extrapolated point in the JSON-lines cache (the last one of a case)."""
     if not path.exists():
         return {}
     records = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-    return {case(r): r for r in records}
+    return {case(r): r for r in records if r.get("extrapolation")}
+
+
+def parts_of(directory: Path, record: dict) -> dict:
+    """Stop reason, time reached and steps of each resolution's run of an extrapolated point (its
+    ``resolution-<R/dx>/summary.json``)."""
+    parts = {}
+    for key in ("fine_resolution", "coarse_resolution"):
+        r = record["extrapolation"][key]
+        summary = json.loads((part_directory(directory, r) / "summary.json").read_text())
+        parts[f"{r:g}"] = {k: summary.get(k) for k in ("stop_reason", "duration", "steps", "wall_time_s")}
+        parts[f"{r:g}"].update(drifts(part_directory(directory, r) / "timeseries.csv"))
+    return parts
+
+
+DRIFT_WINDOW = 2.0  # units of 1/gdot_w at the end of a run over which the drift is fitted
+
+
+def drifts(timeseries: Path) -> dict:
+    """Relative drift per unit of 1/gdot_w of deformation, projected area and axial strain at the end of a run
+    (least-squares slope over the last :data:`DRIFT_WINDOW` over the mean): what a capped run still changes."""
+    import pandas as pd
+
+    table = pd.read_csv(timeseries)
+    last = table[table["time"] > table["time"].iloc[-1] - DRIFT_WINDOW]
+    out = {}
+    for name in ("deformation", "projected_area", "strain_axial", "volume_change"):
+        slope = np.polyfit(last["time"], last[name], 1)[0]
+        out[f"drift_{name}"] = float(slope if name == "volume_change" else slope / last[name].mean())
+    out["volume_change_end"] = float(table["volume_change"].iloc[-1])
+    return out
+
+
+def complete_cache(out: Path) -> None:
+    """Add the runs' stop reasons to cached records that lack them (read from their run directories)."""
+    path = out / "runs.jsonl"
+    if not path.exists():
+        return
+    records = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    changed = False
+    for record in records:
+        if record.get("extrapolation") and "drift_deformation" not in str(record.get("parts")) \
+                and (out / "runs" / record["key"]).exists():
+            record["parts"] = parts_of(out / "runs" / record["key"], record)
+            changed = True
+    if changed:
+        path.write_text("".join(json.dumps(r, default=float) + "\n" for r in records))
 
 
 def run_missing(points: list[dict], out: Path, workers: int) -> list[dict]:
-    """Run the points not in the cache (largest lattices first, one Numba thread per worker), appending each
-    record to the cache as it finishes; returns the failures."""
+    """Run the points not in the cache (one Numba thread per worker), appending each record, with its runs' stop
+    reasons, to the cache as it finishes; returns the failures."""
     cache_path = out / "runs.jsonl"
     cached = read_cache(cache_path)
-    todo = sorted([p for p in points if case(p) not in cached], key=lambda p: -p["resolution"])
+    todo = [p for p in points if case(p) not in cached]
     failures = []
     if not todo:
         return failures
@@ -156,13 +204,15 @@ def run_missing(points: list[dict], out: Path, workers: int) -> list[dict]:
             failures.append({"key": point["key"], "error": str(outcome)})
             print(f"failed {point['key']}: {outcome}", flush=True)
             continue
+        if not outcome.get("extrapolation"):
+            failures.append({"key": point["key"], "error": "lut ran a single resolution, not an extrapolated point"})
+            continue
         record = {**outcome, "resolution": point["resolution"], "radius_um": point["radius_um"],
-                  "emodulus_kpa": point["emodulus_kpa"]}
+                  "emodulus_kpa": point["emodulus_kpa"], "parts": parts_of(out / "runs" / point["key"], outcome)}
         with cache_path.open("a") as handle:
             handle.write(json.dumps(record, default=float) + "\n")
-        print(f"done R = {point['radius_um']:g} um, E = {point['emodulus_kpa']:g} kPa, R/dx {point['resolution']:g}: "
-              f"deform {record['deform']:.4f}, area {record['area_um']:.2f} um^2, stop {record['stop_reason']} at "
-              f"t = {record['duration']:.2f}, {record['wall_time_s']:.0f} s", flush=True)
+        print(f"done R = {point['radius_um']:g} um, E = {point['emodulus_kpa']:g} kPa: extrapolated deform "
+              f"{record['deform']:.4f}, area {record['area_um']:.2f} um^2, {record['wall_time_s']:.0f} s", flush=True)
     return failures
 
 
@@ -170,55 +220,68 @@ def percent(value: float, reference: float) -> float:
     return 100.0 * (value / reference - 1.0)
 
 
-def rows_for(radius: float, modulus: float, fine: dict, coarse: dict | None, ratio: float) -> list[dict]:
-    """The "before" (fine run alone) and "after" (extrapolated) rows of one cell."""
-    nu = fine["options"]["poisson_ratio"]
+def _stationary(part: dict) -> str:
+    return "yes" if part["stop_reason"] == "stationary" else f"no (cap t={part['duration']:.0f})"
+
+
+def rows_for(record: dict) -> list[dict]:
+    """The rows of one cell: each resolution's run alone, then the extrapolation (lut's point: final-window means
+    of each run, Richardson-extrapolated)."""
+    radius, modulus = record["radius_um"], record["emodulus_kpa"]
+    nu = record["options"]["poisson_ratio"]
     e_table = 3.0 * modulus / (2.0 * (1.0 + nu))
-    ca = fine["options"]["capillary_number_wall"]
-    variants = [("R/dx %g" % fine["resolution"], fine["area_um"], fine["deform"],
-                 "yes" if fine["stationary"] else f"no (cap t={fine['duration']:.0f})")]
-    if coarse is not None:
-        area = float(richardson(fine["area_um"], coarse["area_um"], ratio))
-        deform = float(richardson(fine["deform"], coarse["deform"], ratio))
-        both = fine["stationary"] and coarse["stationary"]
-        variants.append((f"extrapolated {fine['resolution']:g}/{coarse['resolution']:g}", area, deform,
-                         "yes" if both else "no (a run hit the cap)"))
+    ca = record["options"]["capillary_number_wall"]
+    ext = record["extrapolation"]
+    deform, area = ext["values"]["deformation"], ext["values"]["projected_area"]
+    fine_r, coarse_r = ext["fine_resolution"], ext["coarse_resolution"]
+    parts = record["parts"]
+    coarse_part, fine_part = parts[f"{coarse_r:g}"], parts[f"{fine_r:g}"]
+    variants = [(f"R/dx {coarse_r:g}", area["coarse"], deform["coarse"], _stationary(coarse_part), coarse_part),
+                (f"R/dx {fine_r:g}", area["fine"], deform["fine"], _stationary(fine_part), fine_part),
+                (f"extrapolated {fine_r:g}/{coarse_r:g}", area["value"], deform["value"],
+                 "yes" if record["stationary"] else "no (a run hit the cap)", {})]
     rows = []
-    for label, area, deform, stationary in variants:
-        deform_t, area_t = table_deformation(area, e_table), table_area(deform, e_table, area)
-        err_d, err_a = percent(deform, deform_t), percent(area, area_t)
+    for label, area_r2, deform_value, stationary, drift in variants:
+        area_um = area_r2 * radius**2
+        deform_t, area_t = table_deformation(area_um, e_table), table_area(deform_value, e_table, area_um)
+        err_d, err_a = percent(deform_value, deform_t), percent(area_um, area_t)
         met = abs(err_d) <= 100 * TARGET and abs(err_a) <= 100 * TARGET
         rows.append({"R [um]": radius, "R/R_ch": radius / (1.094 * CHANNEL_WIDTH_UM / 2), "E [kPa]": modulus,
                      "E_t [kPa]": e_table, "Ca_w": ca, "run": label, "stationary": stationary,
-                     "deform": deform, "D_t": deform_t, "D err %": err_d,
-                     "area_um": area, "A_t": area_t, "A err %": err_a, "A/(pi R^2)": area / (np.pi * radius**2),
-                     "E_dclab/E_t": float(table_modulus(area, deform)) / e_table,
-                     "target met": "yes" if met else "no"})
+                     "deform": deform_value, "D_t": deform_t, "D err %": err_d,
+                     "area_um": area_um, "A_t": area_t, "A err %": err_a, "A/(pi R^2)": area_r2 / np.pi,
+                     "E_dclab/E_t": float(table_modulus(area_um, deform_value)) / e_table,
+                     "target met": "yes" if met else "no", "D drift %/t": drift.get("drift_deformation", np.nan) * 100,
+                     "A drift %/t": drift.get("drift_projected_area", np.nan) * 100,
+                     "dV/V end": drift.get("volume_change_end", np.nan)})
     return rows
 
 
 FORMATS = {"R [um]": "g", "R/R_ch": ".3f", "E [kPa]": "g", "E_t [kPa]": ".3f", "Ca_w": ".3f", "deform": ".4f",
            "D_t": ".4f", "D err %": "+.1f", "area_um": ".2f", "A_t": ".2f", "A err %": "+.1f",
-           "A/(pi R^2)": ".4f", "E_dclab/E_t": ".3f"}
+           "A/(pi R^2)": ".4f", "E_dclab/E_t": ".3f", "D drift %/t": "+.2f",
+           "A drift %/t": "+.2f", "dV/V end": "+.4f"}
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--points", default="6:2,6:3,7.66:3,7.66:4.5",
+    parser.add_argument("--points", default="6:3,7.66:3,6:2,7.66:4.5",
                         help="cells R:E (um:kPa), comma-separated (R/R_ch = R/10.94)")
-    parser.add_argument("--resolutions", type=float, nargs=2, default=[8.0, 6.0], help="fine and coarse R/dx")
-    parser.add_argument("--duration", type=float, default=12.0, help="cap per run, 1/gdot_w")
+    parser.add_argument("--resolution", type=float, default=8.0, help="R/dx of the finer run")
+    parser.add_argument("--coarse-resolution", type=float, default=None,
+                        help="R/dx of the coarser run (default: pipe's, 6)")
+    parser.add_argument("--duration", type=float, default=10.0, help="cap per run, 1/gdot_w")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("results/pipe-dclab"))
     parser.add_argument("--cached-only", action="store_true", help="write the page from --out/runs.jsonl alone")
     args = parser.parse_args(argv)
-    fine_res, coarse_res = args.resolutions
-    ratio = fine_res / coarse_res
+    coarse_label = "the default coarse resolution (6)" if args.coarse_resolution is None else \
+        f"{args.coarse_resolution:g}"
     cells = parse_points(args.points)
     page = Page("pipe_dclab", "pipe_dclab.py", intro=(
         f"A centred homogeneous cell (neo-Hookean, nu = 0.48) in the cylinder of LE-2D-FEM-19 (R_ch = 1.094 x 10 um, "
         f"the equivalent radius of the 20 um square channel), Q = {FLOW_RATE_UL_S} uL/s, eta = {VISCOSITY_MPA_S} "
-        f"mPa s, each cell run at R/dx {fine_res:g} and {coarse_res:g} (lut's grid point: stop when the mean "
+        f"mPa s, each cell run at R/dx {args.resolution:g} and {coarse_label} (lut's extrapolated grid point: stop when the mean "
         "deformation over a unit of 1/gdot_w is stationary to 1e-3, or at the cap; values are means over the last "
         "unit) and combined by Richardson extrapolation of order "
         f"{CONVERGENCE_ORDER:g}. The reference is dclab's {TABLE} (axisymmetric FEM, incompressible linear-elastic), "
@@ -227,29 +290,30 @@ def main(argv=None) -> None:
         "table's area at elastocell's deformation (the vertical and horizontal distances from that isoelastic), "
         "E_dclab/E_t the modulus dclab reads from elastocell's (area, deform) over the cell's. "
         f"`target met`: deformation and area both within {100 * TARGET:g} % (issue 24). A run "
-        "that reached the duration cap before the stationarity criterion is marked `no (cap ...)`."),
+        "that reached the duration cap before the stationarity criterion is marked `no (cap ...)`; `D drift` and "
+        "`A drift` are the relative changes of its deformation and area per unit of 1/gdot_w over its last 2 units "
+        "(0 at a stationary shape), `dV/V end` its volume change at the end."),
         versions=("dclab", "numba"))
-    points = grid_points(cells, (fine_res, coarse_res), args.duration)
+    points = grid_points(cells, args.resolution, args.coarse_resolution, args.duration)
     args.out.mkdir(parents=True, exist_ok=True)
     failures = [] if args.cached_only else run_missing(points, args.out, args.workers)
+    if not args.cached_only:
+        complete_cache(args.out)
     cache = read_cache(args.out / "runs.jsonl")
-    rows, missing = [], []
-    for radius, modulus in cells:
-        fine, coarse = (cache.get(case(p)) for p in points
-                        if p["radius_um"] == radius and p["emodulus_kpa"] == modulus)
-        for point in points:
-            if point["radius_um"] == radius and point["emodulus_kpa"] == modulus and case(point) not in cache:
-                missing.append(f"R = {radius:g} um, E = {modulus:g} kPa at R/dx {point['resolution']:g}")
-        if fine is not None:
-            rows.extend(rows_for(radius, modulus, fine, coarse, ratio))
-    page.table(rows, f"Deformation and area against {TABLE}: R/dx {fine_res:g} alone, then extrapolated",
+    rows, missing, records = [], [], []
+    for point in points:
+        record = cache.get(case(point))
+        if record is None:
+            missing.append(f"R = {point['radius_um']:g} um, E = {point['emodulus_kpa']:g} kPa")
+            continue
+        records.append(record)
+        rows.extend(rows_for(record))
+    page.table(rows, f"Deformation and area against {TABLE}: each resolution alone, then extrapolated",
                formats=FORMATS)
-    times = [f"R = {r['radius_um']:g} um, E = {r['emodulus_kpa']:g} kPa, R/dx {r['resolution']:g}: "
-             f"{r['wall_time_s']:.0f} s to t = {r['duration']:.2f}/gdot_w ({r['stop_reason']}), "
-             f"{r['steps']} steps" for r in sorted(cache.values(), key=lambda r: (-r["resolution"], r["radius_um"],
-                                                                                    r["emodulus_kpa"]))
-             if case(r) in {case(p) for p in points}]
-    page.print("Wall time of each run (one Numba thread each, 2 runs at a time on a machine shared with other "
+    times = [f"R = {r['radius_um']:g} um, E = {r['emodulus_kpa']:g} kPa: " + "; ".join(
+             f"R/dx {res}: t = {part['duration']:.2f}/gdot_w ({part['stop_reason']}), {part['steps']} steps, "
+             f"{part['wall_time_s']:.0f} s" for res, part in r["parts"].items()) for r in records]
+    page.print("Wall time of each run (one Numba thread each, 2 points at a time on a machine shared with other "
                "work: not a benchmark):\n" + "\n".join(times))
     for failure in failures:
         page.print(f"failed {failure['key']}: {failure['error']}")
