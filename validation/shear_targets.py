@@ -30,8 +30,10 @@ CAPILLARY_NUMBERS = (0.05, 0.1, 0.2, 0.3)
 RESOLUTIONS = (8.0, 6.0)
 DURATION = 4.0
 CACHE = Path(__file__).resolve().parents[1] / "results" / "shear_targets.jsonl"
-KEYS = ("Ca", "R/dx", "duration", "method", "confinement")
+KEYS = ("Ca", "R/dx", "duration", "method", "flow")
 CONFINEMENT = 0.2  # the default 2R/H of ShearFlowParameters
+FLOW_OPTIONS = {"confinement": "2R/H", "box_length": "box (R)", "reynolds_number": "Re_p"}
+"""ShearFlowParameters a run may change from the default (``--confinement`` etc.) to size a systematic gap."""
 
 
 def load_cache(path: Path) -> list[dict]:
@@ -39,7 +41,9 @@ def load_cache(path: Path) -> list[dict]:
         return []
     rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
     for row in rows:
-        row.setdefault("confinement", CONFINEMENT)
+        if "flow" not in row:  # rows written with a confinement only
+            confinement = row.get("confinement", CONFINEMENT)
+            row["flow"] = {} if confinement == CONFINEMENT else {"confinement": confinement}
     return rows
 
 
@@ -50,7 +54,7 @@ def cached(rows: list[dict], case: dict) -> dict | None:
     return None
 
 
-def run_case(ca: float, resolution: float, duration: float, confinement: float = CONFINEMENT) -> dict:
+def run_case(ca: float, resolution: float, duration: float, flow: dict | None = None) -> dict:
     """One ``elastocell.shear`` run of the homogeneous cell; its stationary values as a cache row."""
     import elastocell
 
@@ -59,9 +63,9 @@ def run_case(ca: float, resolution: float, duration: float, confinement: float =
         start = time.perf_counter()
         summary = elastocell.shear(out, capillary_number=ca, resolution=resolution, duration=duration,
                                    vtk_interval=None, nucleus="none", progress=False,
-                                   flow_options={"confinement": confinement}, **options)
+                                   flow_options=dict(flow or {}), **options)
         wall = time.perf_counter() - start
-    return {"Ca": ca, "R/dx": resolution, "duration": duration, "method": "single", "confinement": confinement,
+    return {"Ca": ca, "R/dx": resolution, "duration": duration, "method": "single", "flow": dict(flow or {}),
             "D": summary["taylor_deformation_mean"], "D_std": summary.get("taylor_deformation_std"),
             "incl_deg": summary["inclination_deg_mean"], "tt_freq": summary["tank_treading_frequency"],
             "stationary": summary.get("stationary"), "lattice": (summary.get("lattice") or {}).get("shape"),
@@ -123,7 +127,7 @@ def write_page(rows: list[dict]) -> None:
     from elastocell.simulation.extrapolation import richardson
 
     page = Page("shear_targets", "shear_targets.py", intro=INTRO)
-    runs = {(r["Ca"], r["R/dx"]): r for r in rows if r.get("method") == "single" and r["confinement"] == CONFINEMENT}
+    runs = {(r["Ca"], r["R/dx"]): r for r in rows if r.get("method") == "single" and not r["flow"]}
     names = ("D", "incl_deg", "tt_freq")
     fine, extrapolated, missing = {}, {}, []
     for ca in CAPILLARY_NUMBERS:
@@ -181,13 +185,15 @@ def write_page(rows: list[dict]) -> None:
     gap_rows = []
     for r in sorted(rows, key=lambda r: (r["R/dx"], r["Ca"])):
         base = runs.get((r["Ca"], r["R/dx"]))
-        if r.get("method") == "single" and r["confinement"] != CONFINEMENT and base is not None:
-            gap_rows.append({"Ca": r["Ca"], "R/dx": r["R/dx"], "2R/H": r["confinement"],
+        if r.get("method") == "single" and r["flow"] and base is not None:
+            gap_rows.append({"Ca": r["Ca"], "R/dx": r["R/dx"],
+                             "changed": ", ".join(f"{FLOW_OPTIONS[k]} {v:g}" for k, v in r["flow"].items()),
                              "D_change_%": 100 * (r["D"] / base["D"] - 1),
                              "incl_change_deg": r["incl_deg"] - base["incl_deg"],
                              "tt_change_%": 100 * (r["tt_freq"] / base["tt_freq"] - 1)})
     if gap_rows:
-        page.table(gap_rows, f"Confinement: the same run at a lower 2R/H against 2R/H = {CONFINEMENT:g}",
+        page.table(gap_rows, "Flow settings: the same run with one setting changed, against the default (2R/H 0.2, "
+                             "box 8R, Re_p 0.1)",
                    formats={"D_change_%": "+.2f", "incl_change_deg": "+.2f", "tt_change_%": "+.2f"})
     check = curve.metadata.get("check_rdx10")
     if check:  # three resolutions at Ca = 0.3: the shipped curve's R/dx 6 and 8 and its one R/dx 10 run
@@ -227,7 +233,9 @@ def main(argv=None) -> None:
     parser.add_argument("--capillary-numbers", type=float, nargs="*", default=list(CAPILLARY_NUMBERS))
     parser.add_argument("--resolutions", type=float, nargs="*", default=list(RESOLUTIONS))
     parser.add_argument("--duration", type=float, default=DURATION, help="strain of a run")
-    parser.add_argument("--confinement", type=float, default=CONFINEMENT, help="2R/H of the runs")
+    parser.add_argument("--confinement", type=float, default=None, help="2R/H of the runs (default 0.2)")
+    parser.add_argument("--box-length", type=float, default=None, help="periodic box (R) of the runs (default 8)")
+    parser.add_argument("--reynolds-number", type=float, default=None, help="particle Re limit (default 0.1)")
     parser.add_argument("--cache", type=Path, default=CACHE)
     parser.add_argument("--rerun", action="store_true", help="recompute cached runs")
     parser.add_argument("--page", action="store_true", help="write the page from the cache")
@@ -238,14 +246,15 @@ def main(argv=None) -> None:
 
         numba.set_num_threads(max(1, min(args.threads, numba.config.NUMBA_NUM_THREADS)))
     args.cache.parent.mkdir(parents=True, exist_ok=True)
+    flow = {k: getattr(args, k) for k in FLOW_OPTIONS if getattr(args, k) is not None}
     if args.run:
         for resolution in args.resolutions:
             for ca in args.capillary_numbers:
                 case = {"Ca": ca, "R/dx": resolution, "duration": args.duration, "method": "single",
-                        "confinement": args.confinement}
+                        "flow": flow}
                 if not args.rerun and cached(load_cache(args.cache), case):
                     continue
-                row = run_case(ca, resolution, args.duration, args.confinement)
+                row = run_case(ca, resolution, args.duration, flow)
                 print(json.dumps(row), flush=True)
                 with args.cache.open("a") as handle:
                     handle.write(json.dumps(row) + "\n")
