@@ -108,6 +108,20 @@ def test_patch_uniform_stretch_of_a_cylinder_gives_the_exact_stress(stretches):
     assert cell.energy(x) == pytest.approx(density * np.pi, rel=1e-12)
 
 
+def test_a_pole_carries_none_of_a_uniform_pressure():
+    """Why the contact holds a pole on a plate while its neighbour is held (scenarios.axisymmetric): under a
+    uniform axial stress the ring force of the top face's axis node is zero, int_0^1 (1 - s)(1 - 2 s) s ds = 0
+    (measured 4e-17 of the face's force; asserted 1e-12), while the face's other nodes carry all of it."""
+    mesh = rectangle_mesh(distortion=0.0)
+    cell = AxisymmetricCell(cell_parameters(nucleus="none"), mesh, np.ones(mesh.n_elements))
+    forces = cell.internal_forces(mesh.nodes * np.array([1.0, 0.9]))
+    top = np.flatnonzero(np.isclose(mesh.nodes[:, 1], 0.5))
+    pole = top[mesh.nodes[top, 0] == 0.0]
+    total = forces[top, 1].sum()
+    assert abs(forces[pole, 1]).max() < 1e-12 * abs(total)
+    assert np.all(np.abs(forces[np.setdiff1d(top, pole), 1]) > 1e-3 * abs(total))
+
+
 def test_stiffness_is_the_derivative_of_the_forces():
     """The assembled element stiffness times a random direction equals the central difference of the forces
     (step 1e-6: the measured mismatch is 1e-8 of the largest entry, the difference's own truncation error)."""
