@@ -1,5 +1,6 @@
 """A bead (rigid sphere, radius R_b) indenting a cell on a dish, on the axisymmetric solver: the small-depth
-limits against closed forms, the force's change under mesh refinement, and the layer's lateral extent.
+limits against closed forms and the force's change under mesh refinement (the bonded layer's width, refinement
+and master surface: ``validation/indentation_layer.py``).
 
     nice python validation/indentation.py [--quick]
 
@@ -10,11 +11,6 @@ limits against closed forms, the force's change under mesh refinement, and the l
 2. Refinement: F(depth) on the default mesh against the mesh with every size times 0.7, per shape, at depth
    0.1, 0.2 and 0.3 (units of R; the layer's of R_b), 3 load steps, and the wall time of each curve (measured
    with other work running on the machine).
-3. The bonded layer: its lateral extent (2 h + 4, the default, 2 h + 8 and 2 h + 16 R_b at h = 2.5 and 10 R_b)
-   and meridian refinement (every size x 0.7 and x 0.5 at h = 2.5 R_b) over the depth range of the layer's master
-   surface, and the shipped layer master surface against Dimitriadis et al. (2002)'s bonded-layer series (its
-   nu-dependent coefficients, nu = 0.48) and Garcia & Garcia (2018)'s bottom-effect correction. The curves are
-   kept in the cache directory (``validation-indentation/``): a rerun reads them (``--fresh`` recomputes).
 
 Writes docs/validation/indentation.md (``validation/page.py``).
 """
@@ -22,7 +18,6 @@ Writes docs/validation/indentation.md (``validation/page.py``).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -34,14 +29,8 @@ from page import Page
 # compression.py must not answer it
 sys.path[:] = [entry for entry in sys.path if Path(entry or ".").resolve() != Path(__file__).resolve().parent]
 
-from elastocell.body.axisymmetric import MeridianGeometry, MeridianMeshParameters, layer_width  # noqa: E402
-from elastocell.files import cache_directory, parameter_hash, write_json  # noqa: E402
-from elastocell.inverse.indentation_surface import (  # noqa: E402
-    depth_limit,
-    load_indentation_surface,
-)
+from elastocell.body.axisymmetric import MeridianMeshParameters  # noqa: E402
 from elastocell.inverse.indentation_surface import dimitriadis_bonded_force as dimitriadis_bonded  # noqa: E402
-from elastocell.inverse.indentation_surface import garcia_bonded_force as garcia_bonded  # noqa: E402
 from elastocell.parameters.cell import cell_parameters  # noqa: E402
 from elastocell.scenarios.axisymmetric import (  # noqa: E402
     AxisymmetricError,
@@ -127,116 +116,10 @@ def refinement(page: Page, quick: bool) -> None:
                      "wall time of each curve on this loaded machine")
 
 
-LAYER_CACHE_FORMAT = 1
-LAYER_STEPS = 10
-WIDTH_THICKNESSES = (2.5, 10.0)
-"""h/R_b of the width study (R_b/h = 0.4 and 0.1, ratios of the layer's master surface)."""
-REFINED_THICKNESS = 2.5
-
-
-def layer_curve(thickness: float, width: float | None = None, scale: float = 1.0, fresh: bool = False,
-                cached_only: bool = False) -> dict | None:
-    """The force curve of a homogeneous layer of ``thickness`` (units of R_b, bonded base) ``width`` wide (None:
-    the default), R_b = 1, to the depth range of the layer's master surface in LAYER_STEPS steps (its stepping), on
-    the default meridian mesh with every size times ``scale``; kept in the cache directory (``fresh``: recomputed;
-    ``cached_only``: None when not cached)."""
-    cell = cell_parameters(nucleus="none")
-    mesh = MeridianMeshParameters().scaled(scale)
-    width = layer_width(thickness) if width is None else width
-    depth = float(depth_limit(1 / thickness, "layer")) * thickness
-    key = parameter_hash(cell, mesh, {"thickness": thickness, "width": width, "depth": depth,
-                                      "steps": LAYER_STEPS}, format_version=LAYER_CACHE_FORMAT)[:20]
-    path = cache_directory() / "validation-indentation" / f"layer-{key}.json"
-    if path.exists() and not fresh:
-        return json.loads(path.read_text())
-    if cached_only:
-        return None
-    geometry = MeridianGeometry(shape="layer", height=thickness, width=width)
-    result, seconds, error = timed(indent_axisymmetric, cell, 1.0, depth_max=depth, steps=LAYER_STEPS, mesh=mesh,
-                                   geometry=geometry)
-    record = {"thickness": thickness, "width": width, "scale": scale, "depth": result.load.tolist(),
-              "force": result.force.tolist(), "nodes": int(result.n_nodes), "seconds": seconds, "error": error}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_json(path, record)
-    print(record["thickness"], record["width"], record["scale"], record["depth"][-1], record["force"][-1],
-          f"{seconds:.0f} s", error, flush=True)
-    return record
-
-
-def _force_at(record: dict | None, depth: float) -> float:
-    if record is None or record["depth"][-1] < depth - 1e-9:
-        return np.nan
-    return float(np.interp(depth, record["depth"], record["force"]))
-
-
-NOT_RUN = {"depth": [0.0], "force": [0.0], "nodes": 0, "seconds": np.nan, "error": "not run (not in the cache)"}
-
-
-def layer_study(page: Page, quick: bool, fresh: bool = False, cached_only: bool = False) -> None:
-    thicknesses = WIDTH_THICKNESSES[:1] if quick else WIDTH_THICKNESSES
-
-    def curve(*args, **kwargs):
-        return layer_curve(*args, fresh=fresh, cached_only=cached_only, **kwargs) or NOT_RUN
-
-    rows = []
-    for h in thicknesses:
-        curves = {extra: curve(h, 2 * h + extra) for extra in (4, 8, 16)}
-        end = float(depth_limit(1 / h, "layer")) * h
-        for fraction in (0.5, 1.0):
-            widest = _force_at(curves[16], fraction * end)
-            for extra, record in curves.items():
-                force = _force_at(record, fraction * end)
-                rows.append({"h / R_b": h, "width / R_b": f"2h + {extra} = {2 * h + extra:g}", "depth": fraction * end,
-                             "F/(E R_b^2)": force, "change against 2h + 16": force / widest - 1,
-                             "nodes": record["nodes"], "seconds": record["seconds"], "note": record["error"]})
-    page.table(rows, "The layer's lateral extent (bonded base, free outer side, R_b = 1, the master surface's depth "
-                     f"range min(h/2, R_b/2), {LAYER_STEPS} steps; wall time on this loaded machine)")
-    h = REFINED_THICKNESS
-    curves = {scale: curve(h, scale=scale) for scale in (1.0, 0.7, 0.5)}
-    end = float(depth_limit(1 / h, "layer")) * h
-    rows = []
-    for fraction in (0.2, 0.5, 1.0):
-        depth = fraction * end
-        finest = _force_at(curves[0.5], depth)
-        rows.append({"h / R_b": h, "depth": depth, "F default": _force_at(curves[1.0], depth),
-                     "error default": _force_at(curves[1.0], depth) / finest - 1,
-                     "error x 0.7": _force_at(curves[0.7], depth) / finest - 1,
-                     "nodes (1, 0.7, 0.5)": "/".join(str(c["nodes"]) for c in curves.values()),
-                     "seconds (1, 0.7, 0.5)": "/".join(f"{c['seconds']:.0f}" for c in curves.values())})
-    page.table(rows, "Meridian refinement of the layer (default width): error = F/F(every size x 0.5) - 1")
-    surface = load_indentation_surface(NU, cell_shape="layer")
-    thickest = surface.ratio_range[0]
-    thick_curve = surface.curve(thickest)
-    rows = []
-    for ratio in np.unique(surface.indenter_ratio):
-        rows_of = surface.indenter_ratio == ratio
-        depth, force, error = surface.depth[rows_of], surface.force[rows_of], surface.error[rows_of]
-        for index in sorted({1, len(depth) // 2, len(depth) - 1}):
-            d, f = depth[index] / ratio, force[index] / ratio**2  # units of R_b
-            thickness = 1 / ratio
-            rows.append({"R_b / h": ratio, "held out": bool(surface.held_out[rows_of][0]), "depth / R_b": d,
-                         "chi": np.sqrt(d) / thickness, "F/(E R_b^2)": f,
-                         "mesh error (x 0.7)": error[index] / force[index],
-                         "/ Hertz": f / hertz_half_space_force(d, 1.0, NU),
-                         "/ Dimitriadis": f / dimitriadis_bonded(d, 1.0, thickness),
-                         "/ Garcia": f / garcia_bonded(d, 1.0, thickness),
-                         "bottom effect / Dimitriadis'": (f / (thick_curve(d * thickest) / thickest**2))
-                         / (dimitriadis_bonded(d, 1.0, thickness) / dimitriadis_bonded(d, 1.0, 1 / thickest))})
-    page.table(rows, "The shipped layer master surface (default width and mesh, nu = 0.48) against Hertz's "
-                     "half-space, Dimitriadis et al. (2002, bonded, nu-dependent coefficients) and Garcia & Garcia "
-                     "(2018, bonded, derived for nu = 0.5); chi = sqrt(R_b d)/h; both series are small-chi "
-                     "expansions of a paraboloid at small strain; mesh error: |F(every size x 0.7) - F|/F where "
-                     "computed; bottom effect: F over the thickest layer's F at the same depth (R_b/h = 0.1), over "
-                     "the same ratio of Dimitriadis' series (the sphere's shape and the large strain cancel)")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="smaller problems (a smoke run, not the page)")
-    parser.add_argument("--only", nargs="*", default=["hertz", "refinement", "layer"])
-    parser.add_argument("--fresh", action="store_true", help="recompute the layer study's cached curves")
-    parser.add_argument("--cached-only", action="store_true", help="the layer study lists a curve not in the "
-                        "cache as not run")
+    parser.add_argument("--only", nargs="*", default=["hertz", "refinement"])
     args = parser.parse_args()
     page = Page("indentation", "indentation.py", intro=(
         "A rigid frictionless sphere (bead, radius R_b) pressed into a cell on a rigid dish by the axisymmetric "
@@ -244,8 +127,7 @@ def main() -> None:
         "radius R on a frictionless dish, a spherical cap of base radius R bonded to the dish, a layer of "
         "thickness h bonded to the dish (lengths in units of R_b). Depth: the bead's displacement after first "
         "contact. Forces F/(E_c R^2) (the layer: F/(E R_b^2))."))
-    layer = lambda page, quick: layer_study(page, quick, args.fresh, args.cached_only)  # noqa: E731
-    for name, section in (("hertz", hertz_limits), ("refinement", refinement), ("layer", layer)):
+    for name, section in (("hertz", hertz_limits), ("refinement", refinement)):
         if name in args.only:
             section(page, args.quick)
             page.write()  # what is measured so far is on the page

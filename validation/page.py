@@ -48,7 +48,9 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                              "nice python validation/axisymmetric.py"),
     }),
     "indentation": ("A bead indenting a cell on a dish", {
-        "indentation.py": ("Hertz limits, mesh refinement and the layer's width", "nice python validation/indentation.py"),
+        "indentation.py": ("Hertz limits and mesh refinement", "nice python validation/indentation.py"),
+        "indentation_layer.py": ("The bonded layer: width, refinement, closed forms and its master surface",
+                                 "nice python validation/indentation_layer.py"),
     }),
     "startup": ("Start-up of a command in a new process", {
         "startup.py": ("Import, cell and first converged row, empty and warm caches",
