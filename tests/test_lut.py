@@ -60,7 +60,11 @@ def test_plan_units_and_grid():
     other, _ = plan(10, 0.08, 15, radii=[5, 6], moduli=[1000, 2000], quick=True)
     assert other[0]["key"] != points[0]["key"]
     full, settings = plan("10um", "0.04uL/s", "15mPa*s")
-    assert len(full) == 42 and settings["resolution"] == 8
+    assert len(full) == 42 and settings["resolution"] == 8 and settings["coarse_resolution"] == 6
+    # R = 8 um in R_ch = 10 um keeps the kernel's reach from the wall at R/dx 8, not at the coarse R/dx 6: its
+    # points run at one resolution; the others are extrapolated (pipe's default, no option added)
+    assert all(p["options"].get("extrapolate") is False for p in full if p["radius_um"] == 8)
+    assert all("extrapolate" not in p["options"] for p in full if p["radius_um"] < 8)
     # a square channel of width W stands for the cylinder R_ch = 1.094 W/2 (Mietke et al. 2015; dclab LE-2D-FEM-19)
     square, settings = plan(None, 0.04, 15, radii=[5], moduli=[1000], quick=True, channel_width="20um")
     assert settings["channel_radius_um"] == pytest.approx(10.94)
@@ -250,16 +254,20 @@ def test_dclab_fluid_viscosity_is_dclabs():
     pytest.importorskip("dclab")
     from dclab.features.emodulus.viscosity import get_viscosity
 
+    from elastocell.inverse.lut import dclab_viscosity
+    from elastocell.parameters.medium import mc_pbs
+
     for name in ("0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS"):
         for t in (22.0, 23.0, 37.0):
-            _, settings = plan(None, "0.04uL/s", None, quick=True, channel_width="20um", channel_shape="square",
-                               medium=name, temperature=t, radii=[5], moduli=[1000])
-            eta = get_viscosity(medium=name.replace("%", "% "), channel_width=20.0, flow_rate=0.04, temperature=t,
-                                model="buyukurganci-2022")
-            assert settings["viscosity_mpa_s"] == pytest.approx(float(eta), rel=1e-10)
+            for q, w in ((0.04, 20.0), (0.16, 30.0)):
+                eta = get_viscosity(medium=name.replace("%", "% "), channel_width=w, flow_rate=q, temperature=t,
+                                    model="buyukurganci-2022")
+                ours = dclab_viscosity(mc_pbs(name, t), q * 1e-9, w * 1e-6)
+                assert ours * 1e3 == pytest.approx(float(eta), rel=1e-10)
 
 
 def test_plan_square_channel_in_mc_pbs():
+    pytest.importorskip("dclab")
     from elastocell.inverse.lut import channel_driving
     from elastocell.parameters.medium import mc_pbs
 
@@ -272,6 +280,10 @@ def test_plan_square_channel_in_mc_pbs():
     tau = channel_driving("square", 1e-5, 4e-11, mc_pbs("0.59%MC-PBS", 23.0))["wall_shear_stress"]
     assert options["capillary_number_wall"] == pytest.approx(tau / (1000 / (2 * 1.48)), rel=1e-12)  # tau_w/mu
     assert points[1]["options"]["capillary_number_wall"] == pytest.approx(options["capillary_number_wall"] / 2)
+    from dclab.features.emodulus.viscosity import get_viscosity  # the metadata's fluid_viscosity is dclab's
+
+    assert settings["viscosity_mpa_s"] == pytest.approx(get_viscosity(
+        medium="0.59% MC-PBS", channel_width=20.0, flow_rate=0.04, temperature=23.0, model="buyukurganci-2022"))
     meta = lut_metadata(settings, "sq")
     assert meta["channel_width"] == pytest.approx(20.0)
     assert meta["fluid_flow_behaviour_index"] == pytest.approx(settings["flow_index"])
@@ -341,3 +353,25 @@ def test_square_mc_pbs_options_reach_the_pipe_runs(tmp_path, monkeypatch):
     data, meta, _ = read_lut(out)
     assert data.shape == (1, 3) and meta["elastocell"]["channel_shape"] == "square"
     assert meta["fluid_temperature"] == 25.0
+
+
+def test_an_extrapolated_point_reads_both_resolutions(tmp_path):
+    # Reference: Richardson's formula X = X_8 + (X_8 - X_6)/((8/6)^2 - 1) on the final-window means of each
+    # resolution's time series (the pipe run's layout: resolution-<R/dx>/timeseries.csv and summary.json).
+    from elastocell.inverse.lut import FINAL_WINDOW, point_shape
+
+    time = np.linspace(0.0, 4.0, 41)
+    for r, d in ((8, 0.030), (6, 0.026)):
+        part = tmp_path / f"resolution-{r}"
+        part.mkdir()
+        np.savetxt(part / "timeseries.csv", np.column_stack([time, np.full_like(time, d), np.full_like(time, 3.0 + d)]),
+                   delimiter=",", header="time,deformation,projected_area", comments="")
+        (part / "summary.json").write_text(json.dumps({"stop_reason": "stationary" if r == 8 else "duration"}))
+    summary = {"extrapolation": {"fine_resolution": 8.0, "coarse_resolution": 6.0}}
+    final, stationary = point_shape(tmp_path, summary)
+    ratio = (8 / 6) ** 2 - 1
+    assert final["deformation"] == pytest.approx(0.030 + 0.004 / ratio, rel=1e-12)
+    assert final["projected_area"] == pytest.approx(3.030 + 0.004 / ratio, rel=1e-12)
+    assert final["extrapolation"]["values"]["deformation"]["coarse"] == pytest.approx(0.026)
+    assert not stationary  # the coarse run reached its cap
+    assert FINAL_WINDOW < time[-1]

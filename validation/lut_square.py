@@ -1,6 +1,7 @@
 """elastocell's look-up-table points in the square RT-DC channel with MC-PBS, against dclab's HE tables.
 
-    nice python validation/lut_square.py [--radii 5,6] [--moduli 1,2] [--workers 1] [--out /tmp/lut-square]
+    nice python validation/lut_square.py [--radii 5,6] [--moduli 1,2] [--resolution 8] [--workers 1]
+                                         [--out /tmp/lut-square]
 
 RT-DC measures in a square channel (20 um here) filled with a shear-thinning methylcellulose buffer. This script
 runs ``elastocell lut --channel-shape square --channel-width 20um --medium 0.59%MC-PBS --temperature 23
@@ -57,7 +58,8 @@ def main(argv=None) -> None:
         "shipped with dclab: dclab is asked which Young's modulus its table gives for each (area_um, deform) "
         "elastocell measured, with dclab's viscosity of the same medium (visc_model buyukurganci-2022) and no "
         "pixelation correction. E_dclab/E_input is 1 where both agree; NaN where the point lies outside dclab's "
-        "table. A point that reached the duration cap before a stationary shape is marked `no (cap)`."),
+        "table. A point that reached the duration cap before a stationary shape is marked `no (cap)`. `deform "
+        "correction` is the size of the Richardson correction of an extrapolated point (NaN: one resolution)."),
         versions=("dclab", "numba"))
     args.out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
@@ -90,6 +92,8 @@ def main(argv=None) -> None:
         row = {"R [um]": record["radius_um"], "E [kPa]": record["emodulus_kpa"],
                "Ca_w": record["options"]["capillary_number_wall"], "area_um": record["area_um"],
                "deform": record["deform"], "deform_std": _number(record.get("deform_std")),
+               "deform correction": _number(((record.get("extrapolation") or {}).get("values", {})
+                                             .get("deformation", {})).get("correction")),
                "stationary": "yes" if record.get("stationary") else "no (cap)",
                "t_end": _number(record.get("duration"))}
         for table in TABLES:
@@ -97,7 +101,7 @@ def main(argv=None) -> None:
             row[f"ratio {table}"] = e_dclab[table][i] / record["emodulus_kpa"]
         rows.append(row)
     formats = {"R [um]": "g", "E [kPa]": "g", "Ca_w": ".3f", "area_um": ".2f", "deform": ".4f",
-               "deform_std": ".4f", "t_end": ".2f"}
+               "deform_std": ".4f", "deform correction": ".4f", "t_end": ".2f"}
     formats.update({f"E {t} [kPa]": ".3f" for t in TABLES})
     formats.update({f"ratio {t}": ".3f" for t in TABLES})
     page.table(rows, formats=formats)

@@ -28,6 +28,9 @@ from elastocell.cli.options import opt, takes
        "radii", "moduli", opt("quick", help="2 x 2 grid at R/dx 4 for one unit of time (tests; not converged)."),
        opt("poisson_ratio", help="Cell Poisson ratio."), opt("material", help="Hyperelastic law of the cell."),
        opt("resolution", annotation=float | None, default=None, shown="8; --quick: 4"),
+       opt("extrapolate", help="Also run each point at --coarse-resolution (in <stem>_runs/<point>/resolution-<R/dx>/) "
+                               "and extrapolate its area and deformation to dx -> 0 (Richardson, order 2)."),
+       "coarse_resolution",
        opt("duration", annotation=float | None, default=None, help="Longest run per point.", units="1/gdot_w",
            shown="20; --quick: 1"),
        opt("stationary_tolerance", help="Stop a point once its deformation is stationary to this fraction.",
@@ -38,7 +41,8 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
         flow_rate: str, viscosity: str | None, medium: str, temperature: float | None, flow_index: float | None,
         out: Path,
         radii: str | None, moduli: str | None, quick: bool, poisson_ratio: float, material: str,
-        resolution: float | None, duration: float | None, stationary_tolerance: float | None,
+        resolution: float | None, extrapolate: bool, coarse_resolution: float | None, duration: float | None,
+        stationary_tolerance: float | None,
         identifier: str | None, scheduler: str | None, workers: int | None, quiet: bool):
     """Look-up table for deformability cytometry: pipe-flow runs over cell radii x moduli (Dask, resumable)
     written as area_um / deform / emodulus in dclab's format, with isoelastics. Register it with
@@ -53,7 +57,7 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
                          workers=workers, progress=not quiet, channel_width=channel_width,
                          channel_shape=None if channel_shape is None else channel_shape.value,
                          channel_height=channel_height, medium=medium, temperature=temperature,
-                         flow_index=flow_index)
+                         flow_index=flow_index, extrapolate=extrapolate, coarse_resolution=coarse_resolution)
     if not quiet:
         settings = result["settings"]
         typer.echo(f"{settings['channel_shape']} channel, {settings['medium']}: G = "

@@ -89,6 +89,7 @@ from elastocell.scenarios.pipe import (
 from elastocell.scenarios.shear import compile_kernels
 from elastocell.simulation.directory import output_directory
 from elastocell.simulation.distributed import TaskFailure, check_execution, run_tasks
+from elastocell.simulation.extrapolation import coarse_resolution_of, extrapolate_values, part_directory
 from elastocell.simulation.runner import StopCriteria, resume_or_restart
 from elastocell.version import __version__
 
@@ -136,7 +137,7 @@ LUT_CHANNELS = ("cylinder", "square")
 
 DUCT_CELLS = 64
 """Finite-volume cells across the square duct for q1(n) of a power law. Measured at n = 1 against White's series:
-relative error 9.4e-4 (64 cells), 2.4e-4 (128); at n = 0.586 the 32, 64 and 128 cell values agree to 9e-5."""
+relative error 9.4e-4 (64 cells), 2.4e-4 (128); at n = 0.586 the 32, 64 and 128 cell values lie within 8.5e-5."""
 
 DCLAB_KOZICKI_B = 0.6671
 """b of the Kozicki wall shear rate as dclab's ``shear_rate_square_channel`` writes it (the literature's 0.6771 is
@@ -285,11 +286,14 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
          poisson_ratio: float = 0.48, material: str = "neo-hookean", resolution: float | None = None,
          duration: float | None = None, stationary_tolerance: float | None = None,
          channel_width=None, channel_shape=None, channel_height=None, medium=None, temperature=None,
-         flow_index=None) -> tuple[list[dict], dict]:
+         flow_index=None, extrapolate: bool = True, coarse_resolution: float | None = None
+         ) -> tuple[list[dict], dict]:
     """Check every input and return (grid points, settings); raises ParameterError (named option) on an
     impossible one, before anything runs. Each point holds its key and the keyword arguments of ``pipe``.
     ``channel_width`` (a square channel's W) replaces ``channel_radius`` (give None for it); ``channel_shape``
-    "square" runs the duct itself; ``medium`` an MC-PBS preset at ``temperature`` replaces ``viscosity``."""
+    "square" runs the duct itself; ``medium`` an MC-PBS preset at ``temperature`` replaces ``viscosity``;
+    ``extrapolate``/``coarse_resolution`` as ``pipe`` (each point two runs, R/dx 6 and ``resolution``, whose final
+    shapes are Richardson-extrapolated; a point at R/dx <= 6 is one run)."""
     from pydantic import ValidationError
 
 
@@ -319,6 +323,12 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
     flow = {} if shape == "cylinder" else {"channel_shape": shape}
     if not fluid.is_newtonian:
         flow.update(medium=fluid.name, temperature=fluid.temperature)
+    coarse = coarse_resolution_of(bool(extrapolate), resolution, coarse_resolution)
+    extrapolation = {}  # pipe's defaults add nothing (the keys of the points stay)
+    if not extrapolate:
+        extrapolation["extrapolate"] = False
+    elif coarse_resolution is not None:
+        extrapolation["coarse_resolution"] = coarse
     driving = channel_driving(shape, r_ch, q, fluid, eta)
     points = []
     for radius in radii_m:
@@ -333,12 +343,15 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
             name = "radii" if error.parameter == "channel_radius_ratio" else error.parameter
             raise ParameterError(name, f"cell radius {radius * 1e6:g} um in a channel of radius {r_ch * 1e6:g} um: "
                                  f"{str(error).split(': ', 1)[1]}") from None
+        single = {}  # a cell too close to the wall for the coarse run: this radius runs at one resolution
+        if coarse is not None and not _fits(ratio, coarse, flow):
+            single = {"extrapolate": False}
         for modulus in moduli_pa:
             ca = driving["wall_shear_stress"] * 2.0 * (1.0 + poisson_ratio) / modulus  # tau_w / mu
             options = {"capillary_number_wall": ca, "channel_radius_ratio": ratio, "start_offset": 0.0,
                        "resolution": resolution, "duration": duration, "stationary_tolerance": tolerance,
                        "stationary_observable": "deformation", "nucleus": "none", "material": material,
-                       "poisson_ratio": float(poisson_ratio), **flow}
+                       "poisson_ratio": float(poisson_ratio), **flow, **extrapolation, **single}
             points.append({"key": point_key(radius * 1e6, modulus * 1e-3, options), "radius_um": radius * 1e6,
                            "emodulus_kpa": modulus * 1e-3, "options": options})
     width = 2.0 * r_ch if shape == "square" else 2.0 * r_ch / SQUARE_CHANNEL_RADIUS_FACTOR
@@ -348,9 +361,20 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
                 "pressure_gradient_pa_m": driving["pressure_gradient"],
                 "wall_shear_stress_pa": driving["wall_shear_stress"],
                 "wall_shear_rate_1_s": driving["wall_shear_rate"], "poisson_ratio": float(poisson_ratio),
-                "material": material, "resolution": resolution, "duration": duration,
+                "material": material, "resolution": resolution, "coarse_resolution": coarse, "duration": duration,
                 "stationary_tolerance": tolerance, "quick": bool(quick)}
     return points, settings
+
+
+def _fits(ratio: float, resolution: float, flow: dict) -> bool:
+    """Whether the pipe scenario takes the centred cell at R_ch/R ``ratio`` and R/dx ``resolution``."""
+    from pydantic import ValidationError
+
+    try:
+        PipeFlowParameters(capillary_number_wall=1.0, channel_radius_ratio=ratio, resolution=resolution, **flow)
+    except (ParameterError, ValidationError):
+        return False
+    return True
 
 
 def check_lattice(points: list[dict]) -> list[dict]:
@@ -371,6 +395,13 @@ def check_lattice(points: list[dict]) -> list[dict]:
             flow = {k: v for k, v in options.items() if k in PipeFlowParameters.model_fields}
             params = PipeFlowParameters(**flow)
             units = pipe_lattice_units(cells[key], params)
+            coarse = coarse_resolution_of(options.get("extrapolate", True), options["resolution"],
+                                          options.get("coarse_resolution"))
+            updates = float(np.prod(units.shape)) * units.steps_per_time * options["duration"]
+            if coarse is not None:  # the coarse run of the extrapolation: its own cell and lattice
+                coarse_cell = Cell.from_parameters(flow_cell(None, cell_options, coarse))
+                coarse_units = pipe_lattice_units(coarse_cell, PipeFlowParameters(**{**flow, "resolution": coarse}))
+                updates += float(np.prod(coarse_units.shape)) * coarse_units.steps_per_time * options["duration"]
         except (ParameterError, ValidationError) as error:
             if isinstance(error, ValidationError):
                 error = (error.errors()[0].get("ctx") or {}).get("error", error)
@@ -379,7 +410,7 @@ def check_lattice(points: list[dict]) -> list[dict]:
             raise ParameterError("moduli", f"R = {point['radius_um']:g} um, E = {point['emodulus_kpa']:g} kPa: "
                                  f"{str(error).split(': ', 1)[1]}") from None
         out.append({"key": point["key"], "shape": list(units.shape), "steps_per_time": units.steps_per_time,
-                    "lattice_updates": float(np.prod(units.shape)) * units.steps_per_time * options["duration"]})
+                    "lattice_updates": updates})
     return out
 
 
@@ -409,6 +440,28 @@ def final_shape(timeseries: Path) -> dict:
             "projected_area": float(last["projected_area"].mean())}
 
 
+def point_shape(directory: Path, summary: dict) -> tuple[dict, bool]:
+    """(final shape, stationary) of a point's pipe run in ``directory``: :func:`final_shape` of its time series
+    and whether it stopped on the stationarity criterion; for an extrapolated run (``summary["extrapolation"]``)
+    the final shapes of both resolutions' runs extrapolated to dx -> 0 (Richardson, order 2:
+    ``extrapolation`` holds each value at both resolutions and the correction), stationary when both runs are."""
+    if "extrapolation" not in summary:
+        return final_shape(directory / "timeseries.csv"), summary.get("stop_reason") == "stationary"
+    fine_r = summary["extrapolation"]["fine_resolution"]
+    coarse_r = summary["extrapolation"]["coarse_resolution"]
+    shapes, stationary = {}, True
+    for r in (fine_r, coarse_r):
+        part = part_directory(directory, r)
+        shapes[r] = final_shape(part / "timeseries.csv")
+        stationary &= json.loads((part / "summary.json").read_text()).get("stop_reason") == "stationary"
+    values = extrapolate_values({k: shapes[fine_r][k] for k in ("deformation", "projected_area")}, shapes[coarse_r],
+                                fine_r, coarse_r)
+    final = {k: v["value"] for k, v in values.items()}
+    final["deformation_std"] = shapes[fine_r]["deformation_std"]
+    final["extrapolation"] = {"fine_resolution": fine_r, "coarse_resolution": coarse_r, "values": values}
+    return final, stationary
+
+
 def run_point(task: tuple[dict, str]) -> dict:
     """Run one grid point in ``runs_directory/<key>`` (a Dask task); a finished point is read back."""
     point, runs_directory = task
@@ -421,11 +474,12 @@ def run_point(task: tuple[dict, str]) -> dict:
     start = time.perf_counter()
     summary = resume_or_restart(pipe, directory, progress=False, vtk_interval=None, **point["options"])
     radius = point["radius_um"]
-    final = final_shape(directory / "timeseries.csv")
+    final, stationary = point_shape(directory, summary)
     record = {
         "key": point["key"], "radius_um": radius, "emodulus_kpa": point["emodulus_kpa"],
         "area_um": final["projected_area"] * radius**2,
         "deform": final["deformation"], "deform_std": final["deformation_std"],
+        "extrapolation": final.get("extrapolation"),
         "final_window": FINAL_WINDOW,
         "deformation_mean_second_half": summary["deformation_mean"],
         "projected_area_mean": summary["projected_area_mean"],
@@ -433,7 +487,7 @@ def run_point(task: tuple[dict, str]) -> dict:
         "deformation_initial": summary.get("deformation_initial"),
         "strain_axial_mean": summary.get("strain_axial_mean"), "strain_radial_mean": summary.get("strain_radial_mean"),
         "volume_change_max_abs": summary.get("volume_change_max_abs"),
-        "stop_reason": summary.get("stop_reason"), "stationary": summary.get("stop_reason") == "stationary",
+        "stop_reason": summary.get("stop_reason"), "stationary": stationary,
         "window_stationary": summary.get("stationary"),
         "duration": summary.get("duration"),
         "steps": summary.get("steps"), "options": point["options"],
@@ -574,14 +628,17 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                 stationary_tolerance: float | None = None, identifier: str | None = None,
                 scheduler: str | None = None, workers: int | None = None, progress: bool = False,
                 client=None, channel_width=None, security=None, channel_shape=None, channel_height=None,
-                medium=None, temperature=None, flow_index=None) -> dict:
+                medium=None, temperature=None, flow_index=None, extrapolate: bool = True,
+                coarse_resolution: float | None = None) -> dict:
     """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``. ``security``:
     a ``distributed.Security`` for a TLS scheduler (docs/usage/cluster.md).
 
     channel_radius, flow_rate, viscosity: quantities ("10um", "0.04uL/s", "15mPa*s") or numbers in um, uL/s,
     mPa s; or ``channel_radius=None`` and ``channel_width`` the width W of a square RT-DC channel (the cylinder
     R_ch = 1.094 W/2 stands for it; ``channel_shape="square"`` runs the square duct). ``medium``: "newtonian"
-    (with ``viscosity``) or an MC-PBS preset at ``temperature`` degC (``viscosity=None``). radii, moduli: comma-separated lists or sequences (bare numbers in um and Pa); default the full grid
+    (with ``viscosity``) or an MC-PBS preset at ``temperature`` degC (``viscosity=None``). ``extrapolate``,
+    ``coarse_resolution``: as ``pipe`` (default: each point at R/dx above 6 also runs R/dx 6 and its area and
+    deformation are extrapolated to dx -> 0). radii, moduli: comma-separated lists or sequences (bare numbers in um and Pa); default the full grid
     (:data:`FULL_RADII_UM` x :data:`FULL_MODULI_KPA`) or, with ``quick``, the 2 x 2 test grid. Returns a
     summary: paths, the finished records, the failed points (key and one-line error; left out of the table and
     rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion
@@ -595,7 +652,8 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     points, settings = plan(channel_radius, flow_rate, viscosity, radii, moduli, quick, poisson_ratio, material,
                             resolution, duration, stationary_tolerance, channel_width=channel_width,
                             channel_shape=channel_shape, channel_height=channel_height, medium=medium,
-                            temperature=temperature, flow_index=flow_index)
+                            temperature=temperature, flow_index=flow_index, extrapolate=extrapolate,
+                            coarse_resolution=coarse_resolution)
     lattice = check_lattice(points)
     identifier = identifier or f"elastocell-{out.stem}"
     runs = runs_directory(out)
@@ -614,8 +672,11 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
         records.sort(key=lambda r: (r["emodulus_kpa"], r["radius_um"]))
         metadata = lut_metadata(settings, identifier)
         not_stationary = [r["key"] for r in records if not r.get("stationary")]
+        single = [p["key"] for p in points if settings["coarse_resolution"] is not None
+                  and p["options"].get("extrapolate") is False]
         metadata["elastocell"] = {**settings, "points": len(points), "finished": len(records),
-                                  "failed": [f["key"] for f in failures], "not_stationary": not_stationary}
+                                  "failed": [f["key"] for f in failures], "not_stationary": not_stationary,
+                                  "not_extrapolated": single}
         result = {"lut": str(out), "isoelastics": str(isoelastics_path(out)), "runs": str(runs),
                   "records": records, "failures": failures, "wall_time_s": time.perf_counter() - start,
                   "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary}
