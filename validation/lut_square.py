@@ -33,6 +33,36 @@ def _number(value) -> float:
     return float("nan") if value is None else float(value)
 
 
+def drift(timeseries: Path) -> float:
+    """Mean deformation over the last unit of time minus that over the unit before (the stationarity criterion's
+    comparison; a positive value is a deformation still growing at the end)."""
+    import pandas as pd
+
+    table = pd.read_csv(timeseries)
+    end = table["time"].iloc[-1]
+    last = table[table["time"] > end - 1.0]["deformation"].mean()
+    before = table[(table["time"] > end - 2.0) & (table["time"] <= end - 1.0)]["deformation"].mean()
+    return float(last - before)
+
+
+def relaxation_fit(timeseries: Path, start: float = 2.0) -> tuple[float, float]:
+    """(D_inf, tau) of D(t) = D_inf - A exp(-t/tau) fitted to the deformation for t >= ``start`` (units of
+    1/gdot_w): an estimate of the stationary deformation of a run stopped before it, trustworthy only where tau is
+    well below the run's length (NaN where the fit fails)."""
+    import pandas as pd
+    from scipy.optimize import curve_fit
+
+    table = pd.read_csv(timeseries)
+    late = table[table["time"] >= start]
+    t, d = late["time"].to_numpy(), late["deformation"].to_numpy()
+    try:
+        (d_inf, a, tau), _ = curve_fit(lambda x, d_inf, a, tau: d_inf - a * np.exp(-x / tau), t, d,
+                                       p0=(d[-1] * 1.2, d[-1], 3.0), maxfev=20000)
+    except RuntimeError:
+        return float("nan"), float("nan")
+    return float(d_inf), float(tau)
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--radii", default="5,6", help="cell radii (um), comma-separated")
@@ -59,7 +89,13 @@ def main(argv=None) -> None:
         "elastocell measured, with dclab's viscosity of the same medium (visc_model buyukurganci-2022) and no "
         "pixelation correction. E_dclab/E_input is 1 where both agree; NaN where the point lies outside dclab's "
         "table. A point that reached the duration cap before a stationary shape is marked `no (cap)`. `deform "
-        "correction` is the size of the Richardson correction of an extrapolated point (NaN: one resolution)."),
+        "correction` is the size of the Richardson correction of an extrapolated point (NaN: one resolution); "
+        "`deform at rest` the deformation the undeformed mesh's hull reads before the flow acts (a discretisation "
+        "offset that dclab's smooth FEM contours do not have); `drift` the mean deformation over the last unit "
+        "of 1/gdot_w minus that over the unit before. For points stopped before a stationary shape, `D_inf fit` "
+        "and `tau fit` are D(t) = D_inf - A exp(-t/tau) fitted to the deformation from t = 2 on (an estimate "
+        "only, trustworthy where tau is well below t_end), and the last column is HE-3D-FEM-22's ratio at "
+        "(area_um, D_inf)."),
         versions=("dclab", "numba"))
     args.out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
@@ -68,6 +104,7 @@ def main(argv=None) -> None:
                          channel_width="20um", channel_shape="square", medium=args.medium,
                          temperature=args.temperature)
     records, settings = result["records"], result["settings"]
+    result_runs = Path(result["runs"])
     area = np.array([r["area_um"] for r in records])
     deform = np.array([r["deform"] for r in records])
     dclab_medium = args.medium.replace("%", "% ")
@@ -87,6 +124,12 @@ def main(argv=None) -> None:
                f"{settings['wall_shear_stress_pa']:.4g} Pa, gdot_w = (tau_w/K)^(1/n) = "
                f"{settings['wall_shear_rate_1_s']:.4g} 1/s; dclab's viscosity (fluid_viscosity) "
                f"{settings['viscosity_mpa_s']:.4g} mPa s")
+    fits = [relaxation_fit(result_runs / record["key"] / "timeseries.csv") for record in records]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        e_fit = emodulus.get_emodulus(area_um=area, deform=np.array([f[0] for f in fits]), medium=dclab_medium,
+                                      channel_width=20.0, flow_rate=0.04, px_um=0, temperature=args.temperature,
+                                      visc_model="buyukurganci-2022", lut_data=TABLES[0])
     rows = []
     for i, record in enumerate(records):
         row = {"R [um]": record["radius_um"], "E [kPa]": record["emodulus_kpa"],
@@ -94,16 +137,22 @@ def main(argv=None) -> None:
                "deform": record["deform"], "deform_std": _number(record.get("deform_std")),
                "deform correction": _number(((record.get("extrapolation") or {}).get("values", {})
                                              .get("deformation", {})).get("correction")),
+               "deform at rest": _number(record.get("deformation_initial")),
+               "drift": drift(result_runs / record["key"] / "timeseries.csv"),
                "stationary": "yes" if record.get("stationary") else "no (cap)",
                "t_end": _number(record.get("duration"))}
         for table in TABLES:
             row[f"E {table} [kPa]"] = e_dclab[table][i]
             row[f"ratio {table}"] = e_dclab[table][i] / record["emodulus_kpa"]
+        row["D_inf fit"], row["tau fit"] = fits[i]
+        row[f"ratio {TABLES[0]} at D_inf"] = e_fit[i] / record["emodulus_kpa"]
         rows.append(row)
     formats = {"R [um]": "g", "E [kPa]": "g", "Ca_w": ".3f", "area_um": ".2f", "deform": ".4f",
-               "deform_std": ".4f", "deform correction": ".4f", "t_end": ".2f"}
+               "deform_std": ".4f", "deform correction": ".4f", "deform at rest": ".4f", "drift": "+.4f",
+               "t_end": ".2f"}
     formats.update({f"E {t} [kPa]": ".3f" for t in TABLES})
     formats.update({f"ratio {t}": ".3f" for t in TABLES})
+    formats.update({"D_inf fit": ".4f", "tau fit": ".1f", f"ratio {TABLES[0]} at D_inf": ".3f"})
     page.table(rows, formats=formats)
     for failure in result["failures"]:
         page.print(f"failed {failure['key']}: {failure['error']}")
