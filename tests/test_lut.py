@@ -289,6 +289,15 @@ def test_plan_square_channel_in_mc_pbs():
     assert meta["fluid_flow_behaviour_index"] == pytest.approx(settings["flow_index"])
     assert meta["fluid_temperature"] == 23.0 and meta["medium"] == "0.59%MC-PBS"
     assert "square" in meta["summary"].lower() and "G W/4" in meta["summary"]
+    # pipe's extrapolation options pass through (its defaults add nothing)
+    assert "extrapolate" not in options and settings["coarse_resolution"] is None  # --quick: R/dx 4, one run
+    single, _ = plan(None, 0.04, None, radii=[5], moduli=[1000], resolution=8, channel_width="20um",
+                     channel_shape="square", medium="0.59%MC-PBS", extrapolate=False)
+    assert single[0]["options"]["extrapolate"] is False
+    coarse, settings = plan(None, 0.04, None, radii=[5], moduli=[1000], resolution=8, channel_width="20um",
+                            channel_shape="square", medium="0.59%MC-PBS", coarse_resolution=5)
+    assert coarse[0]["options"]["coarse_resolution"] == 5 and settings["coarse_resolution"] == 5
+    assert len({single[0]["key"], coarse[0]["key"], points[0]["key"]}) == 3
     # the Newtonian cylinder's points keep their keys (no channel or medium options added)
     cylinder, _ = plan("10um", "0.04uL/s", "15mPa*s", radii="5", moduli="1kPa", quick=True)
     assert "channel_shape" not in cylinder[0]["options"] and "medium" not in cylinder[0]["options"]
@@ -328,6 +337,7 @@ def test_dclab_interpolates_a_square_mc_pbs_table(tmp_path):
     (["--medium", "0.59%MC-PBS", "--channel-height", "30um"], "--channel-height"),
     (["--medium", "0.59%MC-PBS", "--channel-shape", "rectangle"], "--channel-shape"),
     (["--medium", "newtonian"], "--viscosity"),
+    (["--medium", "0.59%MC-PBS", "--resolution", "8", "--coarse-resolution", "9"], "--coarse-resolution"),
 ])
 def test_square_and_medium_refusals(tmp_path, extra, option):
     _refused(SQUARE, extra, option, tmp_path)
