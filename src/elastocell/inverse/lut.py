@@ -347,7 +347,10 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
         if coarse is not None and not _fits(ratio, coarse, flow):
             single = {"extrapolate": False}
         for modulus in moduli_pa:
-            ca = driving["wall_shear_stress"] * 2.0 * (1.0 + poisson_ratio) / modulus  # tau_w / mu
+            if shape == "cylinder" and eta is not None:  # Poiseuille: the table's keys as they were computed
+                ca = capillary_number_wall(q, r_ch, eta, modulus, poisson_ratio)
+            else:
+                ca = driving["wall_shear_stress"] * 2.0 * (1.0 + poisson_ratio) / modulus  # tau_w / mu
             options = {"capillary_number_wall": ca, "channel_radius_ratio": ratio, "start_offset": 0.0,
                        "resolution": resolution, "duration": duration, "stationary_tolerance": tolerance,
                        "stationary_observable": "deformation", "nucleus": "none", "material": material,
