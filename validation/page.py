@@ -97,7 +97,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     }),
     "lut_square": ("RT-DC look-up table in the square channel with MC-PBS, against dclab", {
         "lut_square.py": ("Square-channel MC-PBS points against dclab's HE-3D-FEM-22 and HE-2D-FEM-22",
-                          "nice python validation/lut_square.py --workers 1 --out /tmp/lut-square"),
+                          "nice python validation/lut_square.py --radii 5,6 --moduli 1,2 --resolution 6 --duration 8 "
+                          "--workers 2 --out /tmp/lut-square"),
     }),
     "fit": ("Fits of AFM curves and master curves", {
         "fit.py": ("Accuracy, Hertz's bias, interval coverage and cost of the AFM fit",
