@@ -63,6 +63,21 @@ def relaxation_fit(timeseries: Path, start: float = 2.0) -> tuple[float, float]:
     return float(d_inf), float(tau)
 
 
+def table_deformation(emodulus, area_um: float, modulus_kpa: float, **kwargs) -> float:
+    """The deformation at which dclab's table (``lut_data`` in ``kwargs``) assigns ``modulus_kpa`` to a cell of
+    projected area ``area_um``: E(deform) scanned on a fine grid and interpolated (E falls with deform); NaN where
+    the table does not reach it."""
+    deform = np.linspace(0.001, 0.15, 1500)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        e = emodulus.get_emodulus(area_um=np.full_like(deform, area_um), deform=deform, **kwargs)
+    inside = np.isfinite(e)
+    if not inside.any() or not (e[inside].min() <= modulus_kpa <= e[inside].max()):
+        return float("nan")
+    order = np.argsort(e[inside])
+    return float(np.interp(modulus_kpa, e[inside][order], deform[inside][order]))
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--radii", default="5,6", help="cell radii (um), comma-separated")
@@ -95,7 +110,9 @@ def main(argv=None) -> None:
         "of 1/gdot_w minus that over the unit before. For points stopped before a stationary shape, `D_inf fit` "
         "and `tau fit` are D(t) = D_inf - A exp(-t/tau) fitted to the deformation from t = 2 on (an estimate "
         "only, trustworthy where tau is well below t_end), and the last column is HE-3D-FEM-22's ratio at "
-        "(area_um, D_inf)."),
+        "(area_um, D_inf). `deform HE-3D-FEM-22 at E` is the deformation HE-3D-FEM-22 gives a cell of the same "
+        "area and the input E (its table inverted along the deformation), and `deform / that` elastocell's "
+        "deformation over it."),
         versions=("dclab", "numba"))
     args.out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
@@ -144,6 +161,11 @@ def main(argv=None) -> None:
         for table in TABLES:
             row[f"E {table} [kPa]"] = e_dclab[table][i]
             row[f"ratio {table}"] = e_dclab[table][i] / record["emodulus_kpa"]
+        reference = table_deformation(emodulus, record["area_um"], record["emodulus_kpa"], medium=dclab_medium,
+                                      channel_width=20.0, flow_rate=0.04, px_um=0, temperature=args.temperature,
+                                      visc_model="buyukurganci-2022", lut_data=TABLES[0])
+        row[f"deform {TABLES[0]} at E"] = reference
+        row["deform / that"] = record["deform"] / reference
         row["D_inf fit"], row["tau fit"] = fits[i]
         row[f"ratio {TABLES[0]} at D_inf"] = e_fit[i] / record["emodulus_kpa"]
         rows.append(row)
@@ -152,6 +174,7 @@ def main(argv=None) -> None:
                "t_end": ".2f"}
     formats.update({f"E {t} [kPa]": ".3f" for t in TABLES})
     formats.update({f"ratio {t}": ".3f" for t in TABLES})
+    formats.update({f"deform {TABLES[0]} at E": ".4f", "deform / that": ".2f"})
     formats.update({"D_inf fit": ".4f", "tau fit": ".1f", f"ratio {TABLES[0]} at D_inf": ".3f"})
     page.table(rows, formats=formats)
     for failure in result["failures"]:
