@@ -6,9 +6,10 @@ FElupe's axisymmetric mode on the same problem.
         [--fill-cache] [--fresh]
 
 - refinement: ``compress_axisymmetric`` on the default meridian mesh with every size times each of ``--scales``
-  (default 2, 1), for the homogeneous cell and the concentric nucleus of size ratio 0.5 and stiffness ratio
-  2, 5, 10, 20; F at delta 0.1, 0.3, 0.5, 0.7 against the finest mesh, and where a curve stopped, the smallest J
-  of its last row and where it is.
+  (default 2, 1, 0.7, 0.5), for the homogeneous cell and the concentric nucleus of size ratio 0.5 and stiffness
+  ratio 2, 5, 10, 20; F at delta 0.1, 0.3, 0.5, 0.7 against the finest mesh, and where a curve stopped, the
+  smallest J of its last row and where it is; with three meshes or more, Richardson's estimate of the finest
+  mesh's own error (the order observed on the three finest).
 - three-d: ``elastocell.compress`` on its defaults (``compression_parameters_for``: p2, and the rule with the
   nodes for a stiffness ratio >= 7) against the finest axisymmetric curve, per stiffness ratio.
 - budget: one factor of the 3D default changed at a time (interface size, pole size, quadrature degree, Poisson
@@ -48,6 +49,7 @@ from elastocell.scenarios.compression import (
     compress,
     compression_parameters_for,
 )
+from elastocell.simulation.extrapolation import richardson
 
 DELTAS = np.array([0.1, 0.3, 0.5, 0.7])
 ERRORS = [f"err@{d:g}" for d in DELTAS]
@@ -154,6 +156,24 @@ def at_deltas(record: dict) -> np.ndarray:
     return np.where(DELTAS <= delta[-1] + 1e-12, values, np.nan)
 
 
+def observed_order(forces: list[np.ndarray], scales: list[float]) -> np.ndarray:
+    """The convergence order p per delta that three curves on meshes of ``scales`` (coarsest first) follow,
+    F_s = F_0 + c s^p: the root of (F_1 - F_2) / (F_2 - F_3) = (s_1^p - s_2^p) / (s_2^p - s_3^p) in [0.3, 8]; NaN
+    where the differences change sign or no root lies there (no asymptotic range)."""
+    from scipy.optimize import brentq
+
+    (f1, f2, f3), (s1, s2, s3) = forces, scales
+    orders = np.full(len(DELTAS), np.nan)
+    for k in range(len(DELTAS)):
+        ratio = (f1[k] - f2[k]) / (f2[k] - f3[k]) if f2[k] != f3[k] else np.nan
+        if not np.isfinite(ratio) or ratio <= 0:
+            continue
+        gap = lambda p, ratio=ratio: (s1**p - s2**p) / (s2**p - s3**p) - ratio  # noqa: E731
+        if gap(0.3) * gap(8.0) < 0:
+            orders[k] = brentq(gap, 0.3, 8.0)
+    return orders
+
+
 def three_d_jobs(ratios: list[float]) -> list[dict]:
     """Every 3D cell the page needs, the most needed first: the defaults of the stiff cells, the other defaults,
     the budget's variations (gamma 10 before 20)."""
@@ -172,7 +192,7 @@ def main() -> None:
     parser.add_argument("--fill-cache", action="store_true", help="compute the missing 3D curves, no page")
     parser.add_argument("--fresh", action="store_true", help="recompute every curve")
     parser.add_argument("--cached-only", action="store_true", help="list a curve not in the cache as not run")
-    parser.add_argument("--scales", nargs="+", type=float, default=[2.0, 1.0],
+    parser.add_argument("--scales", nargs="+", type=float, default=[2.0, 1.0, 0.7, 0.5],
                         help="meridian mesh scales, coarsest first (the last is the truth)")
     args = parser.parse_args()
     if args.fill_cache:
@@ -192,7 +212,7 @@ def main() -> None:
         page.print("Curves found in the cache were computed by earlier runs of this script (--fill-cache) on this "
                    "machine: time_s is the wall time of the run that computed each, on a machine shared with other "
                    "jobs, so it is not a cost of the solver alone; this run's wall time and load are in the footer.")
-    truth = {}
+    truth, estimates = {}, []
     if "refinement" in args.only or "three-d" in args.only or "budget" in args.only:
         rows = []
         for ratio in args.ratios:
@@ -200,6 +220,14 @@ def main() -> None:
                       for scale in args.scales]
             finest = next((curve for curve in curves[::-1] if curve is not None), None)
             truth[ratio] = at_deltas(finest) if finest is not None else np.full(len(DELTAS), np.nan)
+            done = [(scale, at_deltas(curve)) for scale, curve in zip(args.scales, curves, strict=True) if curve is not None]
+            if len(done) >= 3:
+                (_, middle), (finest_scale, fine) = done[-2], done[-1]
+                order = observed_order([forces for _, forces in done[-3:]], [scale for scale, _ in done[-3:]])
+                limit = richardson(fine, middle, done[-2][0] / finest_scale, order)
+                estimates.append({"gamma": ratio, "scales": " ".join(f"{scale:g}" for scale, _ in done[-3:]),
+                                  **{f"p@{d:g}": p for d, p in zip(DELTAS, order, strict=True)},
+                                  **{f"err@{d:g}": e for d, e in zip(DELTAS, fine / limit - 1, strict=True)}})
             for scale, curve in zip(args.scales, curves, strict=True):
                 if curve is None:
                     rows.append({"gamma": ratio, "scale": scale, "nodes": "not run"})
@@ -215,11 +243,15 @@ def main() -> None:
                    "the smallest J of the last converged row and where)",
                    columns=["gamma", "scale", "nodes", "time_s", "delta_reached", *ERRORS, "stop"],
                    formats={"time_s": ".0f", "delta_reached": ".3f", **{f"err@{d:g}": "+.3%" for d in DELTAS}})
+        if estimates:
+            page.table(estimates, "Error of the finest meridian mesh: Richardson's limit from the two finest, with the "
+                       "order p observed on the three finest (F_s = F_0 + c s^p; nan: the differences change sign)",
+                       columns=["gamma", "scales", *[f"p@{d:g}" for d in DELTAS], *ERRORS],
+                       formats={**{f"p@{d:g}": ".2f" for d in DELTAS}, **{f"err@{d:g}": "+.3%" for d in DELTAS}})
         page.print("A pole (the surface node on the axis) lying on a plate is held in contact while the mid-side node "
                    "of its surface edge is: the share of a uniform pressure that a quadratic edge gives its node at "
                    "radius 0 is zero, so the sign of the pole's own multiplier says nothing about contact "
-                   "(docs/theory.md, 'Axisymmetric path'). The error of the finest mesh itself is of the order of "
-                   "the difference between the two finest rows.")
+                   "(docs/theory.md, 'Axisymmetric path').")
     if "three-d" in args.only:
         rows = []
         for ratio in args.ratios:
