@@ -183,9 +183,11 @@ EXPECTED_OPTIONS = {
               '--depth-max=0.3 --steps=20 --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 '
               '--offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None '
               '--poisson-ratio=0.48 --youngs-modulus=1 --radius=1 --material=neo-hookean --quiet=False --json=False',
-    'lut': '--channel-radius=None --channel-width=None --flow-rate! --viscosity! --out! --radii=None --moduli=None '
-           '--quick=False --poisson-ratio=0.48 --material=neo-hookean --resolution=None --duration=None '
-           '--stationary-tolerance=None --identifier=None --scheduler=None --workers=None --quiet=False',
+    'lut': '--channel-radius=None --channel-width=None --channel-shape=None --channel-height=None --flow-rate! '
+           '--viscosity=None --medium=newtonian --temperature=None --flow-index=None --out! --radii=None '
+           '--moduli=None --quick=False --poisson-ratio=0.48 --material=neo-hookean --resolution=None '
+           '--extrapolate=True --coarse-resolution=None --duration=None --stationary-tolerance=None '
+           '--identifier=None --scheduler=None --workers=None --quiet=False',
     'mastercurve compression': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False '
                                '--quiet=False',
     'mastercurve shear': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False --quiet=False',
