@@ -40,6 +40,7 @@ from elastocell.inverse.indentation_surface import (  # noqa: E402
 from elastocell.inverse.indentation_surface import dimitriadis_bonded_force as dimitriadis_bonded  # noqa: E402
 from elastocell.inverse.indentation_surface import garcia_bonded_force as garcia_bonded  # noqa: E402
 from elastocell.parameters.cell import cell_parameters  # noqa: E402
+from elastocell.parameters.units import ParameterError  # noqa: E402
 from elastocell.scenarios.axisymmetric import AxisymmetricError, hertz_half_space_force, indent_axisymmetric  # noqa: E402
 
 NU = 0.48
@@ -130,7 +131,11 @@ def layer_study(page: Page, quick: bool, fresh: bool = False, cached_only: bool 
                      "nodes (1, 0.7, 0.5)": "/".join(str(c["nodes"]) for c in curves.values()),
                      "seconds (1, 0.7, 0.5)": "/".join(f"{c['seconds']:.0f}" for c in curves.values())})
     page.table(rows, "Meridian refinement of the layer (default width): error = F/F(every size x 0.5) - 1")
-    surface = load_indentation_surface(NU, cell_shape="layer")
+    try:
+        surface = load_indentation_surface(NU, cell_shape="layer")
+    except ParameterError as error:
+        page.print(f"no layer master surface: {error}")
+        return
     thickest = surface.ratio_range[0]
     thick_curve = surface.curve(thickest)
     rows = []

@@ -95,11 +95,12 @@ class SurfaceGrid:
     steps: int
 
 
-LAYER = SurfaceGrid(ratios=(0.1, 0.2, 0.4, 0.8, 1.4, 2.0), held_out=(0.28, 1.1), mesh_check=(0.4, 2.0),
+LAYER = SurfaceGrid(ratios=(0.2, 0.4, 0.8, 1.4, 2.0), held_out=(0.28, 1.1), mesh_check=(0.4, 2.0),
                     meshes={"default": MeridianMeshParameters(), "fine": MeridianMeshParameters().scaled(0.7)},
                     depth_max=0.5, depth_per_ratio=0.5, steps=10)
-"""The layer's surface: R_b/h 0.1-2 (a 2-20 um bead on a tissue section 10-200 um thick, or on a thin cell or gel of
-a few um), to depth min(h/2, R_b/2), 10 load steps; meshes in units of R_b, the fine one every size x 0.7 at R_b/h
+"""The layer's surface: R_b/h 0.2-2 (a 2-20 um bead on a tissue section up to 5 R_b thick, or on a thin cell or gel
+of a few um), to depth min(h/2, R_b/2), 10 load steps (R_b/h = 0.1, a layer 10 R_b thick and 24 R_b wide, stopped
+without convergence at depth 0.44 R_b); meshes in units of R_b, the fine one every size x 0.7 at R_b/h
 0.4 and 2 (the curves' cost on a shared 2-core machine bounds the grid; validation/indentation.py measures every
 size x 0.5 at R_b/h = 0.4). Between and beyond the mesh-check ratios the error is interpolated, clamped."""
 GRIDS = {"sphere": SurfaceGrid(INDENTER_RATIOS, HELD_OUT_RATIOS, MESH_CHECK_RATIOS, MESHES, DEPTH_MAX,
