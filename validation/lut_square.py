@@ -157,7 +157,7 @@ def main(argv=None) -> None:
                "deform at rest": _number(record.get("deformation_initial")),
                "drift": drift(result_runs / record["key"] / "timeseries.csv"),
                "stationary": "yes" if record.get("stationary") else "no (cap)",
-               "t_end": _number(record.get("duration"))}
+               "t_end": _number(record.get("duration")), "wall [s]": _number(record.get("wall_time_s"))}
         for table in TABLES:
             row[f"E {table} [kPa]"] = e_dclab[table][i]
             row[f"ratio {table}"] = e_dclab[table][i] / record["emodulus_kpa"]
@@ -171,12 +171,18 @@ def main(argv=None) -> None:
         rows.append(row)
     formats = {"R [um]": "g", "E [kPa]": "g", "Ca_w": ".3f", "area_um": ".2f", "deform": ".4f",
                "deform_std": ".4f", "deform correction": ".4f", "deform at rest": ".4f", "drift": "+.4f",
-               "t_end": ".2f"}
+               "t_end": ".2f", "wall [s]": ".0f"}
     formats.update({f"E {t} [kPa]": ".3f" for t in TABLES})
     formats.update({f"ratio {t}": ".3f" for t in TABLES})
     formats.update({f"deform {TABLES[0]} at E": ".4f", "deform / that": ".2f"})
     formats.update({"D_inf fit": ".4f", "tau fit": ".1f", f"ratio {TABLES[0]} at D_inf": ".3f"})
     page.table(rows, formats=formats)
+    over = np.array([row["deform / that"] for row in rows])
+    moving = sum(row["drift"] > 0 for row in rows)
+    page.print(f"elastocell's deformation over HE-3D-FEM-22's at the same area and E: {np.nanmin(over):.2f} to "
+               f"{np.nanmax(over):.2f}; {sum(r['stationary'] == 'yes' for r in rows)} of {len(rows)} points "
+               f"stationary, {moving} still deforming at t_end (drift > 0), so every ratio of a transient point "
+               "is an upper bound on the stationary E_dclab/E_input if the deformation keeps growing.")
     for failure in result["failures"]:
         page.print(f"failed {failure['key']}: {failure['error']}")
     page.write()
