@@ -89,17 +89,25 @@ def _invert(values: np.ndarray, grid: np.ndarray, target: float) -> float:
     return float(np.interp(target, v[order], g[order]))
 
 
-def table_deformation(area_um: float, modulus_kpa: float) -> float:
-    """The deformation on the table's isoelastic of ``modulus_kpa`` at ``area_um`` (E falls with deform at a fixed
-    area: dclab's interpolation read on a fine grid of deform and inverted linearly); NaN outside the table."""
-    return _invert(table_modulus(np.full(DEFORM_GRID.size, area_um), DEFORM_GRID), DEFORM_GRID, modulus_kpa)
-
-
-def table_area(deform: float, modulus_kpa: float, around: float) -> float:
-    """The area on the table's isoelastic of ``modulus_kpa`` at ``deform`` (E rises with area at a fixed deform),
-    searched within a factor 2 of ``around``; NaN outside the table."""
-    grid = np.geomspace(around / 2, around * 2, 600)
-    return _invert(table_modulus(grid, np.full(grid.size, deform)), grid, modulus_kpa)
+def table_readings(points: list[tuple[float, float, float]]) -> list[tuple[float, float, float]]:
+    """For each (area_um, deform, E_t): (D_t, A_t, E_dclab): the deformation on the table's isoelastic of E_t at
+    that area (E falls with deform at a fixed area), the area on it at that deformation (E rises with area at a
+    fixed deform; searched within a factor 2), and the table's modulus at the point; dclab's interpolation read on
+    fine grids, inverted linearly, in one call of dclab for all of them; NaN outside the table."""
+    n = DEFORM_GRID.size
+    areas, deforms = [], []
+    for area_um, deform, _ in points:
+        area_grid = np.geomspace(area_um / 2, area_um * 2, n)
+        areas += [np.full(n, area_um), area_grid, [area_um]]
+        deforms += [DEFORM_GRID, np.full(n, deform), [deform]]
+    e = table_modulus(np.concatenate(areas), np.concatenate(deforms))
+    out = []
+    for i, (area_um, _, modulus) in enumerate(points):
+        block = e[i * (2 * n + 1):(i + 1) * (2 * n + 1)]
+        area_grid = np.geomspace(area_um / 2, area_um * 2, n)
+        out.append((_invert(block[:n], DEFORM_GRID, modulus), _invert(block[n:2 * n], area_grid, modulus),
+                    float(block[-1])))
+    return out
 
 
 # =========================================================================== elastocell's side
@@ -241,20 +249,30 @@ def rows_for(record: dict) -> list[dict]:
                 (f"extrapolated {fine_r:g}/{coarse_r:g}", area["value"], deform["value"],
                  "yes" if record["stationary"] else "no (a run hit the cap)", {})]
     rows = []
-    for label, area_r2, deform_value, stationary, drift in variants:
+    readings = table_readings([(v[1] * radius**2, v[2], e_table) for v in variants])
+    for (label, area_r2, deform_value, stationary, drift), (deform_t, area_t, e_dclab) in zip(variants, readings, strict=True):
         area_um = area_r2 * radius**2
-        deform_t, area_t = table_deformation(area_um, e_table), table_area(deform_value, e_table, area_um)
         err_d, err_a = percent(deform_value, deform_t), percent(area_um, area_t)
         met = abs(err_d) <= 100 * TARGET and abs(err_a) <= 100 * TARGET
         rows.append({"R [um]": radius, "R/R_ch": radius / (1.094 * CHANNEL_WIDTH_UM / 2), "E [kPa]": modulus,
                      "E_t [kPa]": e_table, "Ca_w": ca, "run": label, "stationary": stationary,
                      "deform": deform_value, "D_t": deform_t, "D err %": err_d,
                      "area_um": area_um, "A_t": area_t, "A err %": err_a, "A/(pi R^2)": area_r2 / np.pi,
-                     "E_dclab/E_t": float(table_modulus(area_um, deform_value)) / e_table,
+                     "E_dclab/E_t": e_dclab / e_table,
                      "target met": "yes" if met else "no", "D drift %/t": drift.get("drift_deformation", np.nan) * 100,
                      "A drift %/t": drift.get("drift_projected_area", np.nan) * 100,
                      "dV/V end": drift.get("volume_change_end", np.nan)})
     return rows
+
+
+def apparent_order(rows: list[dict]) -> str:
+    """One cell's apparent order of the deformation error (its R/dx coarse, fine and extrapolated rows)."""
+    coarse, fine = rows[0], rows[1]
+    ratio = float(fine["run"].split()[-1]) / float(coarse["run"].split()[-1])
+    err_c, err_f = coarse["deform"] - coarse["D_t"], fine["deform"] - fine["D_t"]
+    order = np.log(err_c / err_f) / np.log(ratio) if err_c * err_f > 0 else float("nan")
+    return (f"R = {fine['R [um]']:g} um, E = {fine['E [kPa]']:g} kPa: err {err_c:+.4f} at {coarse['run']}, "
+            f"{err_f:+.4f} at {fine['run']}: order {order:.2f}")
 
 
 FORMATS = {"R [um]": "g", "R/R_ch": ".3f", "E [kPa]": "g", "E_t [kPa]": ".3f", "Ca_w": ".3f", "deform": ".4f",
@@ -297,8 +315,7 @@ def main(argv=None) -> None:
     points = grid_points(cells, args.resolution, args.coarse_resolution, args.duration)
     args.out.mkdir(parents=True, exist_ok=True)
     failures = [] if args.cached_only else run_missing(points, args.out, args.workers)
-    if not args.cached_only:
-        complete_cache(args.out)
+    complete_cache(args.out)  # the runs' stop reasons and drifts, where their directories are at hand
     cache = read_cache(args.out / "runs.jsonl")
     rows, missing, records = [], [], []
     for point in points:
@@ -310,6 +327,10 @@ def main(argv=None) -> None:
         rows.extend(rows_for(record))
     page.table(rows, f"Deformation and area against {TABLE}: each resolution alone, then extrapolated",
                formats=FORMATS)
+    page.print("Apparent order of the deformation error against the table, ln(err_coarse/err_fine)/ln(ratio of "
+               "spacings) with err = D - D_t (the order the Richardson step assumes is "
+               f"{CONVERGENCE_ORDER:g}; a larger one makes it overshoot):\n" + "\n".join(
+                   apparent_order(rows[i:i + 3]) for i in range(0, len(rows), 3)))
     times = [f"R = {r['radius_um']:g} um, E = {r['emodulus_kpa']:g} kPa: " + "; ".join(
              f"R/dx {res}: t = {part['duration']:.2f}/gdot_w ({part['stop_reason']}), {part['steps']} steps, "
              f"{part['wall_time_s']:.0f} s" for res, part in r["parts"].items()) for r in records]
