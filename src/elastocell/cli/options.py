@@ -88,10 +88,11 @@ class Opt:
 
     @property
     def option(self) -> str:
-        """The name on the command line: ``--stiffness-ratio`` (an argument: ``NAME``)."""
+        """The name on the command line: ``--stiffness-ratio`` (an argument: ``NAME``; an on/off pair such as
+        ``--extrapolate/--no-extrapolate``: its first name)."""
         if self.argument:
             return self.name.upper()
-        return self.flag or "--" + self.name.replace("_", "-")
+        return (self.flag or "--" + self.name.replace("_", "-")).split("/")[0]
 
     def but(self, **changes) -> Opt:
         """The same option with another default, help or units (never another name)."""
@@ -123,7 +124,7 @@ class Opt:
                 show = self.shown
             else:
                 show = True
-            info = typer.Option(self.default, self.option, help=self.help_text(), show_default=show)
+            info = typer.Option(self.default, self.flag or self.option, help=self.help_text(), show_default=show)
         return inspect.Parameter(self.name, inspect.Parameter.KEYWORD_ONLY, default=info, annotation=self.annotation)
 
 
