@@ -155,7 +155,8 @@ def parts_of(directory: Path, record: dict) -> dict:
     for key in ("fine_resolution", "coarse_resolution"):
         r = record["extrapolation"][key]
         summary = json.loads((part_directory(directory, r) / "summary.json").read_text())
-        parts[f"{r:g}"] = {k: summary.get(k) for k in ("stop_reason", "duration", "steps", "wall_time_s")}
+        parts[f"{r:g}"] = {k: summary.get(k) for k in ("stop_reason", "duration", "steps")}
+        parts[f"{r:g}"]["wall_time_s"] = summary.get("wall_time_cumulative_s", summary.get("wall_time_s"))
         parts[f"{r:g}"].update(drifts(part_directory(directory, r) / "timeseries.csv"))
     return parts
 
@@ -179,16 +180,18 @@ def drifts(timeseries: Path) -> dict:
 
 
 def complete_cache(out: Path) -> None:
-    """Add the runs' stop reasons to cached records that lack them (read from their run directories)."""
+    """Add the runs' stop reasons, drifts and cumulative wall times to cached records that lack them (read from
+    their run directories)."""
     path = out / "runs.jsonl"
     if not path.exists():
         return
     records = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
     changed = False
     for record in records:
-        if record.get("extrapolation") and "drift_deformation" not in str(record.get("parts")) \
-                and (out / "runs" / record["key"]).exists():
-            record["parts"] = parts_of(out / "runs" / record["key"], record)
+        directory = out / "runs" / record["key"]
+        if record.get("extrapolation") and "cumulative" not in str(record.get("parts_source")) and directory.exists():
+            record["parts"] = parts_of(directory, record)
+            record["parts_source"] = "run directories, wall time cumulative over resumed sessions"
             changed = True
     if changed:
         path.write_text("".join(json.dumps(r, default=float) + "\n" for r in records))
@@ -216,7 +219,8 @@ def run_missing(points: list[dict], out: Path, workers: int) -> list[dict]:
             failures.append({"key": point["key"], "error": "lut ran a single resolution, not an extrapolated point"})
             continue
         record = {**outcome, "resolution": point["resolution"], "radius_um": point["radius_um"],
-                  "emodulus_kpa": point["emodulus_kpa"], "parts": parts_of(out / "runs" / point["key"], outcome)}
+                  "emodulus_kpa": point["emodulus_kpa"], "parts": parts_of(out / "runs" / point["key"], outcome),
+                  "parts_source": "run directories, wall time cumulative over resumed sessions"}
         with cache_path.open("a") as handle:
             handle.write(json.dumps(record, default=float) + "\n")
         print(f"done R = {point['radius_um']:g} um, E = {point['emodulus_kpa']:g} kPa: extrapolated deform "
@@ -250,7 +254,8 @@ def rows_for(record: dict) -> list[dict]:
                  "yes" if record["stationary"] else "no (a run hit the cap)", {})]
     rows = []
     readings = table_readings([(v[1] * radius**2, v[2], e_table) for v in variants])
-    for (label, area_r2, deform_value, stationary, drift), (deform_t, area_t, e_dclab) in zip(variants, readings, strict=True):
+    for variant, (deform_t, area_t, e_dclab) in zip(variants, readings, strict=True):
+        label, area_r2, deform_value, stationary, drift = variant
         area_um = area_r2 * radius**2
         err_d, err_a = percent(deform_value, deform_t), percent(area_um, area_t)
         met = abs(err_d) <= 100 * TARGET and abs(err_a) <= 100 * TARGET
@@ -299,7 +304,8 @@ def main(argv=None) -> None:
     page = Page("pipe_dclab", "pipe_dclab.py", intro=(
         f"A centred homogeneous cell (neo-Hookean, nu = 0.48) in the cylinder of LE-2D-FEM-19 (R_ch = 1.094 x 10 um, "
         f"the equivalent radius of the 20 um square channel), Q = {FLOW_RATE_UL_S} uL/s, eta = {VISCOSITY_MPA_S} "
-        f"mPa s, each cell run at R/dx {args.resolution:g} and {coarse_label} (lut's extrapolated grid point: stop when the mean "
+        f"mPa s, each cell run at R/dx {args.resolution:g} and {coarse_label} (lut's extrapolated grid point: "
+        "stop when the mean "
         "deformation over a unit of 1/gdot_w is stationary to 1e-3, or at the cap; values are means over the last "
         "unit) and combined by Richardson extrapolation of order "
         f"{CONVERGENCE_ORDER:g}. The reference is dclab's {TABLE} (axisymmetric FEM, incompressible linear-elastic), "
@@ -334,8 +340,8 @@ def main(argv=None) -> None:
     times = [f"R = {r['radius_um']:g} um, E = {r['emodulus_kpa']:g} kPa: " + "; ".join(
              f"R/dx {res}: t = {part['duration']:.2f}/gdot_w ({part['stop_reason']}), {part['steps']} steps, "
              f"{part['wall_time_s']:.0f} s" for res, part in r["parts"].items()) for r in records]
-    page.print("Wall time of each run (one Numba thread each, 2 points at a time on a machine shared with other "
-               "work: not a benchmark):\n" + "\n".join(times))
+    page.print("Wall time of each run, over all its sessions where it was resumed (one Numba thread each, up to 3 "
+               "runs at a time on a 2-core machine shared with other work: not a benchmark):\n" + "\n".join(times))
     for failure in failures:
         page.print(f"failed {failure['key']}: {failure['error']}")
     if missing:
