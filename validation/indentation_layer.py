@@ -5,7 +5,7 @@ layer master surface against the closed forms of a bonded layer.
     nice python validation/indentation_layer.py [--quick] [--fresh] [--cached-only]
 
 1. Lateral extent: F at the master surface's depth range (min(h/2, R_b/2)) with the default width 2 h + 4 R_b,
-   2 h + 8 and 2 h + 16 R_b, at h = 2.5 and 10 R_b (R_b/h = 0.4 and 0.1).
+   2 h + 8 and 2 h + 16 R_b, at h = 2.5 and 5 R_b (R_b/h = 0.4 and 0.2).
 2. Refinement: the default meridian mesh against every size x 0.7 and x 0.5 at h = 2.5 R_b.
 3. The shipped layer master surface (``elastocell mastercurve indentation --cell-shape layer``) against Hertz's
    half-space, Dimitriadis et al. (2002, Biophys. J. 82, 2798)'s bonded-layer series (its nu-dependent
@@ -56,8 +56,8 @@ def timed(function, *args, **kwargs):
 
 LAYER_CACHE_FORMAT = 1
 LAYER_STEPS = 10
-WIDTH_THICKNESSES = (2.5, 10.0)
-"""h/R_b of the width study (R_b/h = 0.4 and 0.1, ratios of the layer's master surface)."""
+WIDTH_THICKNESSES = (2.5, 5.0)
+"""h/R_b of the width study (R_b/h = 0.4 and 0.2, the thickest layer of the master surface)."""
 REFINED_THICKNESS = 2.5
 
 
@@ -157,8 +157,8 @@ def layer_study(page: Page, quick: bool, fresh: bool = False, cached_only: bool 
                      "half-space, Dimitriadis et al. (2002, bonded, nu-dependent coefficients) and Garcia & Garcia "
                      "(2018, bonded, derived for nu = 0.5); chi = sqrt(R_b d)/h; both series are small-chi "
                      "expansions of a paraboloid at small strain; mesh error: |F(every size x 0.7) - F|/F where "
-                     "computed; bottom effect: F over the thickest layer's F at the same depth (R_b/h = 0.1), over "
-                     "the same ratio of Dimitriadis' series (the sphere's shape and the large strain cancel)")
+                     f"computed; bottom effect: F over the thickest layer's F at the same depth (R_b/h = {thickest:g}), "
+                     "over the same ratio of Dimitriadis' series (the sphere's shape and the large strain cancel)")
 
 
 def main() -> None:
