@@ -98,7 +98,9 @@ at second order in the strain (docs/theory.md), of the size of the volume change
 runs, which also holds the immersed boundary's leak), and is not separated here. The runs were made by
 ``nice python validation/shear_targets.py --run --threads 1`` with ``--resolutions 8`` and ``--resolutions 6``
 (all four Ca), and ``--resolutions 6`` with ``--capillary-numbers 0.3 0.05 --confinement 0.1``,
-``--capillary-numbers 0.3 --box-length 12`` and ``--capillary-numbers 0.3 --reynolds-number 0.05``, two
+``--capillary-numbers 0.3 --box-length 12`` and ``--capillary-numbers 0.3 --reynolds-number 0.05``; the
+defaults' table by ``--default --capillary-numbers 0.3`` and ``0.05`` (``elastocell.shear`` with no resolution
+options: its extrapolated default with strain 6, means over 3..6, where the tables above use strain 4); two
 processes at a time on the shared 2-core machine (load average 15-29: their wall times are not costs)."""
 
 
