@@ -169,7 +169,7 @@ EXPECTED_OPTIONS = {
                   '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None --mesh-size=None '
                   '--pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 '
                   '--material=neo-hookean --element=p2 --json=False',
-    'fit afm': 'files! --radius! --geometry=parallel-plates --cell-shape=sphere --indenter-radius=None '
+    'fit afm': 'files! --radius=None --geometry=parallel-plates --cell-shape=sphere --indenter-radius=None '
                '--cap-height=None --layer-thickness=None --depth-max=None --spring-constant=None --sensitivity=None '
                '--poisson-ratio=0.48 --material=neo-hookean '
                '--model=both --delta-max=0.75 --contact-point=auto --bootstrap=0 --seed=0 '
@@ -192,7 +192,7 @@ EXPECTED_OPTIONS = {
                                '--quiet=False',
     'mastercurve shear': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False --quiet=False',
     'mastercurve indentation': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False '
-                               '--quiet=False --workers=1',
+                               '--quiet=False --workers=1 --cell-shape=sphere',
     'pipe': '--out! --capillary-number-wall=None --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 '
             '--offset=0.0 --offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None '
             '--mesh-size=None --pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 '

@@ -279,3 +279,15 @@ def test_the_cli_fits_a_layer_and_refuses_what_is_outside_its_surface(tmp_path, 
     result = runner.invoke(app, common + ["--layer-thickness", "20um", "--indenter-radius", f"{ratio * 20}um",
                                           "--depth-max", "2", "--out", str(tmp_path / "deep")])
     assert result.exit_code == 2 and "--depth-max" in result.output, result.output
+
+
+def test_only_the_layer_goes_without_a_radius():
+    """--radius is required by the plates and the suspended sphere, not by the layer (whose unit is h); the layer
+    needs --layer-thickness."""
+    for settings in ({}, {"geometry": "sphere-indenter", "indenter_radius": "5um"}):
+        with pytest.raises(ParameterError, match="radius"):
+            FitSettings(**settings)
+    with pytest.raises(ParameterError, match="layer_thickness"):
+        FitSettings(geometry="sphere-indenter", cell_shape="layer", indenter_radius="5um")
+    layer = FitSettings(geometry="sphere-indenter", cell_shape="layer", indenter_radius="5um", layer_thickness="20um")
+    assert layer.radius is None and layer.length_unit == pytest.approx(20e-6) and layer.indenter_ratio == 0.25
