@@ -459,3 +459,20 @@ def test_resume_of_an_extrapolated_run_recomputes_nothing_finished(tmp_path):
     np.testing.assert_array_equal(coarse[:2]["taylor_deformation"], coarse_before["taylor_deformation"])
     assert top["extrapolation"]["values"]["taylor_deformation_mean"]["coarse"] == pytest.approx(
         _read(out / "resolution-3" / "summary.json")["taylor_deformation_mean"], rel=0)
+
+
+def test_a_wall_clock_stop_ends_an_extrapolated_run_before_the_next_resolution_and_resume_completes_it(tmp_path):
+    # The wall clock is the whole call's budget: the finer run stopped by it ends the call (its own values, not
+    # extrapolated, marked pending; the coarse run not started, no top-level summary); resume runs the rest.
+    out = tmp_path / "run"
+    options = dict(capillary_number=0.1, nucleus="none", flow_options={"confinement": 0.3}, record_interval=0.1,
+                   checkpoint_every=1, vtk_interval=None, progress=False, resolution=4, coarse_resolution=3,
+                   duration=0.3)
+    first = elastocell.shear(out, wall_clock=1e-9, **options)
+    assert first["stop_reason"] == "wall_clock" and first["extrapolation"]["pending"]
+    assert first["extrapolation"]["stopped_in"] == "resolution-4"
+    assert not (out / "resolution-3").exists() and not (out / "summary.json").exists()
+    final = elastocell.shear(out, resume=True, **options)
+    assert "pending" not in final["extrapolation"] and final["duration_strain"] == pytest.approx(0.3, abs=1e-9)
+    assert _read(out / "summary.json")["taylor_deformation_mean_rdx3"] == _read(
+        out / "resolution-3" / "summary.json")["taylor_deformation_mean"]

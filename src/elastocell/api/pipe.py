@@ -93,11 +93,16 @@ def pipe(
     if coarse is None:
         return _single(out, params, *arguments)[0]
 
-    def run_part(directory, r, label):
-        return _single(directory, PipeFlowParameters(**{**params.model_dump(), "resolution": r}), *arguments,
+    def run_part(directory, r, label, wall_clock_left):
+        part_arguments = list(arguments)
+        part_arguments[6] = wall_clock_left  # the whole call's wall clock, less what the finer run used
+        return _single(directory, PipeFlowParameters(**{**params.model_dump(), "resolution": r}), *part_arguments,
                        part=label)
 
-    summary, fine, series = run_extrapolated(out, params.resolution, coarse, run_part, EXTRAPOLATED)
+    summary, fine, series = run_extrapolated(out, params.resolution, coarse, run_part, EXTRAPOLATED,
+                                             wall_clock=wall_clock)
+    if summary["extrapolation"].get("pending"):
+        return summary
     plot_pipe(Path(out) / "pipe.png", series, fine,
               title=f"{summary['label']}, {params.channel_shape} channel, {params.medium}, Ca_w = "
                     f"{summary['capillary_number_wall']:g}, R/dx = {params.resolution:g}; extrapolated "

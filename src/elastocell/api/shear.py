@@ -79,13 +79,16 @@ def shear(
                        stationary_tolerance, record_interval, checkpoint_every, vtk_interval,
                        capillary_number_modulus, cell_options)[0]
 
-    def run_part(directory, r, label):
+    def run_part(directory, r, label, wall_clock_left):
         return _single(directory, capillary_number, cell, equivalent,
                        ShearFlowParameters(**{**params.model_dump(), "resolution": r}), duration, resume, progress,
-                       wall_clock, stationary_tolerance, record_interval, checkpoint_every, vtk_interval,
+                       wall_clock_left, stationary_tolerance, record_interval, checkpoint_every, vtk_interval,
                        capillary_number_modulus, cell_options, label)
 
-    summary, fine, series = run_extrapolated(out, params.resolution, coarse, run_part, EXTRAPOLATED)
+    summary, fine, series = run_extrapolated(out, params.resolution, coarse, run_part, EXTRAPOLATED,
+                                             wall_clock=wall_clock)
+    if summary["extrapolation"].get("pending"):
+        return summary
     plot_taylor_deformation(Path(out) / "taylor_deformation.png", series, fine,
                             title=f"{summary['label']}, Ca = {summary['capillary_number']:g}, R/dx = "
                                   f"{params.resolution:g}; extrapolated D = {summary['taylor_deformation_mean']:.4g}")

@@ -206,6 +206,10 @@ def _echo_extrapolation(summary: dict, *names: tuple[str, str]) -> None:
     extrapolation = summary.get("extrapolation")
     if not extrapolation:
         return
+    if extrapolation.get("pending"):
+        typer.echo(f"stopped by --wall-clock in {extrapolation['stopped_in']}/ before both resolutions finished: "
+                   "not extrapolated; run again with --resume to continue")
+        return
     fine, coarse = extrapolation["fine_resolution"], extrapolation["coarse_resolution"]
     typer.echo(f"extrapolated (Richardson, order {extrapolation['order']:g}) from R/dx = {fine:g} and {coarse:g}; "
                "uncertainty: the size of the correction, an estimate, not a bound")
@@ -213,6 +217,17 @@ def _echo_extrapolation(summary: dict, *names: tuple[str, str]) -> None:
         value = extrapolation["values"][name]
         typer.echo(f"  {label}: {value['value']:.4g} (R/dx {fine:g}: {value['fine']:.4g}, R/dx {coarse:g}: "
                    f"{value['coarse']:.4g}, correction {value['correction']:.2g})")
+        if abs(value["correction"]) > LARGE_CORRECTION * abs(value["value"]):
+            typer.echo(f"warning: the {label} of R/dx {fine:g} and {coarse:g} differ so much that the correction is "
+                       f"{100 * abs(value['correction']) / abs(value['value']):.0f} % of the value: the coarser run "
+                       "is likely outside the (dx/R)^2 range and the extrapolation uncertain; compare a finer "
+                       "--resolution", err=True)
+
+
+LARGE_CORRECTION = 0.10
+"""A correction above this fraction of its extrapolated value is warned about: the order-2 assumption then
+carries a large share of the answer (pipe flow at R/dx 8 and 6: corrections of 40-60 % of D, and an apparent
+order of 2.5-4.3, docs/validation/pipe_dclab.md)."""
 
 
 @app.command("equivalent")

@@ -114,17 +114,30 @@ def extrapolated_summary(fine: dict, coarse: dict, names: tuple[str, ...], fine_
 
 
 def run_extrapolated(out, fine_resolution: float, coarse_resolution: float, run_part, names: tuple[str, ...],
-                     order: float = CONVERGENCE_ORDER) -> tuple[dict, dict, dict]:
+                     order: float = CONVERGENCE_ORDER, wall_clock: float | None = None) -> tuple[dict, dict, dict]:
     """Both runs of an extrapolated flow run and its top-level outputs: ``run_part(directory, resolution,
-    label)`` makes (or resumes) one resolution's run in :func:`part_directory` and returns (its summary, its time
-    series); the finer run first, so that its cost is checked before anything is computed or written. Writes
+    label, wall_clock)`` makes (or resumes) one resolution's run in :func:`part_directory`, stopping after
+    ``wall_clock`` seconds (None: no limit), and returns (its summary, its time series); the finer run first, so
+    that its cost is checked before anything is computed or written. ``wall_clock`` (s) is the whole call's
+    budget: the second run gets what the first left. A run stopped by it (``stop_reason`` "wall_clock") ends the
+    call there, before the next run starts: the returned summary is that run's, with ``extrapolation`` saying
+    which run is pending (resume continues it), and no top-level file is written. Otherwise writes
     ``out/summary.json`` (:func:`extrapolated_summary`, ``wall_time_s`` of the whole call) and
     ``out/timeseries.csv`` (the finer run's). Returns (the summary, the finer run's summary and series)."""
     clock = Stopwatch()
     parts = {}  # each run holds its own directory's lock; nothing is written before the finer run's checks
     for index, resolution in enumerate((fine_resolution, coarse_resolution)):
-        parts[resolution] = run_part(part_directory(out, resolution), resolution,
-                                     f" R/dx={resolution:g} ({index + 1}/2)")
+        left = None if wall_clock is None else max(float(wall_clock) - clock.elapsed, 1e-3)  # > 0: a run checks it
+        summary, series = run_part(part_directory(out, resolution), resolution,
+                                   f" R/dx={resolution:g} ({index + 1}/2)", left)
+        parts[resolution] = summary, series
+        if summary.get("stop_reason") == "wall_clock":
+            pending = {"pending": True, "order": float(order), "fine_resolution": float(fine_resolution),
+                       "coarse_resolution": float(coarse_resolution),
+                       "stopped_in": part_directory("", resolution).name,
+                       "note": "stopped by the wall clock before both runs finished: the values are this run's, "
+                               "not extrapolated; resume to continue"}
+            return {**summary, "extrapolation": pending}, summary, series
     fine, series = parts[fine_resolution]
     with output_directory(out) as out:
         summary = extrapolated_summary(fine, parts[coarse_resolution][0], names, fine_resolution, coarse_resolution,
