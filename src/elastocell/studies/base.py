@@ -33,6 +33,7 @@ from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.compression import CompressionError
 from elastocell.scenarios.shear import compile_kernels
 from elastocell.simulation.distributed import TaskFailure, run_tasks
+from elastocell.simulation.extrapolation import coarse_resolution_of
 from elastocell.simulation.runner import resume_or_restart
 from elastocell.solvers.stiffness_kernel import compile_kernel
 
@@ -282,7 +283,9 @@ def _expected_cost(run: Run) -> float:
     if run.scenario == "compress":
         return 1.0
     resolution = options.get("resolution") or 8.0
-    return 10.0 * (resolution / 5.0) ** 4 * float(options.get("duration", 6.0))
+    coarse = coarse_resolution_of(options.get("extrapolate", True), resolution, options.get("coarse_resolution"))
+    lattice_updates = sum((r / 5.0) ** 4 for r in (resolution, coarse) if r is not None)  # both runs when extrapolated
+    return 10.0 * lattice_updates * float(options.get("duration", 6.0))
 
 
 def flat_parameters(options: dict) -> dict:
