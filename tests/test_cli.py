@@ -317,8 +317,9 @@ QUANTITY_OPTIONS = [
       for option in ("--indenter-radius", "--radius", "--youngs-modulus", "--cap-height", "--layer-thickness")],
     *[("pipe", option, ["pipe", "--out", "{out}", "--radius", "8um", "--youngs-modulus", "1kPa"])
       for option in ("--channel-width", "--channel-height")],
-    ("lut", "--channel-width", ["lut", "--flow-rate", "0.04uL/s", "--viscosity", "15mPa*s", "--quick", "--out",
-                                "{out}/lut.txt"]),
+    *[("lut", option, ["lut", "--flow-rate", "0.04uL/s", "--viscosity", "15mPa*s", "--quick", "--out",
+                       "{out}/lut.txt", *(["--channel-width", "20um"] if option == "--channel-height" else [])])
+      for option in ("--channel-width", "--channel-height")],
 ]
 
 
