@@ -207,6 +207,9 @@ def test_pipe_stationary_stop_and_a_fresh_run_lists_only_its_own_snapshots(tmp_p
     assert (out / "vtk" / "fluid.pvd").read_text().count("<DataSet") == 3
     with pytest.raises(ParameterError, match="stationary_observable"):
         pipe(tmp_path / "x", 0.1, stationary_tolerance=1e-3, stationary_observable="volume_change", **options)
+    with pytest.raises(ParameterError, match="stationary_observable"):  # read by nothing without a tolerance
+        pipe(tmp_path / "y", 0.1, stationary_observable="deformation", **options)
+    assert not (tmp_path / "y").exists()
 
 
 def test_checkpoint_refuses_other_parameters(tmp_path, cell):

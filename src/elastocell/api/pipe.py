@@ -78,6 +78,9 @@ def pipe(
     mesh (edges 2 dx) follows each resolution.
     """
 
+    if stationary_tolerance is None and stationary_observable != "strain_axial":
+        raise ParameterError("stationary_observable", "is read only by the stationarity stop; give "
+                                                      "--stationary-tolerance (stationary_tolerance=) with it")
     flow_options = dict(flow_options or {})
     for name, value in (("channel_radius_ratio", channel_radius_ratio), ("start_offset", start_offset),
                         ("resolution", resolution), ("channel_shape", channel_shape),

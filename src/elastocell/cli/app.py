@@ -272,9 +272,6 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
          checkpoint_every: int, vtk_interval: float, resume: bool, backend, quiet: bool):
     """A cell in pressure-driven flow through a cylindrical or square/rectangular channel, in a Newtonian or
     shear-thinning (MC-PBS) medium: migration and bullet shape."""
-    if stationary_tolerance is None and stationary_observable.value != "strain_axial":
-        raise ParameterError("stationary_observable", "is read only by the stationarity stop; give "
-                                                      "--stationary-tolerance with it")
     from elastocell.api.pipe import (
         pipe as run,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
