@@ -99,9 +99,10 @@ runs, which also holds the immersed boundary's leak), and is not separated here.
 ``nice python validation/shear_targets.py --run --threads 1`` with ``--resolutions 8`` and ``--resolutions 6``
 (all four Ca), and ``--resolutions 6`` with ``--capillary-numbers 0.3 0.05 --confinement 0.1``,
 ``--capillary-numbers 0.3 --box-length 12`` and ``--capillary-numbers 0.3 --reynolds-number 0.05``; the
-defaults' table by ``--default --capillary-numbers 0.3`` and ``0.05`` (``elastocell.shear`` with no resolution
-options: its extrapolated default with strain 6, means over 3..6, where the tables above use strain 4); two
-processes at a time on the shared 2-core machine (load average 15-29: their wall times are not costs)."""
+defaults' table by ``--default --capillary-numbers 0.3``, ``0.05``, ``0.1`` and ``0.2`` (``elastocell.shear``
+with no resolution options: its extrapolated default with strain 6, means over 3..6, where the tables above use
+strain 4); two processes at a time on the shared 2-core machine (most at load average 15-29: their wall times
+are not costs)."""
 
 
 def comparison_rows(values: dict, theory) -> list[dict]:
