@@ -475,7 +475,10 @@ def run_point(task: tuple[dict, str]) -> dict:
 
     directory.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    summary = resume_or_restart(pipe, directory, progress=False, vtk_interval=None, **point["options"])
+    options = dict(point["options"])  # the point's key hashes these as they are
+    if options.get("stationary_tolerance") is None:
+        options.pop("stationary_observable", None)  # read only by the stationarity stop, which is off
+    summary = resume_or_restart(pipe, directory, progress=False, vtk_interval=None, **options)
     radius = point["radius_um"]
     final, stationary = point_shape(directory, summary)
     record = {
