@@ -115,16 +115,22 @@ def dask_client(scheduler: str | None = None, workers: int | None = None, thread
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
+        needs_tls = ParameterError("scheduler", f"{scheduler} needs TLS files: give security=distributed.Security("
+                                   "...) or set DASK_DISTRIBUTED__COMM__TLS__CA_FILE, ..._TLS__CLIENT__CERT and "
+                                   "..._TLS__CLIENT__KEY")
+        if (str(scheduler).startswith("tls://") and security is None
+                and not dask.config.get("distributed.comm.tls.ca-file", None)):
+            # refused before a Client exists: a Client that fails half-built is finalised by a later garbage
+            # collection, which can run inside another Client's event-loop start and deadlock it
+            raise needs_tls
         try:
             client = Client(scheduler, timeout="20s", security=security)
         except (OSError, TimeoutError) as error:
             raise ParameterError("scheduler", f"cannot reach the Dask scheduler at {scheduler}: {error}") from None
-        except TypeError as error:  # a tls:// address without certificates
+        except TypeError as error:  # a tls:// address without usable certificates
             if "TLS" not in str(error):
                 raise
-            raise ParameterError("scheduler", f"{scheduler} needs TLS files: give security=distributed.Security(...) "
-                                 "or set DASK_DISTRIBUTED__COMM__TLS__CA_FILE, ..._TLS__CLIENT__CERT and "
-                                 "..._TLS__CLIENT__KEY") from None
+            raise needs_tls from None
         try:
             yield client
         finally:
