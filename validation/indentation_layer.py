@@ -21,10 +21,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
+from indentation import timed  # a curve, its wall time and why it stopped early
 from page import Page
 
 # jax's compilation cache tries ``from compression import zstd`` (Python 3.14's module): this directory's
@@ -41,17 +41,9 @@ from elastocell.inverse.indentation_surface import dimitriadis_bonded_force as d
 from elastocell.inverse.indentation_surface import garcia_bonded_force as garcia_bonded  # noqa: E402
 from elastocell.parameters.cell import cell_parameters  # noqa: E402
 from elastocell.parameters.units import ParameterError  # noqa: E402
-from elastocell.scenarios.axisymmetric import AxisymmetricError, hertz_half_space_force, indent_axisymmetric  # noqa: E402
+from elastocell.scenarios.axisymmetric import hertz_half_space_force, indent_axisymmetric  # noqa: E402
 
 NU = 0.48
-
-
-def timed(function, *args, **kwargs):
-    start = time.perf_counter()
-    try:
-        return function(*args, **kwargs), time.perf_counter() - start, ""
-    except AxisymmetricError as error:
-        return error.partial, time.perf_counter() - start, str(error)
 
 
 LAYER_CACHE_FORMAT = 1
