@@ -126,7 +126,7 @@ class _Problem:
         return np.clip(x, self.lower, self.upper)
 
 
-def _rigid_mode_pins(nodes: np.ndarray) -> np.ndarray:
+def rigid_mode_pins(nodes: np.ndarray) -> np.ndarray:
     """Dofs held to remove the modes the plates leave free: x, y of the node nearest the centre
     (translation), x, y of a node on the z axis (rotation about x and y), y of a node on the x axis
     (rotation about z)."""
@@ -150,7 +150,7 @@ def _setup(cell: Cell) -> _Problem:
     upper = np.full(n_dof, np.inf)
     lower[surface_z] = -1.0
     upper[surface_z] = 1.0
-    return _Problem(cell, surface_z, _rigid_mode_pins(nodes), lower, upper)
+    return _Problem(cell, surface_z, rigid_mode_pins(nodes), lower, upper)
 
 
 def _active_set(problem: _Problem, x: np.ndarray, gradient: np.ndarray, pinned: np.ndarray):
