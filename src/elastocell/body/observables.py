@@ -180,6 +180,76 @@ def shape_observables(x: np.ndarray, elements: np.ndarray, nucleus_mask: np.ndar
     )
 
 
+# --------------------------------------------------------------------------- projected outline
+OUTLINE_DEGREE = 4
+"""Degree of the spherical-harmonic surface behind :func:`smooth_outline` (25 functions per coordinate)."""
+
+OUTLINE_SAMPLES = 256
+"""Longitudes of the dense reference grid of :func:`smooth_outline` (half as many latitudes, poles included)."""
+
+
+def harmonic_basis(directions: np.ndarray, degree: int) -> np.ndarray:
+    """(n, (degree+1)^2) basis of the polynomials of degree <= ``degree`` restricted to the unit sphere (the span of
+    the spherical harmonics of degree <= ``degree``): the monomials X^a Y^b Z^c, c in {0, 1}, a + b + c <= degree
+    (Z^2 = 1 - X^2 - Y^2 on the sphere makes higher powers of Z redundant). directions: (n, 3) unit vectors."""
+    d = np.asarray(directions, dtype=np.float64)
+    powers = [(a, b, c) for c in (0, 1) for a in range(degree + 1) for b in range(degree + 1 - a - c)]
+    return np.stack([d[:, 0] ** a * d[:, 1] ** b * d[:, 2] ** c for a, b, c in powers], axis=1)
+
+
+@lru_cache(maxsize=2)
+def sphere_grid(samples: int = OUTLINE_SAMPLES) -> np.ndarray:
+    """Unit vectors of a longitude-latitude grid: ``samples`` longitudes, samples/2 + 1 latitudes (the equator and
+    both poles among them), (n, 3)."""
+    phi = np.linspace(0.0, 2.0 * np.pi, samples, endpoint=False)
+    theta = np.linspace(0.0, np.pi, samples // 2 + 1)
+    st = np.sin(theta)[:, None]
+    return np.stack([(st * np.cos(phi)).ravel(), (st * np.sin(phi)).ravel(), np.repeat(np.cos(theta), samples)],
+                    axis=1)
+
+
+@lru_cache(maxsize=4)
+def grid_basis(samples: int, degree: int) -> np.ndarray:
+    """:func:`harmonic_basis` on :func:`sphere_grid` (cached, read-only)."""
+    out = harmonic_basis(sphere_grid(samples), degree)
+    out.setflags(write=False)
+    return out
+
+
+def smooth_outline(x_surface: np.ndarray, centre: np.ndarray | None = None, plane: tuple[int, int] = (0, 1),
+                   degree: int = OUTLINE_DEGREE, samples: int = OUTLINE_SAMPLES) -> tuple[float, float]:
+    """(area, perimeter) of the outline of a star-shaped surface projected on ``plane``, through a smooth surface
+    fitted to its nodes rather than the polygon of the nodes.
+
+    The surface nodes sample a smooth surface; the convex hull of the nodes alone is a polygon inscribed in its
+    outline (for a sphere meshed with edge h, 1 - circularity ~ h^2 and the area short by ~h^2). Here the surface
+    is the radial function r(n) about a centre c, n = (x - c)/|x - c|, fitted by least squares over the
+    nodes as a polynomial of degree <= ``degree`` in n (:func:`harmonic_basis`: the spherical harmonics of degree
+    <= ``degree``); it depends on the shape alone, not on where the material points slid along it. The fitted
+    surface c + r(n) n is evaluated on a dense grid of directions (:func:`sphere_grid`) and the outline is the
+    convex hull of its projection. Nodes on a sphere give r = const exactly, so the outline differs from the
+    circle only by the grid's sampling, ~ (pi/samples)^2.
+
+    x_surface: (n, 3) positions of the surface nodes; n must exceed (degree + 1)^2. centre: a point from which
+    the surface is star-shaped, e.g. the body's volume centroid (default: the middle of the nodes' bounding box;
+    not their mean, which the material sliding along the surface moves)."""
+    from scipy.spatial import ConvexHull  # lazy: qhull only where an outline is measured
+
+    x = np.asarray(x_surface, dtype=np.float64)
+    centre = 0.5 * (x.min(axis=0) + x.max(axis=0)) if centre is None else np.asarray(centre, dtype=np.float64)
+    offsets = x - centre
+    radii = np.linalg.norm(offsets, axis=1)
+    basis = harmonic_basis(offsets / radii[:, None], degree)
+    if basis.shape[0] <= basis.shape[1]:
+        raise ValueError(f"{basis.shape[0]} surface nodes cannot fix a surface of degree {degree} "
+                         f"({basis.shape[1]} functions)")
+    coefficients = np.linalg.lstsq(basis, radii, rcond=None)[0]
+    directions = sphere_grid(samples)[:, list(plane)]
+    projected = (grid_basis(samples, degree) @ coefficients)[:, None] * directions + centre[list(plane)]
+    hull = ConvexHull(np.ascontiguousarray(projected))
+    return float(hull.volume), float(hull.area)  # 2D: volume = area, area = perimeter
+
+
 # --------------------------------------------------------------------------- tank treading
 def inplane_angles(x: np.ndarray, centre: np.ndarray, plane: tuple[int, int] = (0, 1),
                    second_moment: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:

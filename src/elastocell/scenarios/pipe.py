@@ -29,10 +29,12 @@ velocity (mean marker velocity, units of the empty channel's centre-line speed u
 the local capillary number at the centre, the strains eps_x = l_x/(2R) (extent along the axis) and
 eps_r = l_r/(2R) (extent along y, the radial direction of the start offset; by symmetry the cell stays in
 the x-y plane; 2R is taken as the undeformed mesh's own extent along the same axis, so that a coarse mesh,
-whose extreme nodes lie inside the sphere's poles, reads exactly 1 at rest), the projected side-view contour (the convex hull of the nodes projected on the x-y plane,
-what a camera looking along z sees): its area (units of R^2; pi for the undeformed cell) and its
-deformation 1 - circularity, circularity = 2 sqrt(pi area)/perimeter; the volume change and the nucleus
-position.
+whose extreme nodes lie inside the sphere's poles, reads exactly 1 at rest), the projected side-view contour
+(what a camera looking along z sees, RT-DC's smooth cell outline: the convex hull of the projection of the smooth
+surface fitted through the surface nodes, :func:`elastocell.body.observables.smooth_outline`; the hull of the
+nodes alone, :func:`side_view`, is a polygon inside the outline that reads D = 0.0037 and an area 2.2 % short for
+the sphere at rest at R/dx 6): its area (units of R^2; pi for the undeformed cell) and its deformation
+1 - circularity, circularity = 2 sqrt(pi area)/perimeter; the volume change and the nucleus position.
 
 Running (:class:`PipeRun`, :func:`pipe`): the simulation runner of the shear-flow scenario
 (:class:`elastocell.simulation.runner.FlowRun` and its output-directory helpers: stop criteria on duration, wall clock
@@ -53,7 +55,7 @@ from typing import Literal
 import numpy as np
 from pydantic import model_validator
 
-from elastocell.body.observables import moments
+from elastocell.body.observables import moments, smooth_outline
 from elastocell.coupling import ibm
 from elastocell.coupling.immersed import ImmersedCell, immersed_cell
 from elastocell.coupling.markers import FlowError
@@ -654,7 +656,8 @@ def pipe_setup(cell, params: PipeFlowParameters, units: PipeUnits | None = None)
 
 # =========================================================================== observables
 def side_view(x: np.ndarray) -> tuple[float, float]:
-    """(area, perimeter) of the convex hull of the points projected on the x-y plane (units of x)."""
+    """(area, perimeter) of the convex hull of the points projected on the x-y plane (units of x): for mesh nodes,
+    a polygon inscribed in the outline (the observables use :func:`~elastocell.body.observables.smooth_outline`)."""
     from scipy.spatial import ConvexHull
 
     hull = ConvexHull(np.ascontiguousarray(x[:, :2]))
@@ -730,7 +733,8 @@ class PipeRun(FlowRun):
         cy, cz = (centre[1] - ay) / units.channel_radius, (centre[2] - az) / units.channel_radius
         r_c = math.hypot(cy, cz)
         extent = (x.max(axis=0) - x.min(axis=0)) / units.radius / self.reference_extent
-        area, perimeter = side_view(x / units.radius)
+        surface = self.cell.mesh.surface_nodes
+        area, perimeter = smooth_outline(x[surface] / units.radius, m.centre)
         circularity = 2.0 * math.sqrt(math.pi * area) / perimeter
         if self._nucleus_mask is not None:
             nc = moments(x / units.radius, elements, self._nucleus_mask).centre * units.radius
@@ -793,7 +797,7 @@ class PipeRun(FlowRun):
             out[f"{name}_std"] = float(values.std()) if values.size else float("nan")
         out.update(window_verdict(s, keep, WINDOW_OBSERVABLES))
         out["radial_position_initial"] = float(s["radial_position"][0])
-        out["deformation_initial"] = float(s["deformation"][0])  # the polygonal hull's own at rest
+        out["deformation_initial"] = float(s["deformation"][0])  # the outline's own at rest (~2.5e-5)
         out["projected_area_initial"] = float(s["projected_area"][0])
         out["reference_extent"] = [float(v) for v in self.reference_extent]
         out["radial_position"] = float(s["radial_position"][-1])
