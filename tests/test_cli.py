@@ -179,6 +179,8 @@ EXPECTED_OPTIONS = {
                  '--tank-treading-frequency=None --tank-treading-frequency-error=0 --shear-rate=None --radius=None '
                  '--table=None --poisson-ratio=0.48 --material=neo-hookean --confidence=0.95 --out=fits '
                  '--quiet=False',
+    'fit rtdc': 'files! --lut=LE-2D-FEM-19 --medium=None --temperature=None --out=fits --no-plots=False '
+                '--quiet=False',
     'indent': '--out! --indenter-radius! --cell-shape=sphere --cap-height=None --layer-thickness=None '
               '--depth-max=0.3 --steps=20 --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 '
               '--offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None '

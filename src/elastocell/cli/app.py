@@ -13,6 +13,7 @@ import typer
 
 from elastocell.cli.common import user_errors
 from elastocell.cli.fit import fit_app, mastercurve_app
+from elastocell.cli.fit_rtdc import fit_rtdc_command  # noqa: F401 (registers `fit rtdc` on fit_app)
 from elastocell.cli.indent import indent
 from elastocell.cli.lut import lut
 from elastocell.cli.options import CELL, FLOW_CELL, opt, plain, takes
