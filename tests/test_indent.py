@@ -68,9 +68,12 @@ def test_cap_and_layer_meshes_have_their_volumes_and_a_bonded_base(geometry, cel
     (["--cell-shape", "layer"], "--layer-thickness"),  # the layer needs its thickness
     (["--cell-shape", "cap", "--layer-thickness", "2"], "--layer-thickness"),
     (["--cell-shape", "cube"], "--cell-shape"),
-    (["--offset", "0.2", "--offset-axis", "x"], "--offset-axis"),  # not axisymmetric about z
-    (["--random"], "--random"),
-    (["--nucleus", "ellipsoid"], "--nucleus-axis"),  # semi-axes 0.8, 0.4, 0.4 along x
+    (["--offset", "0.2", "--offset-axis", "x", "--solver", "axisymmetric"], "--offset-axis"),  # not symmetric about z
+    (["--random", "--cell-shape", "cap"], "--random"),  # the 3D solver runs the suspended sphere only
+    (["--nucleus", "ellipsoid", "--solver", "axisymmetric"], "--nucleus-axis"),  # semi-axes 0.8, 0.4, 0.4 along x
+    (["--cell-shape", "layer", "--layer-thickness", "3", "--nucleus", "none", "--solver", "3d"], "--solver"),
+    (["--nucleus", "none", "--mesh-size", "0.3"], "--mesh-size"),  # the 3D mesh, on the axisymmetric path
+    (["--solver", "2d"], "--solver"),
     (["--cell-shape", "cap"], "--size-ratio"),  # the default nucleus (radius 0.5 R) does not fit in a hemisphere
     (["--cell-shape", "cap", "--cap-height", "0.4", "--nucleus", "none", "--depth-max", "0.45"], "--depth-max"),
     (["--cell-shape", "layer", "--layer-thickness", "3"], "--nucleus"),  # a layer is homogeneous

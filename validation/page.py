@@ -51,6 +51,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "indentation.py": ("Hertz limits and mesh refinement", "nice python validation/indentation.py"),
         "indentation_layer.py": ("The bonded layer: width, refinement, closed forms and its master surface",
                                  "nice python validation/indentation_layer.py"),
+        "indentation_3d.py": ("The 3D solver: against the axisymmetric one, Hertz, and cells only it can run",
+                              "nice python validation/indentation_3d.py"),
     }),
     "startup": ("Start-up of a command in a new process", {
         "startup.py": ("Import, cell and first converged row, empty and warm caches",

@@ -8,8 +8,10 @@ and options as ``elastocell indent``, writing the same files.
     elastocell.indent(out="r/gel", cell_shape="layer", layer_thickness="50um", indenter_radius="5um",
                       nucleus="none", depth_max=0.5)
 
-The curve comes from the axisymmetric solver (:mod:`elastocell.scenarios.indentation`); a cell that is not
-axisymmetric about z is refused before any computing.
+The curve comes from the axisymmetric solver (:mod:`elastocell.scenarios.indentation`) for a cell symmetric
+about z, and for any other suspended sphere (a random cell, an offset nucleus, a tilted ellipsoid) from the 3D
+solver on the tetrahedral cell of ``elastocell compress`` (:mod:`elastocell.scenarios.indentation_3d`);
+``solver="3d"`` or ``"axisymmetric"`` forces one. A cap or a layer must be axisymmetric.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from elastocell.body.axisymmetric import AxisymmetricCell, MeridianGeometry
+from elastocell.body.cell import Cell
 from elastocell.files import Stopwatch, save_figure, software_versions, write_json, write_table
 from elastocell.parameters.cell import CellParameters, cell_parameters, describe_cell
 from elastocell.parameters.units import RADIUS_SCALE, ParameterError, parse_quantity
@@ -29,14 +32,16 @@ from elastocell.scenarios.axisymmetric import (
     hertz_half_space_force,
     hertz_sphere_indentation_force,
 )
+from elastocell.scenarios.compression import compression_parameters_for
 from elastocell.scenarios.indentation import (
-    check_axisymmetric,
     check_depth,
     indent_body,
     indentation_geometry,
+    indentation_solver,
 )
+from elastocell.scenarios.indentation_3d import indent_3d
 from elastocell.simulation.directory import OutputSet, interruptible, output_directory
-from elastocell.simulation.output import progress_bar, vtk_enabled
+from elastocell.simulation.output import progress_bar, von_mises, vtk_enabled, write_vtk_series
 
 LENGTH_UNIT = {"sphere": "R, the cell radius (--radius)", "cap": "R, the cap's base radius (--radius)",
                "layer": "R_b, the indenter radius (--indenter-radius)"}
@@ -66,12 +71,19 @@ def indent(
     steps: int = 20,
     vtk: bool = True,
     solver: str = "auto",
+    linear_solver: str = "auto",
     progress: bool = True,
     **cell_options,
 ) -> dict:
     """Press a rigid frictionless sphere of radius ``indenter_radius`` into a cell on a rigid dish and write
     ``out/indentation.csv`` (``depth,force,force_per_Ec_R2,force_per_Eeff_R2``), ``metadata.json``,
-    ``indentation.png`` and the meridian section as VTK (``out/vtk/indentation_NNNN.vtu``, one file per row).
+    ``indentation.png`` and VTK, one file per row (``out/vtk/indentation_NNNN.vtu``: the meridian section, or the
+    3D cell with ``out/vtk/indentation.pvd``).
+
+    solver: ``auto`` (the axisymmetric solver for a cell symmetric about z, the 3D solver for any other
+    suspended sphere), ``3d`` (``cell_shape="sphere"`` only; the mesh options of ``compress`` apply) or
+    ``axisymmetric``. ``metadata.json`` says which ran (``solver.solver``). ``linear_solver``: the sparse solver
+    (``auto``, ``pardiso``, ``superlu``).
 
     cell_shape: ``sphere`` (suspended, resting on the dish), ``cap`` (base radius ``radius``, apex height
     ``cap_height``, default a hemisphere, base bonded to the dish; the nucleus centred on the axis at half the
@@ -97,10 +109,13 @@ def indent(
     geometry, unit = indentation_geometry(cell_shape, bead, cap, layer)
     depth = depth_max * unit  # the layer's depth_max is in units of R_b
     check_depth(geometry, unit, depth, steps)
-    check_axisymmetric(cell, geometry)
+    path = indentation_solver(solver, cell, geometry)
     with output_directory(out) as out, interruptible():
         clock = Stopwatch()
-        body = AxisymmetricCell.from_parameters(cell, geometry=geometry)
+        if path == "3d":
+            body = Cell.from_parameters(compression_parameters_for(cell))
+        else:
+            body = AxisymmetricCell.from_parameters(cell, geometry=geometry)
         label = f"{describe_cell(cell)}, {cell_shape}, R_b = {bead * cell.radius:g}"
         with progress_bar(progress, "depth {task.completed:.3f}", label=None) as bar:
             callback = None
@@ -108,24 +123,28 @@ def indent(
                 task = bar.add_task(f"indent {label}", total=depth)
                 callback = lambda rows: bar.update(task, completed=float(rows.load[-1]) * unit)  # noqa: E731
             try:
-                result = indent_body(body, geometry, unit, bead, depth, steps, solver=solver, on_row=callback)
+                if path == "3d":
+                    result = indent_3d(body, bead, depth, steps, solver=linear_solver, on_row=callback)
+                else:
+                    result = indent_body(body, geometry, unit, bead, depth, steps, solver=linear_solver,
+                                         on_row=callback)
                 failure = None
             except AxisymmetricInterrupted as error:
                 _write(out, error.partial, body, cell, geometry, unit, bead, cap, layer, depth, steps, label, clock,
-                       vtk, failure=error, interrupted=True)
+                       vtk, failure=error, interrupted=True, solver=solver)
                 raise AxisymmetricInterrupted(f"{error}; the converged rows are in {out}", error.partial) from None
             except AxisymmetricError as error:
                 if error.partial is None or len(error.partial.load) < 2:
                     raise
                 result, failure = error.partial, error
         summary = _write(out, result, body, cell, geometry, unit, bead, cap, layer, depth, steps, label, clock, vtk,
-                         failure=failure)
+                         failure=failure, solver=solver)
     if failure is not None:
         raise AxisymmetricError(f"{failure} (rows up to depth={result.load[-1]:.4f} R written to {out})", None)
     return summary
 
 
-def _table(result: AxisymmetricResult, body: AxisymmetricCell, cell: CellParameters,
+def _table(result: AxisymmetricResult, body: AxisymmetricCell | Cell, cell: CellParameters,
            unit: float) -> tuple[dict, float]:
     """The columns of ``indentation.csv`` (lengths in the shape's unit L, or metres; force F/(E_c L^2), or
     newtons when both scales are physical) and E_eff/E_c of the body: the volume-weighted mean of E/E_c over it,
@@ -141,17 +160,21 @@ def _table(result: AxisymmetricResult, body: AxisymmetricCell, cell: CellParamet
     }, gamma_eff
 
 
-def _write(out: Path, result: AxisymmetricResult, body: AxisymmetricCell, cell: CellParameters,
+def _write(out: Path, result: AxisymmetricResult, body: AxisymmetricCell | Cell, cell: CellParameters,
            geometry: MeridianGeometry, unit: float, bead: float, cap: float | None, layer: float | None, depth: float,
            steps: int, label: str, clock: Stopwatch, vtk: bool, failure: Exception | None = None,
-           interrupted: bool = False) -> dict:
+           interrupted: bool = False, solver: str = "auto") -> dict:
     out.mkdir(parents=True, exist_ok=True)
+    three_d = isinstance(body, Cell)
     table, gamma_eff = _table(result, body, cell, unit)
     outputs = OutputSet()
     outputs.write(out / "indentation.csv", write_table, table)
     if not interrupted:
-        outputs.write(out / "indentation.png", plot_indentation, result, cell, geometry, unit, bead, label)
-        if vtk and vtk_enabled():
+        outputs.write(out / "indentation.png", plot_indentation, result, cell, geometry, unit, bead, label,
+                      "3D" if three_d else "axisymmetric")
+        if vtk and vtk_enabled() and three_d:
+            outputs.write(out / "vtk", write_cell_vtk, body, result, cell)
+        elif vtk and vtk_enabled():
             outputs.write(out / "vtk", write_meridian_vtk, body, result.positions / unit, unit * cell.radius)
     summary = {
         "scenario": "indentation",
@@ -178,12 +201,19 @@ def _write(out: Path, result: AxisymmetricResult, body: AxisymmetricCell, cell: 
             "R": unit * cell.radius,
         },
         "mesh": {"n_nodes": body.mesh.n_nodes, "n_elements": body.mesh.n_elements,
-                 "n_nucleus_elements": int((body.mesh.region == 1).sum()), "element": "6-node triangle (meridian)",
+                 "n_nucleus_elements": int((body.mesh.region == 1).sum()),
+                 "element": ({1: "4-node tetrahedron", 2: "10-node tetrahedron"}[body.mesh.order] if three_d
+                             else "6-node triangle (meridian)"),
                  "volume_per_unit3": body.volume},
-        "solver": {"solver": "axisymmetric", "newton_iterations": result.newton_iterations,
+        "solver": {"solver": "3d" if three_d else "axisymmetric", "requested": solver,
+                   "newton_iterations": result.newton_iterations,
                    "substeps": result.substeps, "curve_time_s": result.wall_time,
                    "min_volume_ratio": float(result.min_volume_ratio.min()),
-                   "max_contact_radius_per_R": float(result.contact_radius.max() / unit)},
+                   "max_contact_radius_per_R": float(result.contact_radius.max() / unit),
+                   **({"max_rigid_reaction": float(result.max_rigid_reaction.max()),
+                       "rigid_modes": "x, y translation and rotations held at three interior nodes, as in compress "
+                                      "(max_rigid_reaction: their largest reaction over the bead's force)"}
+                      if three_d else {})},
         "complete": failure is None,
         "depth_reached": float(result.load[-1] / unit),
         "wall_time_s": clock.elapsed,
@@ -198,7 +228,7 @@ def _write(out: Path, result: AxisymmetricResult, body: AxisymmetricCell, cell: 
 
 
 def plot_indentation(path: Path, result: AxisymmetricResult, cell: CellParameters, geometry: MeridianGeometry,
-                     unit: float, bead: float, label: str) -> None:
+                     unit: float, bead: float, label: str, solver: str = "axisymmetric") -> None:
     """F/(E_c R^2) against depth/R with the small-depth Hertz limit of the shape (two contacts in series for
     the suspended sphere; the half-space for a cap or a layer, an upper bound at depth for thin ones)."""
     import matplotlib
@@ -209,7 +239,7 @@ def plot_indentation(path: Path, result: AxisymmetricResult, cell: CellParameter
     depth, force = result.load / unit, result.force / unit**2
     nu = cell.material.poisson_ratio
     figure, axis = plt.subplots(figsize=(5.5, 4.2), constrained_layout=True)
-    axis.plot(depth, force, "o-", ms=3, label="elastocell (axisymmetric)")
+    axis.plot(depth, force, "o-", ms=3, label=f"elastocell ({solver})")
     fine = np.linspace(0, depth[-1], 60)
     if geometry.shape == "sphere":
         axis.plot(fine, hertz_sphere_indentation_force(fine, bead, nu), "k:", label="Hertz, bead and dish in series")
@@ -224,6 +254,19 @@ def plot_indentation(path: Path, result: AxisymmetricResult, cell: CellParameter
     axis.set_title(label, fontsize=9)
     save_figure(figure, path, dpi=130)
     plt.close(figure)
+
+
+def write_cell_vtk(directory: Path, body: Cell, result, cell: CellParameters) -> Path:
+    """The 3D cell at every row (``indentation_NNNN.vtu`` and ``indentation.pvd``, time = depth), in metres when
+    the radius is physical: displacement, region, stiffness ratio, Cauchy and von Mises stress (as compress)."""
+    cell_data = []
+    for x in result.positions:
+        stress = body.element_cauchy_stress(x)
+        cell_data.append({"stiffness_ratio": body.youngs_moduli, "region": body.mesh.region.astype(np.int32),
+                          "cauchy_stress": stress.reshape(-1, 9) * cell.youngs_modulus,
+                          "von_mises_stress": von_mises(stress) * cell.youngs_modulus})
+    return write_vtk_series(directory, "indentation", body.mesh, result.positions * cell.radius, result.load,
+                            cell_data)
 
 
 def write_meridian_vtk(directory: Path, body: AxisymmetricCell, positions: np.ndarray, length: float) -> Path:

@@ -10,19 +10,19 @@ import typer
 from elastocell.cli.common import user_errors
 from elastocell.cli.options import CELL, opt, plain, takes
 
-# the meridian mesh of the axisymmetric solver is its own: the 3D mesh and element options are not offered
-INDENT_CELL = CELL.but(without=("mesh_size", "pole_size", "interface_size", "element", "quadrature_degree"))
 
 
 @user_errors
 @takes("out", "indenter_radius", "cell_shape", "cap_height", "layer_thickness", "depth_max",
-       opt("steps", default=20, help="Load steps (output rows after depth = 0)."), INDENT_CELL, "quiet", "as_json")
+       opt("steps", default=20, help="Load steps (output rows after depth = 0)."), "solver", CELL, "quiet", "as_json")
 def indent(out: Path, indenter_radius: str, cell_shape: str, cap_height: str | None, layer_thickness: str | None,
-           depth_max: float, steps: int, cell: dict, quiet: bool, as_json: bool):
-    """A rigid frictionless sphere of radius --indenter-radius pressed quasistatically into a cell on a rigid dish
-    (axisymmetric solver: the cell and its nucleus must be symmetric about the dish normal z). Writes
-    indentation.csv (depth, force, force_per_Ec_R2, force_per_Eeff_R2), metadata.json, indentation.png and the
-    meridian section as VTK."""
+           depth_max: float, steps: int, solver: str, cell: dict, quiet: bool, as_json: bool):
+    """A rigid frictionless sphere of radius --indenter-radius pressed quasistatically into a cell on a rigid dish.
+    A cell symmetric about the dish normal z runs the axisymmetric solver (its own meridian mesh: the mesh options
+    do not apply); any other suspended sphere (--random, an offset nucleus, a tilted ellipsoid) the 3D tetrahedral
+    cell of compress (--solver forces one; a cap or a layer must be axisymmetric). Writes indentation.csv (depth,
+    force, force_per_Ec_R2, force_per_Eeff_R2), metadata.json (solver.solver: which ran), indentation.png and
+    VTK."""
     from elastocell.api.indentation import (
         indent as run,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
@@ -38,7 +38,7 @@ def indent(out: Path, indenter_radius: str, cell_shape: str, cap_height: str | N
     try:
         summary = run(out, indenter_radius, cell=parameters, cell_shape=plain(cell_shape), cap_height=cap_height,
                       layer_thickness=layer_thickness, depth_max=depth_max, steps=steps,
-                      progress=not (quiet or as_json))
+                      solver=plain(solver), progress=not (quiet or as_json))
     except AxisymmetricInterrupted as error:
         typer.echo(f"elastocell: {error}", err=True)
         raise typer.Exit(code=130) from None
@@ -49,5 +49,5 @@ def indent(out: Path, indenter_radius: str, cell_shape: str, cap_height: str | N
         typer.echo(json.dumps({key: summary[key] for key in ("label", "indentation", "length_unit", "units", "mesh",
                                                              "solver", "wall_time_s")}))
     elif not quiet:
-        typer.echo(f"{summary['label']}: {summary['mesh']['n_nodes']} nodes, curve in "
+        typer.echo(f"{summary['label']}: {summary['solver']['solver']} solver, {summary['mesh']['n_nodes']} nodes, curve in "
                    f"{summary['solver']['curve_time_s']:.1f} s -> {out}")

@@ -266,6 +266,9 @@ OPTIONS: dict[str, Opt] = _declare(
         scale=RADIUS_SCALE, shown="required with --cell-shape layer"),
     Opt("depth_max", float, 0.3, "Final indentation depth (indenter displacement after first contact).",
         units="R, the cell radius (the layer: R_b)"),
+    Opt("solver", str, "auto", "auto (the axisymmetric solver for a cell symmetric about z, the 3D tetrahedral cell "
+        "for any other suspended sphere: random, offset nucleus, tilted ellipsoid) | 3d (--cell-shape sphere only; "
+        "the mesh options apply) | axisymmetric."),
     # ---------------------------------------------------------------- mastercurve
     Opt("no_cache", bool, False, "Recompute even if shipped or cached.", shown="off"),
     # ---------------------------------------------------------------- fit afm

@@ -11,7 +11,9 @@ Shapes (``cell_shape``):
 :func:`indentation_curve` takes every length in units of R (the cell radius; for the layer any length unit,
 whose results then come in that unit) and returns the curve in those units, the force F/(E_c R^2): the arrays a
 master surface is made of, without writing files. A cell that is not axisymmetric about z (random, a nucleus
-offset along x or y, an ellipsoid not aligned with z) is refused before any computing.
+offset along x or y, an ellipsoid not aligned with z) is refused before any computing by the axisymmetric
+solver; :func:`indentation_solver` chooses, for the suspended sphere, the 3D solver
+(:mod:`elastocell.scenarios.indentation_3d`) for such a cell.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from elastocell.body.axisymmetric import (
     MeridianMeshParameters,
     meridian_nucleus,
 )
-from elastocell.parameters.cell import CellParameters
+from elastocell.parameters.cell import CellParameters, cell_parameters
 from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.axisymmetric import (
     DEFAULT_TOLERANCE,
@@ -35,7 +37,12 @@ from elastocell.scenarios.axisymmetric import (
     indent_axisymmetric,
 )
 
-AXISYMMETRIC_ONLY = "indent runs the axisymmetric solver"
+AXISYMMETRIC_ONLY = "indent runs the axisymmetric solver here; --solver 3d runs --cell-shape sphere in 3D"
+SOLVERS = ("auto", "3d", "axisymmetric")
+"""``solver`` of an indentation: ``auto`` (the axisymmetric solver for a cell symmetric about z, the 3D one for
+any other suspended sphere), ``3d`` (the suspended sphere only) or ``axisymmetric``."""
+MESH_OPTIONS = ("element", "mesh_size", "pole_size", "interface_size", "quadrature_degree")
+"""The 3D mesh's options, which the axisymmetric solver (its own meridian mesh) does not take."""
 
 
 def indentation_geometry(cell_shape: str, indenter_radius: float, cap_height: float | None = None,
@@ -69,6 +76,32 @@ def check_axisymmetric(cell: CellParameters, geometry: MeridianGeometry) -> None
     except ParameterError as error:
         message = str(error).split(": ", 1)[1]
         raise ParameterError(error.parameter, f"{message} ({AXISYMMETRIC_ONLY})") from None
+
+
+def indentation_solver(solver: str, cell: CellParameters, geometry: MeridianGeometry) -> str:
+    """``3d`` or ``axisymmetric``: the solver an indentation of ``cell`` with ``geometry`` runs for the option
+    ``solver`` (:data:`SOLVERS`); a combination no solver can run is refused in one line naming the option (the
+    3D solver is built for the suspended sphere: a cap or a layer must be axisymmetric; the 3D mesh options
+    apply to the 3D solver only)."""
+    if solver not in SOLVERS:
+        raise ParameterError("solver", f"must be one of {', '.join(SOLVERS)}, got {solver!r}")
+    if solver == "3d" and geometry.shape != "sphere":
+        raise ParameterError("solver", f"3d runs --cell-shape sphere only (a {geometry.shape} runs the axisymmetric "
+                                       "solver)")
+    if solver == "auto" and geometry.shape == "sphere":
+        try:
+            meridian_nucleus(cell, geometry)
+        except ParameterError:
+            return "3d"
+    if solver == "3d":
+        return "3d"
+    check_axisymmetric(cell, geometry)
+    default = cell_parameters().mesh
+    for name in MESH_OPTIONS:
+        if getattr(cell.mesh, name) != getattr(default, name):
+            raise ParameterError(name, "sets the 3D mesh, and this indentation runs the axisymmetric solver (its own "
+                                       "meridian mesh); add --solver 3d (--cell-shape sphere) to use it")
+    return "axisymmetric"
 
 
 def check_depth(geometry: MeridianGeometry, unit: float, depth_max: float, steps: int) -> None:
