@@ -77,7 +77,7 @@ def test_fit_settings_take_quantities_with_the_cli_rule():
         FitSettings(radius="8 kPa")
     with pytest.raises(ParameterError, match="indenter_radius"):
         FitSettings(radius="8um", geometry="sphere-indenter")
-    with pytest.raises(ParameterError, match="cell_shape"):
+    with pytest.raises(ParameterError, match="cap_height"):
         FitSettings(radius="8um", geometry="sphere-indenter", indenter_radius="5um", cell_shape="cap")
 
 
@@ -153,7 +153,7 @@ def test_the_cli_fits_a_real_bead_curve_and_records_the_geometry(tmp_path):
     assert settings["geometry"]["indenter_ratio"] == pytest.approx(1.864)
 
 
-@pytest.mark.parametrize("extra, option", [(["--cell-shape", "cap"], "--cell-shape"),
+@pytest.mark.parametrize("extra, option", [(["--cell-shape", "cap"], "--cap-height"),
                                            (["--indenter-radius", "200um"], "--indenter-radius"),
                                            ([], "--indenter-radius")])
 def test_the_cli_refuses_what_has_no_surface_in_one_line(tmp_path, extra, option):

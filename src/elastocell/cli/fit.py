@@ -82,13 +82,15 @@ def mastercurve_compression(poisson_ratio: float, material: str, out: Path | Non
 @takes(*MASTERCURVE_OPTIONS[:2], opt("out", annotation=Path | None, default=None,
                                      help="Write the surface (CSV with # JSON metadata) here.", shown="not written"),
        *MASTERCURVE_OPTIONS[3:], opt("workers", annotation=int, default=1, help="Curves computed at a time."),
-       opt("cell_shape", help="sphere (a suspended cell on the dish; R the cell radius) | layer (a layer bonded to "
-           "the dish; R = h, its thickness). The cap has no master surface."))
+       opt("cell_shape", help="sphere (a suspended cell on the dish; R the cell radius) | cap (an adherent cell, "
+           "a spherical cap bonded to the dish; R its base radius; apex heights H/R 0.3, 0.5, 0.75, 1) | layer (a "
+           "layer bonded to the dish; R = h, its thickness)."))
 def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | None, no_cache: bool, quiet: bool,
                             workers: int, cell_shape: str):
-    """F/(E R^2) over depth/R and R_b/R of a homogeneous suspended cell indented by a bead (sphere on a dish), or
-    of a bonded layer (R = h): the shipped surface, the cached one, or a fresh computation with the axisymmetric
-    solver (default mesh; a finer mesh at three ratios for the error)."""
+    """F/(E R^2) over depth/R and R_b/R of a homogeneous suspended cell indented by a bead (sphere on a dish), of
+    an adherent cap (at each tabulated apex height), or of a bonded layer (R = h): the shipped surface, the cached
+    one, or a fresh computation with the axisymmetric solver (default mesh; a finer mesh at a few ratios for the
+    error)."""
     import numpy as np
 
     from elastocell.inverse.indentation_surface import (  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
@@ -96,14 +98,13 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
         check_inputs,
         check_shape,
         compute_indentation_surface,
-        depth_limit,
         shipped,
     )
 
     check_inputs(poisson_ratio, material)
     check_shape(cell_shape)
     progress = None if quiet else (
-        lambda ratio, mesh, seconds: typer.echo(f"R_b/R = {ratio:g}, {mesh} mesh: {seconds:.0f} s", err=True))
+        lambda label, mesh, seconds: typer.echo(f"R_b/R = {label}, {mesh} mesh: {seconds:.0f} s", err=True))
     surface, source = shipped_cached_or_computed(
         no_cache, lambda: shipped(poisson_ratio, material, cell_shape),
         lambda: cache_path(poisson_ratio, material, cell_shape).exists(),
@@ -113,7 +114,7 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
         surface.to_csv(out)
     if not quiet:
         error = surface.error / surface.force.clip(1e-300)
-        past = surface.depth >= 0.1 * depth_limit(surface.indenter_ratio, surface.cell_shape)
+        past = surface.depth_fraction() >= 0.1
         worst = float(np.nanmax(np.where(past, error, np.nan)))
         typer.echo(f"nu={poisson_ratio:g} {material} ({source}): R_b/R {surface.ratio_range[0]:g}..."
                    f"{surface.ratio_range[1]:g}; largest relative mesh error past a tenth of the depth range: "
@@ -125,13 +126,14 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
 @takes("files", opt("radius", annotation=str | None, default=None, help="Cell radius R.", scale=None,
                     shown="required, except with --cell-shape layer"), "geometry",
        opt("cell_shape", help="sphere-indenter: the cell's shape (sphere: a suspended cell resting on the dish; "
-           "layer: a tissue section, gel or flat cell of thickness --layer-thickness bonded to the dish; the cap "
-           "has no master surface and is refused)."),
+           "cap: an adherent cell, a spherical cap of base radius --radius and apex height --cap-height bonded to "
+           "the dish, H/R in [0.3, 1]; layer: a tissue section, gel or flat cell of thickness --layer-thickness "
+           "bonded to the dish)."),
        opt("indenter_radius", annotation=str | None, default=None, scale=None, shown="required with sphere-indenter"),
        opt("cap_height", scale=None), opt("layer_thickness", scale=None),
        opt("depth_max", annotation=float | None, default=None, help="sphere-indenter: fit the data up to this bead "
            "depth after contact.", units="R, the cell radius (the layer: h, its thickness)",
-           shown="the master surface's range: min(R_b, R/2)"),
+           shown="the master surface's range: min(R_b, R/2) (the cap: about min(R_b, H/2))"),
        "spring_constant",
        "sensitivity", opt("poisson_ratio", help="nu (shipped: 0.45, 0.48, 0.49)."),
        opt("material", help="Master curve's law."),

@@ -163,6 +163,8 @@ class FitSettings:
     plate fit (delta <= 0.75), ``depth_max`` (units of R; default the master surface's range) the indenter fit.
     ``cell_shape="layer"``: a layer of thickness ``layer_thickness`` (needed) bonded to the dish; its length unit is
     h (``length_unit``, ``depth_max`` in units of h) and ``radius`` is not needed (recorded when given).
+    ``cell_shape="cap"``: an adherent cell, a spherical cap of base radius ``radius`` and apex height
+    ``cap_height`` (both needed; H/R in the cap surface's range) bonded to the dish.
     """
 
     radius: float | str | None = None  # m after construction; needed except by the layer
@@ -211,6 +213,9 @@ class FitSettings:
             check_shape(self.cell_shape)
             if layer and self.layer_thickness is None:
                 raise ParameterError("layer_thickness", "required with --cell-shape layer (e.g. 50um)")
+            if self.cell_shape == "cap" and self.cap_height is None:
+                raise ParameterError("cap_height", "required with --cell-shape cap (the cell's apex height above "
+                                                   "the dish, e.g. 4um)")
             if self.depth_max is not None and not 0 < self.depth_max <= 1:
                 raise ParameterError("depth_max", f"must be in (0, 1] (units of {'h' if layer else 'R'}), got "
                                                   f"{self.depth_max}")
@@ -244,6 +249,13 @@ class FitSettings:
         if self.geometry == "sphere-indenter" and self.cell_shape == "layer":
             return self.layer_thickness
         return self.radius
+
+    @property
+    def cap_ratio(self) -> float | None:
+        """H/R of the adherent cap (sphere-indenter, ``cell_shape="cap"``): apex height over base radius."""
+        if self.geometry == "sphere-indenter" and self.cell_shape == "cap":
+            return self.cap_height / self.radius
+        return None
 
     @property
     def indenter_ratio(self) -> float:
@@ -650,7 +662,8 @@ def _model_function(model: str, curve, settings: FitSettings):
         return (lambda delta: hertz_force(np.maximum(delta, 0.0), nu)), settings.delta_max
     ratio = settings.indenter_ratio
     depth_max = settings.depth_max if settings.depth_max is not None else (
-        curve.depth_max(ratio) if curve is not None else float(depth_limit(ratio, settings.cell_shape)))
+        curve.depth_max(ratio) if curve is not None else float(depth_limit(ratio, settings.cell_shape,
+                                                                            settings.cap_ratio)))
     if model == "master":
         s = curve.curve(ratio)
         return (lambda u: s(2 * np.asarray(u, float))), depth_max / 2
@@ -662,7 +675,8 @@ def load_model(settings: FitSettings):
     if settings.model == "hertz":
         return None
     if settings.geometry == "sphere-indenter":
-        surface = load_indentation_surface(settings.poisson_ratio, settings.material, settings.cell_shape)
+        surface = load_indentation_surface(settings.poisson_ratio, settings.material, settings.cell_shape,
+                                           settings.cap_ratio)
         surface.depth_max(settings.indenter_ratio)  # a ratio outside the surface: refused before any file is read
         return surface
     return load_master_curve(settings.poisson_ratio, settings.material)

@@ -21,7 +21,13 @@ The bonded layer (``cell_shape="layer"``, a gel or tissue section of thickness h
 :func:`elastocell.body.axisymmetric.layer_width` wide) is tabulated the same way with h as the length unit R:
 ``F = E h^2 s(depth/h, R_b/h)`` at the ratios R_b/h of :data:`LAYER`, to :func:`depth_limit` = min(h/2, R_b), its
 meshes in units of R_b (the layer's own unit), ``s`` stored as its ratio to Hertz's sphere on a half-space
-(:func:`elastocell.scenarios.axisymmetric.hertz_half_space_force`, the thick layer's limit). Caps have no surface.
+(:func:`elastocell.scenarios.axisymmetric.hertz_half_space_force`, the thick layer's limit).
+
+The adherent cap (``cell_shape="cap"``, a spherical cap of base radius R and apex height H bonded to the dish) is
+tabulated at a few heights H/R (:data:`CAP_HEIGHTS`), each like the sphere (R the base radius), to the depth
+((H/2)^-2 + R_b^-2)^(-1/2), ``s`` stored as its ratio to Hertz's bead on the cap's curved apex; between the heights
+it is interpolated in H (:class:`CapIndentationSurface`), outside them refused (``cap_height``). Its file adds a
+``cap_height`` column.
 
 File format: comment lines ``# {json}`` (metadata: the command, meshes, node counts, versions), then a CSV table
 ``indenter_ratio,depth,force_per_E_R2,error,held_out`` (units of R and E R^2; error NaN where the fine mesh was not
@@ -43,12 +49,10 @@ from elastocell.files import (
     parameter_hash,
     parse_curve_csv,
     read_cache_entry,
-    read_curve_csv,
     software_versions,
     write_cache_entry,
-    write_curve_csv,
 )
-from elastocell.inverse.mastercurve import check_inputs, shipped_file, shipped_or_cached
+from elastocell.inverse.mastercurve import CurveFile, check_inputs, shipped_file, shipped_or_cached
 from elastocell.parameters.cell import cell_parameters
 from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.axisymmetric import (
@@ -60,7 +64,7 @@ from elastocell.scenarios.axisymmetric import (
 from elastocell.scenarios.indentation import indentation_curve
 from elastocell.version import __version__
 
-CELL_SHAPES = ("sphere", "layer")
+CELL_SHAPES = ("sphere", "cap", "layer")
 """The cell shapes with a master surface."""
 SHIPPED_POISSON_RATIOS = (0.48,)
 INDENTER_RATIOS = (0.125, 0.25, 0.5, 1.0, 2.0, 4.0)
@@ -103,23 +107,61 @@ of a few um), to depth min(h/2, R_b/2), 10 load steps (R_b/h = 0.1, a layer 10 R
 without convergence at depth 0.44 R_b); meshes in units of R_b, the fine one every size x 0.7 at R_b/h
 0.4 and 2 (the curves' cost on a shared 2-core machine bounds the grid; validation/indentation.py measures every
 size x 0.5 at R_b/h = 0.4). Between and beyond the mesh-check ratios the error is interpolated, clamped."""
+CAP = SurfaceGrid(ratios=INDENTER_RATIOS, held_out=HELD_OUT_RATIOS, mesh_check=(0.125, 4.0),
+                  meshes={"default": MeridianMeshParameters(), "fine": MeridianMeshParameters().scaled(0.7)},
+                  depth_max=0.5, depth_per_ratio=1.0, steps=10)
+"""The adherent cap's surface at each of :data:`CAP_HEIGHTS`: R_b/R 0.125-4 (R the base radius; 2-20 um beads on
+5-15 um base radii: 0.13-4), to depth ((H/2)^-2 + R_b^-2)^(-1/2) (a smooth min(H/2, R_b); ``depth_max`` in units of
+the apex height H), 10 load steps;
+the fine mesh (every size x 0.7) on the thinnest cap under the smallest bead and the hemisphere under the largest
+(:data:`CAP_MESH_CHECK`), the held-out ratios at H/R = :data:`CAP_HELD_OUT_RATIO_HEIGHT` (the cost of the curves on
+a shared 2-core machine bounds the grid)."""
+CAP_HEIGHTS = (0.3, 0.5, 0.75, 1.0)
+"""H/R of the tabulated caps: a spread adherent cell (fibroblast, epithelial cell: 3-6 um high over a 10-20 um base
+radius, H/R 0.3-0.5) up to a rounded, weakly adherent one (H/R 0.75) and the hemisphere (1). Between them the
+surface is interpolated in H (PCHIP at the same depth fraction); outside [0.3, 1] the fit is refused."""
+CAP_HELD_OUT_HEIGHTS = (0.4, 0.625)
+"""H/R computed at :data:`CAP_HELD_OUT_HEIGHT_RATIOS` and stored held out: the error of the interpolation in H."""
+CAP_HELD_OUT_HEIGHT_RATIOS = (0.25, 1.0, 4.0)
+CAP_HELD_OUT_RATIO_HEIGHT = 0.5
+"""H/R at which the held-out ratios :data:`HELD_OUT_RATIOS` are computed (the error of the interpolation in R_b/R,
+the suspended sphere's)."""
+CAP_MESH_CHECK = ((0.3, 0.125), (1.0, 4.0))
+"""(H/R, R_b/R) computed on the fine mesh too; the cap's mesh error at a depth fraction is the larger of theirs."""
 GRIDS = {"sphere": SurfaceGrid(INDENTER_RATIOS, HELD_OUT_RATIOS, MESH_CHECK_RATIOS, MESHES, DEPTH_MAX,
                                DEPTH_PER_RATIO, STEPS),
-         "layer": LAYER}
+         "cap": CAP, "layer": LAYER}
 
 
-def depth_limit(indenter_ratio, cell_shape: str = "sphere"):
+def depth_limit(indenter_ratio, cell_shape: str = "sphere", cap_height=None):
     """The tabulated depth range at R_b/R (units of R): min(DEPTH_MAX, DEPTH_PER_RATIO R_b/R) (the layer: the
-    same with :data:`LAYER`'s constants, R = h)."""
+    same with :data:`LAYER`'s constants, R = h; the cap: the smooth minimum ((H/2)^-2 + R_b^-2)^(-1/2), ``cap_height``
+    H/R needed)."""
     grid = GRIDS[cell_shape]
+    if cell_shape == "cap":  # smooth in R_b and H, so that the curves' depth fractions are (no kink at R_b = H/2)
+        reach, bead = grid.depth_max * np.asarray(cap_height, float), grid.depth_per_ratio * np.asarray(
+            indenter_ratio, float)
+        return (reach**-2 + bead**-2) ** -0.5
     return np.minimum(grid.depth_max, grid.depth_per_ratio * np.asarray(indenter_ratio, float))
 
 
-def small_depth_limit(depth, indenter_ratio, poisson_ratio: float = 0.48, cell_shape: str = "sphere"):
+def cap_sphere_radius(cap_height):
+    """Radius (units of R, the base radius) of the sphere a cap of apex height H is cut from: (1 + H^2) / (2 H)."""
+    cap_height = np.asarray(cap_height, float)
+    return (1 + cap_height**2) / (2 * cap_height)
+
+
+def small_depth_limit(depth, indenter_ratio, poisson_ratio: float = 0.48, cell_shape: str = "sphere",
+                      cap_height=None):
     """F/(E R^2) of Hertz's limit the surface is stored relative to: the two contacts in series (sphere on a
-    dish), the sphere on a half-space (layer)."""
+    dish), the sphere on a half-space (layer), the bead on the cap's curved apex (cap: Hertz's two spheres,
+    R_eff = R_b R_c / (R_b + R_c) with R_c :func:`cap_sphere_radius`, on a half-space)."""
     if cell_shape == "layer":
         return hertz_half_space_force(depth, indenter_ratio, poisson_ratio)
+    if cell_shape == "cap":
+        apex = cap_sphere_radius(cap_height)
+        indenter_ratio = np.asarray(indenter_ratio, float)
+        return hertz_half_space_force(depth, indenter_ratio * apex / (indenter_ratio + apex), poisson_ratio)
     return hertz_sphere_indentation_force(depth, indenter_ratio, poisson_ratio)
 
 
@@ -147,7 +189,8 @@ def garcia_bonded_force(depth, indenter_radius, thickness=1.0, poisson_ratio: fl
     return hertz_half_space_force(depth, indenter_radius, poisson_ratio) * factor
 
 
-def curve_function(depth, force, indenter_ratio: float, poisson_ratio: float = 0.48, cell_shape: str = "sphere"):
+def curve_function(depth, force, indenter_ratio: float, poisson_ratio: float = 0.48, cell_shape: str = "sphere",
+                   cap_height: float | None = None):
     """s(depth) of one computed curve (rows from depth 0, units of R and E R^2): PCHIP in depth of its ratio to
     :func:`small_depth_limit` (1 at depth 0), clamped to the last depth; what the surface does along one
     tabulated ratio."""
@@ -155,18 +198,18 @@ def curve_function(depth, force, indenter_ratio: float, poisson_ratio: float = 0
 
     depth, force = np.asarray(depth, float), np.asarray(force, float)
     positive = depth > 0
-    hertz = small_depth_limit(depth[positive], indenter_ratio, poisson_ratio, cell_shape)
+    hertz = small_depth_limit(depth[positive], indenter_ratio, poisson_ratio, cell_shape, cap_height)
     ratio = PchipInterpolator(np.r_[0.0, depth[positive]], np.r_[1.0, force[positive] / hertz])
 
     def s(x):
         x = np.clip(np.asarray(x, float), 0.0, depth[-1])
-        return small_depth_limit(x, indenter_ratio, poisson_ratio, cell_shape) * ratio(x)
+        return small_depth_limit(x, indenter_ratio, poisson_ratio, cell_shape, cap_height) * ratio(x)
 
     return s
 
 
 @dataclass
-class IndentationSurface:
+class IndentationSurface(CurveFile):
     """s(depth, R_b/R) = F/(E R^2) of a homogeneous suspended cell (or layer, R = h) indented by a bead (lengths
     in R).
 
@@ -184,16 +227,19 @@ class IndentationSurface:
     material: str = "neo-hookean"
     cell_shape: str = "sphere"
     held_out: np.ndarray | None = None
+    cap_height: float | None = None
     metadata: dict = field(default_factory=dict)
 
     def __post_init__(self):
+        if self.cell_shape == "cap" and self.cap_height is None:
+            raise ValueError("indentation surface: a cap's surface needs its cap_height")
         for name in ("indenter_ratio", "depth", "force", "error"):
             setattr(self, name, np.asarray(getattr(self, name), dtype=float))
         held = np.zeros(len(self.depth), bool) if self.held_out is None else np.asarray(self.held_out) > 0.5
         self.held_out = held
         use = ~held
         self.ratios = np.unique(self.indenter_ratio[use])
-        fractions = self.depth[use] / depth_limit(self.indenter_ratio[use], self.cell_shape)
+        fractions = self.depth[use] / self.depth_limit(self.indenter_ratio[use])
         self.fractions = np.unique(np.round(fractions, 9))
         if len(self.ratios) < 2 or len(self.fractions) < 4:
             raise ValueError("indentation surface: fewer than 2 ratios or 4 depths")
@@ -214,7 +260,15 @@ class IndentationSurface:
     def hertz(self, depth, indenter_ratio) -> np.ndarray:
         """Hertz's limit F/(E R^2) (:func:`small_depth_limit`) of the surface."""
         return small_depth_limit(np.maximum(np.asarray(depth, float), 0.0), np.asarray(indenter_ratio, float),
-                                 self.poisson_ratio, self.cell_shape)
+                                 self.poisson_ratio, self.cell_shape, self.cap_height)
+
+    def depth_fraction(self) -> np.ndarray:
+        """Each row's depth over its curve's :func:`depth_limit`."""
+        return self.depth / self.depth_limit(self.indenter_ratio)
+
+    def depth_limit(self, indenter_ratio) -> np.ndarray:
+        """:func:`depth_limit` of this surface's shape (and cap height), unchecked."""
+        return depth_limit(indenter_ratio, self.cell_shape, self.cap_height)
 
     @property
     def ratio_range(self) -> tuple[float, float]:
@@ -222,7 +276,7 @@ class IndentationSurface:
 
     def depth_max(self, indenter_ratio: float) -> float:
         """The tabulated depth range at R_b/R (units of R)."""
-        return float(depth_limit(self._check_ratio(indenter_ratio), self.cell_shape))
+        return float(self.depth_limit(self._check_ratio(indenter_ratio)))
 
     def _check_ratio(self, indenter_ratio: float) -> float:
         indenter_ratio = float(indenter_ratio)
@@ -249,7 +303,7 @@ class IndentationSurface:
         from scipy.interpolate import PchipInterpolator
 
         indenter_ratio = self._check_ratio(indenter_ratio)
-        end = float(depth_limit(indenter_ratio, self.cell_shape))
+        end = float(self.depth_limit(indenter_ratio))
         ratio = PchipInterpolator(self.fractions * end, self._across(self.ratios, self._ratio_grid, indenter_ratio))
         last = float(self.hertz(end, indenter_ratio) * ratio(end))
         slope = 1.5 + float(ratio.derivative()(end) / ratio(end)) * end
@@ -272,7 +326,7 @@ class IndentationSurface:
         if not len(self._checked_ratios):
             return np.full(np.shape(depth), np.nan)
         column = self._across(self._checked_ratios, self._relative_grid, indenter_ratio)
-        return np.abs(np.interp(np.asarray(depth, float) / depth_limit(indenter_ratio, self.cell_shape),
+        return np.abs(np.interp(np.asarray(depth, float) / self.depth_limit(indenter_ratio),
                                 self.fractions, column))
 
     def held_out_curves(self) -> dict[float, tuple[np.ndarray, np.ndarray]]:
@@ -286,39 +340,132 @@ class IndentationSurface:
     def _csv(self) -> tuple[dict, dict]:
         metadata = dict(self.metadata, poisson_ratio=self.poisson_ratio, material=self.material,
                         cell_shape=self.cell_shape, format_version=FORMAT_VERSION)
+        if self.cap_height is not None:
+            metadata["cap_height"] = self.cap_height
         columns = {"indenter_ratio": self.indenter_ratio, "depth": self.depth, "force_per_E_R2": self.force,
                    "error": self.error}
         columns["held_out"] = self.held_out.astype(float)
         return metadata, columns
-
-    def to_csv(self, path: Path) -> None:
-        write_curve_csv(Path(path), *self._csv())
-
-    def csv_text(self) -> str:
-        return curve_csv_text(*self._csv())
-
-    @classmethod
-    def from_csv(cls, path) -> IndentationSurface:
-        return cls._from_table(*read_curve_csv(path))
-
-    @classmethod
-    def from_csv_text(cls, text: str) -> IndentationSurface:
-        return cls._from_table(*parse_curve_csv(text))
 
     @classmethod
     def _from_table(cls, metadata: dict, table: dict) -> IndentationSurface:
         return cls(indenter_ratio=table["indenter_ratio"], depth=table["depth"], force=table["force_per_E_R2"],
                    error=table["error"], poisson_ratio=float(metadata["poisson_ratio"]),
                    material=metadata.get("material", "neo-hookean"), cell_shape=metadata.get("cell_shape", "sphere"),
+                   held_out=table.get("held_out"), cap_height=metadata.get("cap_height"), metadata=metadata)
+
+
+@dataclass
+class CapIndentationSurface(CurveFile):
+    """The adherent cap's surface: F/(E R^2) over (depth/R, R_b/R) at each apex height H/R of :data:`CAP_HEIGHTS`
+    (R the base radius), one table with a ``cap_height`` column.
+
+    Each tabulated height is an :class:`IndentationSurface` (``surfaces[H]``); :meth:`at_height` gives the surface
+    at any H in the tabulated range: ``g = s / s_Hertz`` (Hertz's bead on the cap's curved apex,
+    :func:`small_depth_limit`) interpolated by PCHIP in H at the same (R_b/R, depth fraction) nodes (at a tabulated
+    height: its own values); its mesh error at a depth fraction is the largest relative error of the mesh-check
+    curves (:data:`CAP_MESH_CHECK`) there, for every ratio. Rows of the heights :data:`CAP_HELD_OUT_HEIGHTS` and
+    of the ratios :data:`HELD_OUT_RATIOS` are stored flagged ``held_out`` and used by neither interpolation.
+    """
+
+    cap_height: np.ndarray
+    indenter_ratio: np.ndarray
+    depth: np.ndarray
+    force: np.ndarray
+    error: np.ndarray
+    poisson_ratio: float
+    material: str = "neo-hookean"
+    held_out: np.ndarray | None = None
+    metadata: dict = field(default_factory=dict)
+    cell_shape = "cap"
+
+    def __post_init__(self):
+        for name in ("cap_height", "indenter_ratio", "depth", "force", "error"):
+            setattr(self, name, np.asarray(getattr(self, name), dtype=float))
+        self.held_out = (np.zeros(len(self.depth), bool) if self.held_out is None
+                         else np.asarray(self.held_out, float) > 0.5)
+        self.heights = np.unique(self.cap_height[~self.held_out])
+        self.surfaces = {}
+        for height in self.heights:
+            rows = self.cap_height == height
+            self.surfaces[float(height)] = IndentationSurface(
+                self.indenter_ratio[rows], self.depth[rows], self.force[rows], self.error[rows], self.poisson_ratio,
+                self.material, "cap", self.held_out[rows], float(height), self.metadata)
+        first = self.surfaces[float(self.heights[0])]
+        if len(self.heights) < 2 or any(not (np.array_equal(surface.ratios, first.ratios) and np.allclose(
+                surface.fractions, first.fractions)) for surface in self.surfaces.values()):
+            raise ValueError("cap indentation surface: fewer than 2 heights, or heights on different grids")
+        self.ratios, self.fractions = first.ratios, first.fractions
+
+    @property
+    def ratio_range(self) -> tuple[float, float]:
+        return float(self.ratios[0]), float(self.ratios[-1])
+
+    @property
+    def height_range(self) -> tuple[float, float]:
+        return float(self.heights[0]), float(self.heights[-1])
+
+    def depth_fraction(self) -> np.ndarray:
+        """Each row's depth over its curve's :func:`depth_limit`."""
+        return self.depth / depth_limit(self.indenter_ratio, "cap", self.cap_height)
+
+    def check_height(self, cap_height: float) -> float:
+        cap_height = float(cap_height)
+        low, high = self.height_range
+        if not low * (1 - 1e-9) <= cap_height <= high * (1 + 1e-9):
+            raise ParameterError("cap_height", f"H/R = {cap_height:.4g} (apex height over base radius) is outside "
+                                 f"the cap's indentation master surface's range [{low:g}, {high:g}] (tabulated: "
+                                 + ", ".join(f"{h:g}" for h in self.heights) + ")")
+        return min(max(cap_height, low), high)
+
+    def at_height(self, cap_height: float) -> IndentationSurface:
+        """The surface of a cap of apex height ``cap_height`` (units of R) in the tabulated range (else a
+        ParameterError naming ``cap_height``), interpolated in H (a tabulated height: its own values)."""
+        from scipy.interpolate import PchipInterpolator
+
+        cap_height = self.check_height(cap_height)
+        surfaces = [self.surfaces[float(height)] for height in self.heights]
+        ratio_grid = PchipInterpolator(self.heights, np.stack([s._ratio_grid for s in surfaces]), axis=0)(cap_height)
+        ratio, fraction = np.meshgrid(self.ratios, self.fractions, indexing="ij")
+        depth = fraction * depth_limit(ratio, "cap", cap_height)
+        force = np.where(depth > 0, ratio_grid * small_depth_limit(depth, ratio, self.poisson_ratio, "cap",
+                                                                    cap_height), 0.0)
+        checked = [s._relative_grid for s in surfaces if len(s._checked_ratios)]
+        relative = np.max(np.abs(np.concatenate(checked)), axis=0) if checked else np.full(len(self.fractions), np.nan)
+        error = relative[None, :] * force
+        return IndentationSurface(ratio.ravel(), depth.ravel(), force.ravel(), error.ravel(), self.poisson_ratio,
+                                  self.material, "cap", None, cap_height,
+                                  dict(self.metadata, interpolated_between_heights=[float(h) for h in self.heights]))
+
+    def held_out_curves(self) -> dict[tuple[float, float], tuple[np.ndarray, np.ndarray]]:
+        """{(H/R, R_b/R): (depth, s)} of the held-out rows."""
+        out = {}
+        pairs = zip(self.cap_height[self.held_out], self.indenter_ratio[self.held_out], strict=True)
+        for height, ratio in sorted(set(pairs)):
+            rows = self.held_out & (self.cap_height == height) & (self.indenter_ratio == ratio)
+            out[float(height), float(ratio)] = (self.depth[rows], self.force[rows])
+        return out
+
+    def _csv(self) -> tuple[dict, dict]:
+        metadata = dict(self.metadata, poisson_ratio=self.poisson_ratio, material=self.material, cell_shape="cap",
+                        format_version=FORMAT_VERSION)
+        return metadata, {"cap_height": self.cap_height, "indenter_ratio": self.indenter_ratio, "depth": self.depth,
+                          "force_per_E_R2": self.force, "error": self.error, "held_out": self.held_out.astype(float)}
+
+    @classmethod
+    def _from_table(cls, metadata: dict, table: dict) -> CapIndentationSurface:
+        return cls(cap_height=table["cap_height"], indenter_ratio=table["indenter_ratio"], depth=table["depth"],
+                   force=table["force_per_E_R2"], error=table["error"],
+                   poisson_ratio=float(metadata["poisson_ratio"]), material=metadata.get("material", "neo-hookean"),
                    held_out=table.get("held_out"), metadata=metadata)
 
 
+SURFACE_CLASSES = {"sphere": IndentationSurface, "cap": CapIndentationSurface, "layer": IndentationSurface}
+
+
 def check_shape(cell_shape: str) -> str:
-    if cell_shape not in ("sphere", "cap", "layer"):
-        raise ParameterError("cell_shape", f"must be sphere, cap or layer, got {cell_shape!r}")
     if cell_shape not in CELL_SHAPES:
-        raise ParameterError("cell_shape", f"{cell_shape}: no master surface for this cell shape (the cap's is not "
-                                           "computed); available: " + ", ".join(CELL_SHAPES))
+        raise ParameterError("cell_shape", f"must be sphere, cap or layer, got {cell_shape!r}")
     return cell_shape
 
 
@@ -328,7 +475,7 @@ def shipped_name(poisson_ratio: float, material: str = "neo-hookean", cell_shape
 
 def surface_parameters(poisson_ratio: float, material: str = "neo-hookean", cell_shape: str = "sphere") -> dict:
     """What a computed surface is made from, resolved: the homogeneous cell, the meshes, ratios and stepping
-    (the layer: also its width rule, 2 h + 4 R_b)."""
+    (the layer: also its width rule, 2 h + 4 R_b; the cap: its heights)."""
     grid = GRIDS[cell_shape]
     parameters = {"cell": cell_parameters(nucleus="none", poisson_ratio=poisson_ratio, material=material),
                   "cell_shape": cell_shape, "meshes": grid.meshes, "ratios": sorted(grid.ratios + grid.held_out),
@@ -336,6 +483,10 @@ def surface_parameters(poisson_ratio: float, material: str = "neo-hookean", cell
                   "depth_max": grid.depth_max, "depth_per_ratio": grid.depth_per_ratio, "steps": grid.steps}
     if cell_shape == "layer":
         parameters["layer_width"] = layer_width(1.0 / np.array(grid.ratios + grid.held_out)).tolist()
+    if cell_shape == "cap":
+        parameters.update(heights=list(CAP_HEIGHTS), held_out_heights=list(CAP_HELD_OUT_HEIGHTS),
+                          held_out_height_ratios=list(CAP_HELD_OUT_HEIGHT_RATIOS),
+                          held_out_ratio_height=CAP_HELD_OUT_RATIO_HEIGHT, mesh_check=list(CAP_MESH_CHECK))
     return parameters
 
 
@@ -346,58 +497,139 @@ def cache_path(poisson_ratio: float, material: str = "neo-hookean", cell_shape: 
 
 
 def read_cached(poisson_ratio: float, material: str = "neo-hookean",
-                cell_shape: str = "sphere") -> IndentationSurface | None:
+                cell_shape: str = "sphere") -> IndentationSurface | CapIndentationSurface | None:
     return read_cache_entry(cache_path(poisson_ratio, material, cell_shape), "indentation master surface",
                             surface_parameters(poisson_ratio, material, cell_shape), FORMAT_VERSION,
-                            lambda payload: IndentationSurface.from_csv_text(payload.decode()))
+                            lambda payload: SURFACE_CLASSES[cell_shape].from_csv_text(payload.decode()))
 
 
-def shipped(poisson_ratio: float, material: str = "neo-hookean", cell_shape: str = "sphere") -> IndentationSurface | None:
+def shipped(poisson_ratio: float, material: str = "neo-hookean",
+            cell_shape: str = "sphere") -> IndentationSurface | CapIndentationSurface | None:
     resource = shipped_file(shipped_name(poisson_ratio, material, cell_shape))
-    return None if resource is None else IndentationSurface.from_csv(resource)
+    return None if resource is None else SURFACE_CLASSES[cell_shape].from_csv(resource)
 
 
 def load_indentation_surface(poisson_ratio: float = 0.48, material: str = "neo-hookean",
-                             cell_shape: str = "sphere") -> IndentationSurface:
-    """The shipped surface, else a cached one; otherwise a ParameterError naming the command that computes it."""
+                             cell_shape: str = "sphere", cap_height: float | None = None) -> IndentationSurface:
+    """The shipped surface, else a cached one; otherwise a ParameterError naming the command that computes it.
+    The cap: the surface at ``cap_height`` (H/R, required; :meth:`CapIndentationSurface.at_height`)."""
     check_inputs(poisson_ratio, material)
     check_shape(cell_shape)
-    return shipped_or_cached(shipped(poisson_ratio, material, cell_shape),
-                             lambda: read_cached(poisson_ratio, material, cell_shape), "indentation", poisson_ratio,
-                             material, shipped_ratios=SHIPPED_POISSON_RATIOS)
+    if cell_shape == "cap" and cap_height is None:
+        raise ParameterError("cap_height", "required with --cell-shape cap (the apex height, e.g. 4um)")
+    surface = shipped_or_cached(shipped(poisson_ratio, material, cell_shape),
+                                lambda: read_cached(poisson_ratio, material, cell_shape), "indentation",
+                                poisson_ratio, material, hint="" if cell_shape == "sphere" else
+                                f"with --cell-shape {cell_shape}", shipped_ratios=SHIPPED_POISSON_RATIOS)
+    return surface.at_height(cap_height) if cell_shape == "cap" else surface
 
 
-def _indentation_curve(task) -> tuple:
-    """One curve of the surface (a process-pool task): (ratio, mesh name, depth, force, info)."""
-    cell, cell_shape, ratio, name, mesh, steps = task
+def curve_cache_parameters(task) -> dict:
+    """What one curve of a surface is made from (the key of its cache entry, so that a stopped surface
+    computation resumes from the curves it finished)."""
+    cell, cell_shape, cap_height, ratio, name, mesh, steps = task[:7]
+    return {"cell": cell, "cell_shape": cell_shape, "cap_height": cap_height, "indenter_ratio": ratio,
+            "mesh": mesh, "steps": steps, "depth": float(depth_limit(ratio, cell_shape, cap_height))}
+
+
+def _curve_cache_path(task) -> Path:
+    digest = parameter_hash(curve_cache_parameters(task), format_version=FORMAT_VERSION)[:16]
+    return cache_directory() / f"indentation-curve-{digest}.csv"
+
+
+def _parse_curve(payload: bytes) -> tuple:
+    metadata, table = parse_curve_csv(payload.decode())
+    return table["depth"], table["force"], metadata
+
+
+def surface_curve(task) -> tuple:
+    """One curve of the surface (a process-pool task): (cap height, ratio, mesh name, depth, force, info), read
+    from its cache entry when ``use_cache`` and there is one."""
+    cell, cell_shape, cap_height, ratio, name, mesh, steps, use_cache = task
+    kind = "indentation surface curve"
+    if use_cache:
+        cached = read_cache_entry(_curve_cache_path(task), kind, curve_cache_parameters(task), FORMAT_VERSION,
+                                  _parse_curve)
+        if cached is not None:
+            return (cap_height, ratio, name) + cached
     start = time.perf_counter()
-    limit = float(depth_limit(ratio, cell_shape))
+    limit = float(depth_limit(ratio, cell_shape, cap_height))
     if cell_shape == "layer":  # R = h: the layer of thickness 1, meshed in its own unit R_b
         result = indentation_curve(cell, "layer", ratio, layer_thickness=1.0, depth_max=limit, steps=steps,
+                                   mesh=mesh)
+    elif cell_shape == "cap":
+        result = indentation_curve(cell, "cap", ratio, cap_height=cap_height, depth_max=limit, steps=steps,
                                    mesh=mesh)
     else:
         result = indent_axisymmetric(cell, ratio, limit, steps=steps, mesh=mesh)
     if result.load[-1] < limit - 1e-9:
         raise AxisymmetricError(f"R_b/R = {ratio}: stopped at depth {result.load[-1]}", result)
-    return ratio, name, result.load, result.force, {"n_nodes": int(result.n_nodes), "substeps": int(result.substeps),
-                                                    "wall_time_s": round(time.perf_counter() - start, 2)}
+    info = {"n_nodes": int(result.n_nodes), "substeps": int(result.substeps),
+            "wall_time_s": round(time.perf_counter() - start, 2)}
+    if use_cache:
+        write_cache_entry(_curve_cache_path(task), curve_csv_text(info, {"depth": result.load,
+                                                                         "force": result.force}).encode(),
+                          kind, curve_cache_parameters(task), FORMAT_VERSION)
+    return cap_height, ratio, name, result.load, result.force, info
+
+
+def cap_curve(cap_height: float, indenter_ratio: float, mesh: MeridianMeshParameters | None = None,
+              poisson_ratio: float = 0.48, material: str = "neo-hookean", use_cache: bool = True,
+              cached_only: bool = False) -> tuple | None:
+    """(depth, F/(E R^2), info) of a homogeneous cap (apex height ``cap_height``, R = 1) indented by a bead of
+    radius ``indenter_ratio`` to the surface's depth range, :data:`CAP`'s stepping, on ``mesh`` (None: the
+    default), through the surface's curve cache (the surface's own curves are read back, not recomputed);
+    ``cached_only``: None when it is not in the cache."""
+    cell = surface_parameters(poisson_ratio, material, "cap")["cell"]
+    task = (cell, "cap", float(cap_height), float(indenter_ratio), "custom", mesh or MeridianMeshParameters(),
+            CAP.steps, use_cache or cached_only)
+    if cached_only and not _curve_cache_path(task).exists():
+        return None
+    return surface_curve(task)[3:]
 
 
 QUANTITIES = {
     "sphere": "F/(E R^2) of a homogeneous suspended sphere on a rigid dish indented by a rigid frictionless bead of "
               "radius R_b = indenter_ratio R",
+    "cap": "F/(E R^2) of a homogeneous spherical cap of base radius R and apex height cap_height R, its base bonded "
+           "to a rigid dish, indented on its axis by a rigid frictionless bead of radius R_b = indenter_ratio R",
     "layer": "F/(E h^2) (column force_per_E_R2, R = h) of a homogeneous layer of thickness h bonded to a rigid dish, "
              "2 h + 4 R_b wide, indented by a rigid frictionless bead of radius R_b = indenter_ratio h; meshes in "
              "units of R_b"}
 
 
+def surface_tasks(poisson_ratio: float, material: str = "neo-hookean", cell_shape: str = "sphere",
+                  use_cache: bool = True) -> list[tuple]:
+    """The curves of a surface, the fine-mesh ones first (the longest; the cap: its tabulated curves first, then
+    the fine mesh, then the held-out curves): (cell, shape, cap height or None, ratio,
+    mesh name, mesh, steps, use_cache)."""
+    parameters = surface_parameters(poisson_ratio, material, cell_shape)
+    grid = GRIDS[cell_shape]
+    if cell_shape == "cap":
+        pairs = [(height, ratio) for height in CAP_HEIGHTS for ratio in grid.ratios]
+        pairs += [(CAP_HELD_OUT_RATIO_HEIGHT, ratio) for ratio in grid.held_out]
+        pairs += [(height, ratio) for height in CAP_HELD_OUT_HEIGHTS for ratio in CAP_HELD_OUT_HEIGHT_RATIOS]
+        checked = set(CAP_MESH_CHECK)
+    else:
+        pairs = [(None, ratio) for ratio in parameters["ratios"]]
+        checked = {(None, ratio) for ratio in grid.mesh_check}
+    tasks = [(parameters["cell"], cell_shape, height, ratio, name, mesh, grid.steps, use_cache)
+             for height, ratio in pairs
+             for name, mesh in grid.meshes.items() if name == "default" or (height, ratio) in checked]
+    if cell_shape == "cap":  # the tabulated curves first, then the fine mesh, then the held-out curves
+        return sorted(tasks, key=lambda task: 1 if task[4] == "fine" else
+                      2 * (task[3] in grid.held_out or task[2] in CAP_HELD_OUT_HEIGHTS))
+    return sorted(tasks, key=lambda task: task[4] != "fine")
+
+
 def compute_indentation_surface(poisson_ratio: float = 0.48, material: str = "neo-hookean",
                                 cell_shape: str = "sphere", use_cache: bool = True, progress=None,
-                                workers: int = 1) -> IndentationSurface:
-    """Compute (or read from the cache) the surface: one indentation curve per ratio on the default mesh, and on
-    the fine mesh at the mesh-check ratios (:data:`GRIDS`), ``workers`` processes at a time.
+                                workers: int = 1) -> IndentationSurface | CapIndentationSurface:
+    """Compute (or read from the cache) the surface: one indentation curve per ratio (the cap: per height and
+    ratio) on the default mesh, and on the fine mesh at the mesh-check ratios (:data:`GRIDS`), ``workers``
+    processes at a time; each finished curve is cached, so that a stopped computation resumes.
 
-    ``progress(ratio, mesh_name, seconds)`` is called after each curve. A curve that stops before its depth limit
+    ``progress(label, mesh_name, seconds)`` is called after each curve. A curve that stops before its depth limit
     raises :class:`AxisymmetricError` (the table must be a full grid)."""
     from concurrent.futures import ProcessPoolExecutor
 
@@ -409,38 +641,44 @@ def compute_indentation_surface(poisson_ratio: float = 0.48, material: str = "ne
         if cached is not None:
             return cached
     grid = GRIDS[cell_shape]
-    tasks = [(parameters["cell"], cell_shape, ratio, name, mesh, grid.steps) for ratio in parameters["ratios"]
-             for name, mesh in grid.meshes.items() if name == "default" or ratio in grid.mesh_check]
-    tasks.sort(key=lambda task: task[3] != "fine")  # the longest first
     curves, info = {}, {}
     with ProcessPoolExecutor(max(1, workers)) as pool:
-        for ratio, name, depth, force, details in pool.map(_indentation_curve, tasks):
-            curves[ratio, name] = (depth, force)
-            info[f"{ratio:g}/{name}"] = details
+        for height, ratio, name, depth, force, details in pool.map(
+                surface_curve, surface_tasks(poisson_ratio, material, cell_shape, use_cache)):
+            curves[height, ratio, name] = (depth, force)
+            label = f"{ratio:g}" if height is None else f"{ratio:g} (H/R = {height:g})"
+            info[f"{label}/{name}"] = details
             if progress:
-                progress(ratio, name, details["wall_time_s"])
-    columns = {key: [] for key in ("indenter_ratio", "depth", "force", "error", "held_out")}
-    for ratio in parameters["ratios"]:
-        depth, force = curves[ratio, "default"]
-        fine = curves.get((ratio, "fine"), (None, np.full(len(depth), np.nan)))[1]
+                progress(label, name, details["wall_time_s"])
+    columns = {key: [] for key in ("cap_height", "indenter_ratio", "depth", "force", "error", "held_out")}
+    for height, ratio, _ in sorted(key for key in curves if key[2] == "default"):
+        depth, force = curves[height, ratio, "default"]
+        fine = curves.get((height, ratio, "fine"), (None, np.full(len(depth), np.nan)))[1]
+        columns["cap_height"] += [np.nan if height is None else height] * len(depth)
         columns["indenter_ratio"] += [ratio] * len(depth)
         columns["depth"] += list(depth)
         columns["force"] += list(force)
         columns["error"] += list(np.abs(np.asarray(fine) - force))
-        columns["held_out"] += [float(ratio in grid.held_out)] * len(depth)
-    surface = IndentationSurface(
-        **{key: np.array(values) for key, values in columns.items()}, poisson_ratio=poisson_ratio,
-        material=material, cell_shape=cell_shape,
-        metadata={"command": f"elastocell mastercurve indentation --poisson-ratio {poisson_ratio:g} "
-                             f"--material {material}" + ("" if cell_shape == "sphere" else
-                                                         f" --cell-shape {cell_shape}"),
-                  "quantity": QUANTITIES[cell_shape] + "; depth (units of R) = the bead's displacement after first "
-                              "contact; default mesh; error = |fine - default mesh|",
-                  "meshes": {name: mesh.model_dump() for name, mesh in grid.meshes.items()},
-                  "curves": info, "steps": grid.steps, "depth_max": grid.depth_max,
-                  "depth_per_ratio": grid.depth_per_ratio, **({"layer_width": "2 h + 4 R_b"} if cell_shape ==
-                                                              "layer" else {}),
-                  "elastocell_version": __version__, "software": software_versions()})
+        held = ratio in grid.held_out or height in CAP_HELD_OUT_HEIGHTS
+        columns["held_out"] += [float(held)] * len(depth)
+    metadata = {"command": f"elastocell mastercurve indentation --poisson-ratio {poisson_ratio:g} "
+                           f"--material {material}" + ("" if cell_shape == "sphere" else f" --cell-shape {cell_shape}"),
+                "quantity": QUANTITIES[cell_shape] + "; depth (units of R) = the bead's displacement after first "
+                            "contact; default mesh; error = |fine - default mesh|",
+                "meshes": {name: mesh.model_dump() for name, mesh in grid.meshes.items()},
+                "curves": info, "steps": grid.steps, "depth_max": grid.depth_max,
+                "depth_per_ratio": grid.depth_per_ratio,
+                **({"layer_width": "2 h + 4 R_b"} if cell_shape == "layer" else {}),
+                **({"depth_range": "((H/2)^-2 + R_b^-2)^(-1/2)", "heights": list(CAP_HEIGHTS),
+                    "held_out_heights": list(CAP_HELD_OUT_HEIGHTS)} if cell_shape == "cap" else {}),
+                "elastocell_version": __version__, "software": software_versions()}
+    arrays = {key: np.array(values) for key, values in columns.items()}
+    if cell_shape == "cap":
+        surface = CapIndentationSurface(**arrays, poisson_ratio=poisson_ratio, material=material, metadata=metadata)
+    else:
+        del arrays["cap_height"]
+        surface = IndentationSurface(**arrays, poisson_ratio=poisson_ratio, material=material,
+                                     cell_shape=cell_shape, metadata=metadata)
     if use_cache:
         write_cache_entry(cache_path(poisson_ratio, material, cell_shape), surface.csv_text().encode(),
                           "indentation master surface", parameters, FORMAT_VERSION)
