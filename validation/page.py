@@ -53,6 +53,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                                  "nice python validation/indentation_layer.py"),
         "indentation_3d.py": ("The 3D solver: against the axisymmetric one, Hertz, and cells only it can run",
                               "nice python validation/indentation_3d.py"),
+        "indentation_cap.py": ("The adherent cap: refinement, Hertz, interpolation and round trip of its master "
+                               "surface", "nice python validation/indentation_cap.py"),
     }),
     "startup": ("Start-up of a command in a new process", {
         "startup.py": ("Import, cell and first converged row, empty and warm caches",
