@@ -104,6 +104,10 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                           "nice python validation/lut_square.py --radii 5,6 --moduli 1,2 --resolution 6 --duration 8 "
                           "--workers 2 --out /tmp/lut-square"),
     }),
+    "rtdc": ("Real RT-DC measurements through look-up tables", {
+        "rtdc_coverage.py": ("Coverage and moduli of dclab's test measurements, dclab's tables and elastocell's",
+                             "python validation/rtdc_coverage.py --lut /tmp/lut-square/lut.txt"),
+    }),
     "fit": ("Fits of AFM curves and master curves", {
         "fit.py": ("Accuracy, Hertz's bias, interval coverage and cost of the AFM fit",
                    "python validation/fit.py --curves 200 --coverage 50"),
