@@ -138,7 +138,7 @@ def heterogeneous(page: Page, fresh: bool, quick: bool) -> None:
     homogeneous = curve_3d({"nucleus": "none"}, DEPTH, STEPS, scale, fresh)
     centred_depth, centred = curve_axisymmetric(NUCLEUS, 1.0)
     cells = {"nucleus offset 0.2 R along x (gamma 5, lambda 0.5)": {**NUCLEUS, "offset": 0.2, "offset_axis": "x"},
-             "random cell (U[1, 10], seed 0)": {"nucleus": "none", "random": True, "seed": 0}}
+             "random cell (U[1, 10], seed 0)": {"random": True, "seed": 0}}
     rows = []
     for name, options in cells.items():
         curve = curve_3d(options, DEPTH, STEPS, scale, fresh)
