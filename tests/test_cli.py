@@ -185,7 +185,8 @@ EXPECTED_OPTIONS = {
               '--depth-max=0.3 --steps=20 --solver=auto --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 '
               '--offset=0.0 --offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None '
               '--mesh-size=None --pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 '
-              '--radius=1 --material=neo-hookean --element=p2 --quadrature-degree=None --quiet=False --json=False',
+              '--radius=1 --material=neo-hookean --element=p2 --quadrature-degree=None --resume=False --quiet=False '
+              '--json=False',
     'lut': '--channel-radius=None --channel-width=None --channel-shape=None --channel-height=None --flow-rate! '
            '--viscosity=None --medium=newtonian --temperature=None --flow-index=None --out! --radii=None '
            '--moduli=None --quick=False --poisson-ratio=0.48 --material=neo-hookean --resolution=None '

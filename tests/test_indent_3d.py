@@ -119,3 +119,41 @@ def test_random_cell_energy_lies_between_the_homogeneous_bounds(tmp_path):
     print("W/W_hom", ratio, "F/F_hom", curve.force[1:] / reference.force[1:], "E_eff", random.effective_stiffness_ratio)
     assert np.all((ratio >= 1) & (ratio <= random.youngs_moduli.max()))
     assert np.all(curve.force[1:] > reference.force[1:])
+
+
+@pytest.mark.slow
+def test_an_interrupted_3d_curve_resumes_from_its_checkpoint(tmp_path, monkeypatch):
+    """``elastocell.indent`` interrupted after its first row keeps it in ``checkpoint.npz`` (metadata
+    ``complete: false``); ``resume=True`` continues to the last row and removes the checkpoint; a resume with
+    other options is refused naming --resume; a complete curve is read back."""
+    import elastocell.api.indentation as api
+    from elastocell.scenarios.axisymmetric import AxisymmetricInterrupted
+
+    real = api.indent_3d
+
+    def interrupted_after_first_row(*args, on_row=None, **kwargs):
+        def stop(rows):
+            on_row(rows)
+            if len(rows.load) == 2:
+                raise KeyboardInterrupt
+
+        return real(*args, on_row=stop, **kwargs)
+
+    options = {"indenter_radius": 0.5, "random": True, "depth_max": 0.1, "steps": 2, "progress": False, **COARSE}
+    out = tmp_path / "curve"
+    monkeypatch.setattr(api, "indent_3d", interrupted_after_first_row)
+    with pytest.raises(AxisymmetricInterrupted, match="--resume"):
+        api.indent(out, **options)
+    monkeypatch.setattr(api, "indent_3d", real)
+    assert json.loads((out / "metadata.json").read_text())["complete"] is False
+    assert (out / "checkpoint.npz").exists()
+    first = np.genfromtxt(out / "indentation.csv", delimiter=",", names=True)
+    with pytest.raises(ParameterError) as error:
+        api.indent(out, **{**options, "steps": 3}, resume=True)
+    assert error.value.parameter == "resume"
+    summary = api.indent(out, **options, resume=True)
+    assert summary["complete"] and not (out / "checkpoint.npz").exists()
+    table = np.genfromtxt(out / "indentation.csv", delimiter=",", names=True)
+    assert len(table) == 3
+    np.testing.assert_array_equal(table[:2], first)
+    assert api.indent(out, **options, resume=True)["fingerprint"] == summary["fingerprint"]

@@ -16,13 +16,23 @@ solver on the tetrahedral cell of ``elastocell compress`` (:mod:`elastocell.scen
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 
 from elastocell.body.axisymmetric import AxisymmetricCell, MeridianGeometry
 from elastocell.body.cell import Cell
-from elastocell.files import Stopwatch, save_figure, software_versions, write_json, write_table
+from elastocell.files import (
+    Stopwatch,
+    array_digest,
+    parameter_hash,
+    replace_atomically,
+    save_figure,
+    software_versions,
+    write_json,
+    write_table,
+)
 from elastocell.parameters.cell import CellParameters, cell_parameters, describe_cell
 from elastocell.parameters.units import RADIUS_SCALE, ParameterError, parse_quantity
 from elastocell.scenarios.axisymmetric import (
@@ -39,7 +49,7 @@ from elastocell.scenarios.indentation import (
     indentation_geometry,
     indentation_solver,
 )
-from elastocell.scenarios.indentation_3d import indent_3d
+from elastocell.scenarios.indentation_3d import RESULT_ROWS, Indentation3DResult, indent_3d
 from elastocell.simulation.directory import OutputSet, interruptible, output_directory
 from elastocell.simulation.output import progress_bar, von_mises, vtk_enabled, write_vtk_series
 
@@ -72,6 +82,7 @@ def indent(
     vtk: bool = True,
     solver: str = "auto",
     linear_solver: str = "auto",
+    resume: bool = False,
     progress: bool = True,
     **cell_options,
 ) -> dict:
@@ -94,7 +105,9 @@ def indent(
 
     Every option is validated before a file is written; one run at a time per ``out``. Ctrl-C or SIGTERM writes
     the converged rows with ``"complete": false`` in the metadata and raises
-    :class:`~elastocell.scenarios.axisymmetric.AxisymmetricInterrupted`.
+    :class:`~elastocell.scenarios.axisymmetric.AxisymmetricInterrupted`. The 3D solver also keeps its converged
+    rows in ``out/checkpoint.npz`` after every row: ``resume=True`` continues such a curve (same options) from
+    its last row, and reads back a curve already complete; an axisymmetric curve (seconds) is not resumed.
     """
     if cell is not None and cell_options:
         raise ParameterError("cell", f"give either cell= or cell options, not both ({', '.join(cell_options)})")
@@ -110,6 +123,9 @@ def indent(
     depth = depth_max * unit  # the layer's depth_max is in units of R_b
     check_depth(geometry, unit, depth, steps)
     path = indentation_solver(solver, cell, geometry)
+    if resume and path != "3d":
+        raise ParameterError("resume", "continues a curve of the 3D solver only (this indentation runs the "
+                                       "axisymmetric solver, whose curve takes seconds: run it again)")
     with output_directory(out) as out, interruptible():
         clock = Stopwatch()
         if path == "3d":
@@ -117,6 +133,13 @@ def indent(
         else:
             body = AxisymmetricCell.from_parameters(cell, geometry=geometry)
         label = f"{describe_cell(cell)}, {cell_shape}, R_b = {bead * cell.radius:g}"
+        checkpoint, fingerprint, start = out / "checkpoint.npz", None, None
+        if path == "3d":
+            fingerprint = _fingerprint(body, cell, bead, depth, steps, linear_solver)
+            if resume and (finished := _finished_curve(out, fingerprint)) is not None:
+                return finished
+            if resume and checkpoint.exists():
+                start = _load_checkpoint(checkpoint, fingerprint, body.mesh.n_nodes)
         with progress_bar(progress, "depth {task.completed:.3f}", label=None) as bar:
             callback = None
             if bar is not None:
@@ -124,7 +147,13 @@ def indent(
                 callback = lambda rows: bar.update(task, completed=float(rows.load[-1]) * unit)  # noqa: E731
             try:
                 if path == "3d":
-                    result = indent_3d(body, bead, depth, steps, solver=linear_solver, on_row=callback)
+                    def on_row(rows, show=callback):
+                        _save_checkpoint(checkpoint, rows, fingerprint)
+                        if show is not None:
+                            show(rows)
+
+                    result = indent_3d(body, bead, depth, steps, solver=linear_solver, resume_from=start,
+                                       on_row=on_row)
                 else:
                     result = indent_body(body, geometry, unit, bead, depth, steps, solver=linear_solver,
                                          on_row=callback)
@@ -132,16 +161,76 @@ def indent(
             except AxisymmetricInterrupted as error:
                 _write(out, error.partial, body, cell, geometry, unit, bead, cap, layer, depth, steps, label, clock,
                        vtk, failure=error, interrupted=True, solver=solver)
-                raise AxisymmetricInterrupted(f"{error}; the converged rows are in {out}", error.partial) from None
+                again = "; rerun with --resume to continue" if path == "3d" else ""
+                raise AxisymmetricInterrupted(f"{error}; the converged rows are in {out}{again}",
+                                              error.partial) from None
             except AxisymmetricError as error:
                 if error.partial is None or len(error.partial.load) < 2:
                     raise
                 result, failure = error.partial, error
         summary = _write(out, result, body, cell, geometry, unit, bead, cap, layer, depth, steps, label, clock, vtk,
-                         failure=failure, solver=solver)
+                         failure=failure, solver=solver, fingerprint=fingerprint)
+        checkpoint.unlink(missing_ok=True)  # the curve is on disk in full
     if failure is not None:
         raise AxisymmetricError(f"{failure} (rows up to depth={result.load[-1]:.4f} R written to {out})", None)
     return summary
+
+
+CHECKPOINT_FORMAT = 1
+
+
+def _fingerprint(body: Cell, cell: CellParameters, bead: float, depth: float, steps: int, linear_solver: str) -> str:
+    """The hash of everything that determines a 3D curve: the resolved cell, the bead, the load steps, the sparse
+    solver and the sha256 of the mesh and the element moduli (a mesh that changed under the same parameters does
+    not continue a curve made on the other)."""
+    arrays = array_digest(body.mesh.nodes, body.mesh.elements, np.asarray(body.youngs_moduli, dtype=np.float64))
+    return parameter_hash(cell, {"indenter_radius": bead, "depth_max": depth, "steps": steps,
+                                 "linear_solver": linear_solver, "arrays": arrays}, format_version=CHECKPOINT_FORMAT)
+
+
+def _finished_curve(out: Path, fingerprint: str) -> dict | None:
+    """The metadata of the 3D curve already complete in ``out`` with this fingerprint, or None."""
+    try:
+        summary = json.loads((out / "metadata.json").read_text())
+    except (OSError, ValueError):
+        return None
+    if (isinstance(summary, dict) and summary.get("complete") is True and summary.get("fingerprint") == fingerprint
+            and (out / "indentation.csv").exists()):
+        return summary
+    return None
+
+
+def _save_checkpoint(path: Path, result: Indentation3DResult, fingerprint: str) -> None:
+    def write(temporary: Path) -> None:
+        with temporary.open("wb") as handle:  # a file object: np.savez would append .npz to the temporary name
+            np.savez(handle, fingerprint=np.array(fingerprint),
+                     counts=np.array([result.newton_iterations, result.substeps]),
+                     wall_time=np.array(result.wall_time),
+                     **{name: getattr(result, name) for name in RESULT_ROWS.values()})
+
+    replace_atomically(path, write)
+
+
+def _load_checkpoint(path: Path, fingerprint: str, n_nodes: int) -> Indentation3DResult:
+    """The rows of an interrupted 3D curve; a damaged or foreign file is one ParameterError naming --resume."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            found = str(data["fingerprint"])
+            arrays = {name: np.array(data[name]) for name in RESULT_ROWS.values()}
+            iterations, substeps = (int(v) for v in data["counts"])
+            wall_time = float(data["wall_time"])
+    except Exception as error:  # truncated, garbled, not an npz, missing arrays, pickled objects
+        raise ParameterError("resume", f"cannot continue from {path}: the file is damaged or not an indentation "
+                                       f"checkpoint ({type(error).__name__}); delete it to start again") from None
+    if found != fingerprint:
+        raise ParameterError("resume", f"{path} belongs to a curve with other parameters; rerun with the same "
+                                       "options, or delete it to start again")
+    rows = len(arrays["positions"])
+    if rows < 1 or arrays["positions"].shape != (rows, n_nodes, 3) or any(len(a) != rows for a in arrays.values()):
+        raise ParameterError("resume", f"cannot continue from {path}: its arrays are inconsistent; delete it to "
+                                       "start again")
+    return Indentation3DResult(**arrays, newton_iterations=iterations, substeps=substeps, n_nodes=n_nodes,
+                               wall_time=wall_time)
 
 
 def _table(result: AxisymmetricResult, body: AxisymmetricCell | Cell, cell: CellParameters,
@@ -163,7 +252,7 @@ def _table(result: AxisymmetricResult, body: AxisymmetricCell | Cell, cell: Cell
 def _write(out: Path, result: AxisymmetricResult, body: AxisymmetricCell | Cell, cell: CellParameters,
            geometry: MeridianGeometry, unit: float, bead: float, cap: float | None, layer: float | None, depth: float,
            steps: int, label: str, clock: Stopwatch, vtk: bool, failure: Exception | None = None,
-           interrupted: bool = False, solver: str = "auto") -> dict:
+           interrupted: bool = False, solver: str = "auto", fingerprint: str | None = None) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     three_d = isinstance(body, Cell)
     table, gamma_eff = _table(result, body, cell, unit)
@@ -221,6 +310,8 @@ def _write(out: Path, result: AxisymmetricResult, body: AxisymmetricCell | Cell,
     }
     if failure is not None:
         summary["error"] = str(failure)
+    if fingerprint is not None:
+        summary["fingerprint"] = fingerprint
     if interrupted:
         summary["interrupted"] = True
     outputs.write(out / "metadata.json", write_json, summary)

@@ -14,9 +14,11 @@ from elastocell.cli.options import CELL, opt, plain, takes
 
 @user_errors
 @takes("out", "indenter_radius", "cell_shape", "cap_height", "layer_thickness", "depth_max",
-       opt("steps", default=20, help="Load steps (output rows after depth = 0)."), "solver", CELL, "quiet", "as_json")
+       opt("steps", default=20, help="Load steps (output rows after depth = 0)."), "solver", CELL,
+       opt("resume", help="Continue an interrupted curve of the 3D solver from DIR/checkpoint.npz (same options)."),
+       "quiet", "as_json")
 def indent(out: Path, indenter_radius: str, cell_shape: str, cap_height: str | None, layer_thickness: str | None,
-           depth_max: float, steps: int, solver: str, cell: dict, quiet: bool, as_json: bool):
+           depth_max: float, steps: int, solver: str, cell: dict, resume: bool, quiet: bool, as_json: bool):
     """A rigid frictionless sphere of radius --indenter-radius pressed quasistatically into a cell on a rigid dish.
     A cell symmetric about the dish normal z runs the axisymmetric solver (its own meridian mesh: the mesh options
     do not apply); any other suspended sphere (--random, an offset nucleus, a tilted ellipsoid) the 3D tetrahedral
@@ -38,7 +40,7 @@ def indent(out: Path, indenter_radius: str, cell_shape: str, cap_height: str | N
     try:
         summary = run(out, indenter_radius, cell=parameters, cell_shape=plain(cell_shape), cap_height=cap_height,
                       layer_thickness=layer_thickness, depth_max=depth_max, steps=steps,
-                      solver=plain(solver), progress=not (quiet or as_json))
+                      solver=plain(solver), resume=resume, progress=not (quiet or as_json))
     except AxisymmetricInterrupted as error:
         typer.echo(f"elastocell: {error}", err=True)
         raise typer.Exit(code=130) from None
