@@ -46,6 +46,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     "axisymmetric": ("Axisymmetric solver as the truth for compression", {
         "axisymmetric.py": ("Its refinement, the 3D defaults against it, and their error budget",
                              "nice python validation/axisymmetric.py"),
+        "stiff_3d.py": ("The stiff nucleus in 3D: error budget and the polar layer",
+                        "nice python validation/stiff_3d.py"),
     }),
     "indentation": ("A bead indenting a cell on a dish", {
         "indentation.py": ("Hertz limits and mesh refinement", "nice python validation/indentation.py"),
@@ -93,6 +95,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     "pipe_dclab": ("Pipe flow against dclab's LE-2D-FEM-19", {
         "pipe_dclab.py": ("RT-DC deformation and area, one resolution and extrapolated",
                           "nice python validation/pipe_dclab.py"),
+        "pipe_contour.py": ("Error sources: the measured outline and the staircase wall",
+                            "nice python validation/pipe_contour.py"),
     }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",

@@ -202,7 +202,7 @@ def _generate(nucleus: NucleusParameters, parameters: MeshParameters) -> CellMes
 
             interface = [] if not nucleus_tags else [
                 tag for _, tag in gmsh.model.getBoundary([(3, t) for t in nucleus_tags], oriented=False)]
-            _set_size_field(parameters, interface)
+            _set_size_field(parameters, interface, [tag for tag in volumes if tag not in nucleus_tags])
             gmsh.model.mesh.generate(3)
             if parameters.element == "p2":
                 # curved boundary and interface; untangle curved elements that would be invalid
@@ -251,7 +251,10 @@ def _check_valid(mesh: CellMesh, parameters: MeshParameters) -> None:
         ) from None
 
 
-def _set_size_field(parameters: MeshParameters, interface: list[int] = ()) -> None:
+def _set_size_field(parameters: MeshParameters, interface: list[int] = (), cytoplasm: list[int] = ()) -> None:
+    """gmsh's background size: the bulk size graded to the poles, the finest of that, the nucleus surface's
+    refinement and the polar layer's (``layer_size`` in the cytoplasm volumes ``cytoplasm`` within ``layer_angle``
+    of the z axis, growing to the bulk size over 15 degrees more)."""
     import gmsh
 
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
@@ -279,6 +282,22 @@ def _set_size_field(parameters: MeshParameters, interface: list[int] = ()) -> No
         field.setNumber(threshold, "DistMax", parameters.interface_width)
         smallest = field.add("Min")
         field.setNumbers(smallest, "FieldsList", [tag, threshold])
+        tag = smallest
+    if parameters.layer_size is not None and parameters.layer_size < h and cytoplasm:
+        # cosine of the polar angle about z; the size grows from layer_size at the cone to h 15 degrees further
+        inner, outer = np.cos(np.radians(parameters.layer_angle)), np.cos(np.radians(min(parameters.layer_angle + 15, 90)))
+        cosine = "Abs(z)/Max(Sqrt(x*x+y*y+z*z), 1e-9)"
+        grade = f"Min(1, Max(0, ({inner:.9g} - {cosine})/{inner - outer:.9g}))"
+        if parameters.layer_depth is not None:  # only near the surface: grows over 0.1 R inwards from the depth
+            depth = f"Min(1, Max(0, (1 - Sqrt(x*x+y*y+z*z) - {parameters.layer_depth})/0.1))"
+            grade = f"Max({grade}, {depth})"
+        layer = field.add("MathEval")
+        field.setString(layer, "F", f"{parameters.layer_size} + ({h}-{parameters.layer_size})*{grade}")
+        restricted = field.add("Restrict")
+        field.setNumber(restricted, "InField", layer)
+        field.setNumbers(restricted, "VolumesList", list(cytoplasm))
+        smallest = field.add("Min")
+        field.setNumbers(smallest, "FieldsList", [tag, restricted])
         tag = smallest
     field.setAsBackgroundMesh(tag)
 

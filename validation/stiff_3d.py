@@ -1,0 +1,205 @@
+"""The error budget of ``elastocell compress``'s 3D defaults for a stiff nucleus, and the defaults against the
+axisymmetric truth for every stiffness ratio.
+
+    nice python validation/stiff_3d.py [--only budget defaults] [--ratios 1 2 5 10 20] [--cached-only] [--fresh]
+
+The truth is validation/axisymmetric.py's: ``compress_axisymmetric`` on the meridian mesh of scale 0.5 (within
+0.13 % of its Richardson limit at delta 0.1-0.7 for stiffness ratios 1-20, size ratio 0.5), from that script's
+cache (``--fill-cache`` there computes it); a variation of the Poisson ratio takes the truth at that ratio on the
+meridian mesh of scale 0.7 (within 0.13 % of scale 0.5 at nu 0.48).
+
+- budget: one factor of the previous 3D default (p2; bulk 0.35, poles 0.08 over 1.4 R, nucleus surface 0.15, no
+  polar layer; the 25-point rule with the nodes for a stiffness ratio >= 7) changed at a time, stiffness ratios 20
+  and 10, 14 load steps to delta 0.7 (the four deltas are rows; the previous default's 14-step curve is within
+  0.12 % of its 40-step curve): (a) the cytoplasm between nucleus and plates (poles, the polar layer), (b) the
+  nucleus surface, (c) the quadrature rule, (d) the Poisson ratio in both solvers (the crushed layer's volumetric
+  stiffness), (e) the contact's resolution (the cell surface alone in the polar cone).
+- defaults: ``elastocell compress`` on its defaults, 40 steps to delta 0.75, each in a new process (the wall time
+  of the process, mesh from the cache or not as the column says, and of the curve alone).
+
+Every 3D curve is cached (``elastocell.files.cache_directory``, ``validation-stiff-3d/``) under the hash of the
+resolved cell and the load steps; ``--cached-only`` lists a curve not in the cache as not run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from axisymmetric import DELTAS, ERRORS, at_deltas, axisymmetric_curve, cell_options, three_d_curve
+from page import Page
+
+from elastocell.body.cell import Cell
+from elastocell.files import cache_directory, parameter_hash, read_curve_csv, write_json
+from elastocell.parameters.cell import MeshParameters, cell_parameters
+from elastocell.scenarios.compression import (
+    CompressionError,
+    CompressionParameters,
+    compress,
+    compression_parameters_for,
+)
+
+CACHE_FORMAT = 1
+TRUTH_SCALE, VARIED_TRUTH_SCALE = 0.5, 0.7
+SCREEN_STEPS, SCREEN_DELTA = 14, 0.7
+STEPS, DELTA_MAX = 40, 0.75
+PREVIOUS = {"layer_size": None}
+"""The mesh changes that give back the previous default (no polar layer)."""
+BUDGET = [  # (factor, label, cell changes, mesh changes from the previous default, truth changes)
+    ("", "previous default", {}, {}, {}),
+    ("a", "poles 0.04", {}, {"pole_size": 0.04}, {}),
+    ("a", "polar layer 0.1 within 40 deg", {}, {"layer_size": 0.1, "layer_angle": 40}, {}),
+    ("b", "nucleus surface 0.075", {}, {"interface_size": 0.075}, {}),
+    ("c", "quadrature degree 7 (64 points)", {}, {"quadrature_degree": 7}, {}),
+    ("d", "nu 0.45 (also the truth)", {"poisson_ratio": 0.45}, {}, {"poisson_ratio": 0.45}),
+]
+BUDGET_RATIOS = [20, 10]
+RATIOS = [1, 2, 5, 10, 20]
+
+
+def resolved_cell(ratio: float, cell_changes: dict, mesh_changes: dict):
+    """The cell ``elastocell.compress`` takes for stiffness ratio ``ratio`` (size ratio 0.5) with ``cell_changes``
+    to its options, then ``mesh_changes`` to its resolved mesh."""
+    cell = compression_parameters_for(cell_parameters(**cell_options(ratio, **cell_changes)))
+    if mesh_changes:
+        cell = cell.model_copy(update={"mesh": MeshParameters(**{**cell.mesh.model_dump(), **mesh_changes})})
+    return cell
+
+
+def _path(kind: str, cell, delta_max: float, steps: int):
+    key = parameter_hash(cell, {"delta_max": delta_max, "steps": steps}, format_version=CACHE_FORMAT)[:20]
+    return cache_directory() / "validation-stiff-3d" / f"{kind}-{key}.json"
+
+
+def screened_curve(ratio: float, cell_changes: dict, mesh_changes: dict, fresh: bool = False,
+                   cached_only: bool = False) -> dict | None:
+    """One budget curve, SCREEN_STEPS steps to SCREEN_DELTA, in this process (cached)."""
+    cell = resolved_cell(ratio, cell_changes, mesh_changes)
+    path = _path("3d", cell, SCREEN_DELTA, SCREEN_STEPS)
+    if path.exists() and not fresh:
+        return json.loads(path.read_text())
+    if cached_only:
+        return None
+    start = time.perf_counter()
+    body = Cell.from_parameters(cell)
+    try:
+        result, error = compress(body, CompressionParameters(delta_max=SCREEN_DELTA, steps=SCREEN_STEPS)), ""
+    except CompressionError as failure:
+        result, error = failure.partial, str(failure)
+    record = {"ratio": ratio, "cell_changes": cell_changes, "mesh_changes": mesh_changes,
+              "delta": result.delta.tolist(), "force": result.force.tolist(), "nodes": body.mesh.n_nodes,
+              "seconds": time.perf_counter() - start, "error": error}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_json(path, record)
+    return record
+
+
+def default_curve(ratio: float, fresh: bool = False, cached_only: bool = False) -> dict | None:
+    """``elastocell compress`` on its defaults for stiffness ratio ``ratio``, STEPS steps to DELTA_MAX, run in a
+    new process (cached under the resolved cell): the curve, nodes, the process's and the curve's wall time."""
+    cell = resolved_cell(ratio, {}, {})
+    path = _path("cli", cell, DELTA_MAX, STEPS)
+    if path.exists() and not fresh:
+        return json.loads(path.read_text())
+    shared = three_d_curve(cell_options(ratio), cached_only=True)  # the same resolved cell, same steps
+    if shared is not None and not fresh:
+        return {**shared, "process_s": float("nan"), "curve_s": shared["seconds"], "mesh_cached": None,
+                "mesh": cell.mesh.model_dump(mode="json"), "run": "axisymmetric.py"}
+    if cached_only:
+        return None
+    options = ["--nucleus", "none"] if ratio == 1 else ["--stiffness-ratio", f"{ratio:g}", "--size-ratio", "0.5"]
+    with tempfile.TemporaryDirectory() as out:
+        from elastocell.body.mesh import mesh_cache_path, mesh_parameters  # lazy: only when a curve is computed
+
+        nucleus = cell.nucleus
+        cached_mesh = mesh_cache_path(mesh_parameters(nucleus, cell.mesh)).exists()
+        start = time.perf_counter()
+        completed = subprocess.run([sys.executable, "-m", "elastocell", "compress", "--out", out, *options,
+                                    "--delta-max", f"{DELTA_MAX:g}", "--steps", str(STEPS), "--quiet"],
+                                   capture_output=True, text=True)
+        wall = time.perf_counter() - start
+        metadata = json.loads((Path(out) / "metadata.json").read_text())
+        _, table = read_curve_csv(Path(out) / "compression.csv")
+    record = {"ratio": ratio, "delta": np.asarray(table["delta"]).tolist(),
+              "force": np.asarray(table["force_per_Ec_R2"]).tolist(), "nodes": metadata["mesh"]["n_nodes"],
+              "process_s": wall, "curve_s": metadata["solver"]["curve_time_s"], "mesh_cached": cached_mesh,
+              "returncode": completed.returncode, "stderr": completed.stderr[-500:],
+              "mesh": cell.mesh.model_dump(mode="json"), "run": "new process"}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_json(path, record)
+    return record
+
+
+def truth(ratio: float, changes: dict | None = None) -> np.ndarray:
+    """F of the axisymmetric truth at DELTAS (NaN where it is not in validation/axisymmetric.py's cache)."""
+    scale = VARIED_TRUTH_SCALE if changes else TRUTH_SCALE
+    record = axisymmetric_curve(cell_options(ratio, **(changes or {})), scale, cached_only=True)
+    return at_deltas(record) if record is not None else np.full(len(DELTAS), np.nan)
+
+
+def errors(record: dict, reference: np.ndarray) -> dict:
+    return dict(zip(ERRORS, at_deltas(record) / reference - 1, strict=True))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--only", nargs="+", choices=["budget", "defaults"], default=["budget", "defaults"])
+    parser.add_argument("--ratios", nargs="+", type=float, default=RATIOS)
+    parser.add_argument("--budget-ratios", nargs="+", type=float, default=BUDGET_RATIOS)
+    parser.add_argument("--fresh", action="store_true", help="recompute every 3D curve")
+    parser.add_argument("--cached-only", action="store_true", help="list a curve not in the cache as not run")
+    parser.add_argument("--no-page", action="store_true", help="compute and print, write no page")
+    args = parser.parse_args()
+    page = Page("axisymmetric", "stiff_3d.py", intro=(
+        "F/(E_c R^2) of the 3D solver (p2 tetrahedra) against the axisymmetric truth (`compress_axisymmetric`, "
+        "meridian mesh of scale 0.5, section above), neo-Hookean, nu 0.48, nucleus of size ratio 0.5; every "
+        "error is F/F_truth - 1 at the same delta. Times are wall times on a 2-core machine shared with other "
+        "jobs (load in the footer): compare them as ratios within a table, not with other pages."))
+    form = {"time_s": ".0f", "process_s": ".0f", "curve_s": ".0f", "delta_reached": ".3f",
+            **{name: "+.2%" for name in ERRORS}}
+    if "budget" in args.only:
+        rows = []
+        for ratio in args.budget_ratios:
+            for factor, label, cell_changes, mesh_changes, truth_changes in BUDGET:
+                record = screened_curve(ratio, cell_changes, {**PREVIOUS, **mesh_changes}, args.fresh,
+                                        args.cached_only)
+                if record is None:
+                    rows.append({"gamma": ratio, "factor": factor, "variation": label, "nodes": "not run"})
+                    continue
+                rows.append({"gamma": ratio, "factor": factor, "variation": label, "nodes": record["nodes"],
+                             "time_s": record["seconds"], "delta_reached": record["delta"][-1],
+                             **errors(record, truth(ratio, truth_changes))})
+        page.table(rows, f"Error budget: one factor of the previous default changed at a time ({SCREEN_STEPS} "
+                   f"steps to delta {SCREEN_DELTA:g})", columns=["gamma", "factor", "variation", "nodes", "time_s",
+                                                             "delta_reached", *ERRORS], formats=form)
+    if "defaults" in args.only:
+        rows = []
+        for ratio in args.ratios:
+            record = default_curve(ratio, args.fresh, args.cached_only)
+            if record is None:
+                rows.append({"gamma": ratio, "nodes": "not run"})
+                continue
+            mesh = record["mesh"]
+            rows.append({"gamma": ratio, "nodes": record["nodes"],
+                         "layer": "none" if mesh.get("layer_size") is None else
+                         f"{mesh['layer_size']:g} within {mesh['layer_angle']:g} deg",
+                         "degree": mesh["quadrature_degree"] or 2, "process_s": record["process_s"],
+                         "curve_s": record["curve_s"], "run": record["run"],
+                         "mesh_cached": {True: "yes", False: "no", None: ""}[record["mesh_cached"]],
+                         "delta_reached": record["delta"][-1], **errors(record, truth(ratio))})
+        page.table(rows, f"`elastocell compress` on its defaults ({STEPS} steps to delta {DELTA_MAX:g}), each in a "
+                   "new process, against the axisymmetric truth",
+                   columns=["gamma", "nodes", "layer", "degree", "run", "process_s", "curve_s", "mesh_cached",
+                            "delta_reached", *ERRORS], formats=form)
+    if not args.no_page:
+        page.write()
+
+
+if __name__ == "__main__":
+    main()
