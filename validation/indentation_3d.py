@@ -7,7 +7,8 @@
 1. Against the axisymmetric solver (homogeneous, nu = 0.48, depth to 0.3 R in 6 steps): F(depth) of the 3D
    solver on its default mesh and on a coarser one (every size x 1.4) over the axisymmetric solver's on the
    meridian mesh with every size x 0.7 (its own refinement error, docs/validation/indentation.md, is far below
-   these), and the axisymmetric default beside them. The same for a centred nucleus (gamma 5, lambda 0.5), which
+   these), and the axisymmetric default beside them; for the homogeneous cell also the default mesh with the
+   size at the poles (both contacts) halved. The same for a centred nucleus (gamma 5, lambda 0.5), which
    both solvers can run.
 2. Small depth (0.01 and 0.02 R): the 3D default mesh against Hertz's two contacts in series (bead on cell with
    R_eff = R_b R/(R_b + R), cell on dish).
@@ -55,10 +56,13 @@ NUCLEUS = {"nucleus": "sphere", "stiffness_ratio": 5.0, "size_ratio": 0.5}
 FORMAT = 1
 
 
-def curve_3d(options: dict, depth: float, steps: int, scale: float = 1.0, fresh: bool = False) -> dict:
-    """The 3D curve (depth, force, energy per row, pin reaction, nodes, seconds, note), cached."""
+def curve_3d(options: dict, depth: float, steps: int, scale: float = 1.0, fresh: bool = False,
+             pole_scale: float = 1.0) -> dict:
+    """The 3D curve (depth, force, energy per row, pin reaction, nodes, seconds, note), cached; the default mesh
+    with every size times ``scale``, the poles' times ``pole_scale`` more."""
     default = cell_parameters().mesh  # the 3D default mesh, every size times ``scale``
-    key = parameter_hash(options, {"depth": depth, "steps": steps, "scale": scale, "bead": BEAD,
+    more = {} if pole_scale == 1.0 else {"pole_scale": pole_scale}
+    key = parameter_hash(options, {"depth": depth, "steps": steps, "scale": scale, "bead": BEAD, **more,
                                    "mesh": default.model_dump(mode="json")}, format_version=FORMAT)
     path = cache_directory() / "validation-indentation-3d" / f"{key}.npz"
     if path.exists() and not fresh:
@@ -66,7 +70,7 @@ def curve_3d(options: dict, depth: float, steps: int, scale: float = 1.0, fresh:
         return {name: data[name] for name in data.files} | {"note": str(data["note"])}
     # the nucleus surface's size follows mesh_size in proportion (cell_parameters)
     parameters = compression_parameters_for(cell_parameters(**options, mesh_size=default.mesh_size * scale,
-                                                            pole_size=default.pole_size * scale))
+                                                            pole_size=default.pole_size * scale * pole_scale))
     cell = Cell.from_parameters(parameters)
     start = time.perf_counter()
     note = ""
@@ -104,10 +108,13 @@ def against_axisymmetric(page: Page, fresh: bool, quick: bool) -> None:
     for name, options in cells.items():
         truth_depth, truth = curve_axisymmetric(options, 0.7)
         axi_depth, axi = curve_axisymmetric(options, 1.0)
-        for label, scale in (("3D default mesh", 1.0), ("3D mesh x 1.4", 1.4)):
+        variants = [("3D default mesh", 1.0, 1.0), ("3D mesh x 1.4", 1.4, 1.0)]
+        if name == "homogeneous":
+            variants.append(("3D default mesh, pole size x 0.5", 1.0, 0.5))
+        for label, scale, pole_scale in variants:
             if quick and scale == 1.0:
                 continue
-            curve = curve_3d(options, DEPTH, STEPS, scale, fresh)
+            curve = curve_3d(options, DEPTH, STEPS, scale, fresh, pole_scale)
             row = {"cell": name, "curve": label, "nodes": int(curve["nodes"]), "seconds": float(curve["seconds"]),
                    "max pin reaction / F": float(curve["reaction"].max())}
             for depth in COMPARED:
