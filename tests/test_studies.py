@@ -24,7 +24,8 @@ from elastocell.studies.compression import (
 from elastocell.studies.flow import claims_pipe
 
 ISSUE_NAMES = ["cell-models", "compression-stiffness", "compression-normalised", "compression-position-shape",
-               "compression-mooney-rivlin", "shear-capillary", "shear-offset", "pipe-centred", "equivalent-modulus"]
+               "compression-mooney-rivlin", "shear-capillary", "shear-offset", "pipe-centred", "equivalent-modulus",
+               "rtdc-nucleus"]
 
 
 def test_every_study_of_the_issue_is_registered_and_listed():

@@ -26,6 +26,11 @@ from elastocell.cli.options import opt, takes
        opt("out", help="LUT file to write (dclab text format); the isoelastics go to <stem>_isoelastics.txt and the "
                        "runs to <stem>_runs/."),
        "radii", "moduli", opt("quick", help="2 x 2 grid at R/dx 4 for one unit of time (tests; not converged)."),
+       opt("stiffness_ratio", annotation=float | None, default=None,
+           help="gamma = E_n/E_c: a table for a cell with a centred spherical nucleus (the pipe's nucleus cell); "
+                "its emodulus column is then the cytoplasm's E_c.", shown="none: a homogeneous cell"),
+       opt("size_ratio", annotation=float | None, default=None, help="lambda = R_n/R of the nucleus (needs "
+           "--stiffness-ratio).", shown="0.5 with --stiffness-ratio"),
        opt("poisson_ratio", help="Cell Poisson ratio."), opt("material", help="Hyperelastic law of the cell."),
        opt("resolution", annotation=float | None, default=None, shown="8; --quick: 4"),
        opt("extrapolate", help="Also run each point at --coarse-resolution (in <stem>_runs/<point>/resolution-<R/dx>/) "
@@ -40,7 +45,8 @@ from elastocell.cli.options import opt, takes
 def lut(channel_radius: str | None, channel_width: str | None, channel_shape, channel_height: str | None,
         flow_rate: str, viscosity: str | None, medium: str, temperature: float | None, flow_index: float | None,
         out: Path,
-        radii: str | None, moduli: str | None, quick: bool, poisson_ratio: float, material: str,
+        radii: str | None, moduli: str | None, quick: bool, stiffness_ratio: float | None,
+        size_ratio: float | None, poisson_ratio: float, material: str,
         resolution: float | None, extrapolate: bool, coarse_resolution: float | None, duration: float | None,
         stationary_tolerance: float | None,
         identifier: str | None, scheduler: str | None, workers: int | None, quiet: bool):
@@ -57,10 +63,12 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
                          workers=workers, progress=not quiet, channel_width=channel_width,
                          channel_shape=None if channel_shape is None else channel_shape.value,
                          channel_height=channel_height, medium=medium, temperature=temperature,
-                         flow_index=flow_index, extrapolate=extrapolate, coarse_resolution=coarse_resolution)
+                         flow_index=flow_index, extrapolate=extrapolate, coarse_resolution=coarse_resolution,
+                         stiffness_ratio=stiffness_ratio, size_ratio=size_ratio)
     if not quiet:
         settings = result["settings"]
-        typer.echo(f"{settings['channel_shape']} channel, {settings['medium']}: G = "
+        typer.echo(f"{settings.get('cell_description', 'homogeneous cell')}, "
+                   f"{settings['channel_shape']} channel, {settings['medium']}: G = "
                    f"{settings['pressure_gradient_pa_m']:.4g} Pa/m, tau_w = {settings['wall_shear_stress_pa']:.4g} Pa, "
                    f"gdot_w = {settings['wall_shear_rate_1_s']:.4g} 1/s; {len(result['records'])} of {len(result['records']) + len(result['failures'])} points "
                    f"in {result['wall_time_s']:.1f} s")

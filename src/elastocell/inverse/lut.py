@@ -4,7 +4,8 @@
     compute_lut("lut.txt", channel_radius="10um", flow_rate="0.04uL/s", viscosity="15mPa*s", quick=True)
 
 Every (cell radius R, Young's modulus E) grid point is one centred pipe-flow run
-(:func:`elastocell.api.pipe.pipe`, ``start_offset=0``, homogeneous cell) driven to a stationary shape. The
+(:func:`elastocell.api.pipe.pipe`, ``start_offset=0``, homogeneous cell; with ``stiffness_ratio`` and
+``size_ratio`` a cell with a centred nucleus, whose table reads the cytoplasm's E_c) driven to a stationary shape. The
 physical flow fixes the dimensionless driving:
 
     Poiseuille in a cylinder:   Q = pi G R_ch^4 / (8 eta)   ->   G = 8 eta Q / (pi R_ch^4)
@@ -70,6 +71,7 @@ from elastocell.api.resolved import resolved_parameters
 from elastocell.body.cell import Cell
 from elastocell.files import parameter_hash, replace_atomically, write_json
 from elastocell.lattice.rheology import PowerLaw, tube_flow_rate
+from elastocell.parameters.cell import cell_parameters, describe_cell
 from elastocell.parameters.flow import flow_cell
 from elastocell.parameters.medium import (
     KOZICKI_SQUARE,
@@ -206,6 +208,46 @@ def _list(values, unit: str, name: str) -> list[float]:
     return out
 
 
+CELL_KEYS = ("nucleus", "stiffness_ratio", "size_ratio", "material", "poisson_ratio")
+"""The CELL OPTIONS of a grid point's pipe run (the mesh follows its resolution)."""
+
+
+def cell_model(stiffness_ratio: float | None = None, size_ratio: float | None = None) -> dict:
+    """The cell options of the table's runs: a homogeneous cell (``{"nucleus": "none"}``, the table's keys as
+    they always were) or, with ``stiffness_ratio`` gamma = E_n/E_c, a centred spherical nucleus of size ratio
+    lambda = R_n/R (``size_ratio``, default 0.5 as ``pipe``); checked by ``cell_parameters`` (the path of
+    ``elastocell pipe``)."""
+    if stiffness_ratio is None:
+        if size_ratio is not None:
+            raise ParameterError("size_ratio", "sets the nucleus of a nucleated cell model: give --stiffness-ratio "
+                                 "with it (without both the table is for a homogeneous cell)")
+        return {"nucleus": "none"}
+    cell = {"nucleus": "sphere", "stiffness_ratio": float(stiffness_ratio),
+            "size_ratio": 0.5 if size_ratio is None else float(size_ratio)}
+    from pydantic import ValidationError
+
+    try:
+        cell_parameters(**cell)  # the CELL OPTIONS' own refusals (gamma > 0, lambda in (0, 1)), named
+    except ValidationError as error:
+        cause = (error.errors()[0].get("ctx") or {}).get("error")
+        if isinstance(cause, ParameterError):
+            raise cause from None
+        raise
+    return cell
+
+
+def cell_settings(cell: dict, poisson_ratio: float) -> dict:
+    """What the table's metadata says of the cell model: ``cell_model`` "homogeneous" or "nucleus" (with gamma,
+    lambda and the volume average E_eff/E_c = 1 + (gamma - 1) lambda^3 of the continuum cell; the table's
+    ``emodulus`` is then the cytoplasm's E_c)."""
+    if cell["nucleus"] == "none":
+        return {"cell_model": "homogeneous"}
+    gamma, size = cell["stiffness_ratio"], cell["size_ratio"]
+    return {"cell_model": "nucleus", "nucleus_stiffness_ratio": gamma, "nucleus_size_ratio": size,
+            "volume_average_ratio": 1.0 + (gamma - 1.0) * size**3,
+            "cell_description": describe_cell(cell_parameters(**cell, poisson_ratio=float(poisson_ratio)))}
+
+
 POINT_KEY_FORMAT = 1
 """Version of what a grid point's run directory holds for given resolved parameters (part of its key)."""
 
@@ -286,18 +328,20 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
          poisson_ratio: float = 0.48, material: str = "neo-hookean", resolution: float | None = None,
          duration: float | None = None, stationary_tolerance: float | None = None,
          channel_width=None, channel_shape=None, channel_height=None, medium=None, temperature=None,
-         flow_index=None, extrapolate: bool = True, coarse_resolution: float | None = None
-         ) -> tuple[list[dict], dict]:
+         flow_index=None, extrapolate: bool = True, coarse_resolution: float | None = None,
+         stiffness_ratio: float | None = None, size_ratio: float | None = None) -> tuple[list[dict], dict]:
     """Check every input and return (grid points, settings); raises ParameterError (named option) on an
     impossible one, before anything runs. Each point holds its key and the keyword arguments of ``pipe``.
     ``channel_width`` (a square channel's W) replaces ``channel_radius`` (give None for it); ``channel_shape``
     "square" runs the duct itself; ``medium`` an MC-PBS preset at ``temperature`` replaces ``viscosity``;
     ``extrapolate``/``coarse_resolution`` as ``pipe`` (each point two runs, R/dx 6 and ``resolution``, whose final
-    shapes are Richardson-extrapolated; a point at R/dx <= 6 is one run)."""
+    shapes are Richardson-extrapolated; a point at R/dx <= 6 is one run); ``stiffness_ratio``, ``size_ratio``:
+    the nucleated cell model (:func:`cell_model`; the moduli are then the cytoplasm's E_c)."""
     from pydantic import ValidationError
 
 
     shape = channel_shape_of(channel_shape)
+    cell = cell_model(stiffness_ratio, size_ratio)
     r_ch = channel_radius_from(channel_radius, channel_width, shape, channel_height)
     q = _positive(flow_rate, "m^3/s", "flow_rate")
     fluid, eta = lut_medium(medium, temperature, flow_index, viscosity)
@@ -309,6 +353,7 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
     if not (math.isfinite(poisson_ratio) and -1 < poisson_ratio < 0.5):
         raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {poisson_ratio}")
     resolution = defaults["resolution"] if resolution is None else float(resolution)
+    flow_cell(None, {**cell, "material": material, "poisson_ratio": float(poisson_ratio)}, resolution)  # refusals
     duration = defaults["duration"] if duration is None else float(duration)
     if not (math.isfinite(duration) and duration > 0):
         raise ParameterError("duration", f"must be > 0 (units of 1/gdot_w), got {duration}")
@@ -353,7 +398,7 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
                 ca = driving["wall_shear_stress"] * 2.0 * (1.0 + poisson_ratio) / modulus  # tau_w / mu
             options = {"capillary_number_wall": ca, "channel_radius_ratio": ratio, "start_offset": 0.0,
                        "resolution": resolution, "duration": duration, "stationary_tolerance": tolerance,
-                       "stationary_observable": "deformation", "nucleus": "none", "material": material,
+                       "stationary_observable": "deformation", **cell, "material": material,
                        "poisson_ratio": float(poisson_ratio), **flow, **extrapolation, **single}
             points.append({"key": point_key(radius * 1e6, modulus * 1e-3, options), "radius_um": radius * 1e6,
                            "emodulus_kpa": modulus * 1e-3, "options": options})
@@ -365,7 +410,7 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
                 "wall_shear_stress_pa": driving["wall_shear_stress"],
                 "wall_shear_rate_1_s": driving["wall_shear_rate"], "poisson_ratio": float(poisson_ratio),
                 "material": material, "resolution": resolution, "coarse_resolution": coarse, "duration": duration,
-                "stationary_tolerance": tolerance, "quick": bool(quick)}
+                "stationary_tolerance": tolerance, "quick": bool(quick), **cell_settings(cell, poisson_ratio)}
     return points, settings
 
 
@@ -390,7 +435,7 @@ def check_lattice(points: list[dict]) -> list[dict]:
     cells, out = {}, []
     for point in points:
         options = point["options"]
-        cell_options = {k: options[k] for k in ("nucleus", "material", "poisson_ratio")}
+        cell_options = {k: options[k] for k in CELL_KEYS if k in options}
         key = (options["resolution"], json.dumps(cell_options, sort_keys=True))
         if key not in cells:
             cells[key] = Cell.from_parameters(flow_cell(None, cell_options, options["resolution"]))
@@ -511,11 +556,15 @@ def lut_metadata(settings: dict, identifier: str) -> dict:
     nu = settings["poisson_ratio"]
     square = settings.get("channel_shape") == "square"
     power_law = settings.get("medium_model") == "power-law"
+    nucleated = settings.get("cell_model") == "nucleus"
+    body = (f"a cell with a centred spherical nucleus (gamma = E_n/E_c = {settings.get('nucleus_stiffness_ratio'):g}, "
+            f"lambda = R_n/R = {settings.get('nucleus_size_ratio'):g}; emodulus is the cytoplasm's E_c, the volume "
+            f"average is {settings.get('volume_average_ratio'):.4g} E_c)" if nucleated else "a homogeneous cell")
     if square:
-        channel = (f"a homogeneous cell centred in a SQUARE channel (duct) of width W = {settings['channel_width_um']:g} "
+        channel = (f"{body} centred in a SQUARE channel (duct) of width W = {settings['channel_width_um']:g} "
                    "um, plane walls")
     else:
-        channel = (f"a homogeneous cell centred in a CYLINDRICAL channel of radius R_ch = "
+        channel = (f"{body} centred in a CYLINDRICAL channel of radius R_ch = "
                    f"{settings['channel_radius_um']:g} um; channel_width = 2 R_ch/1.094 is the width of the SQUARE "
                    "RT-DC channel it stands for (the equivalent radius of Mietke et al. 2015, as in dclab's "
                    "LE-2D-FEM-19)")
@@ -537,7 +586,10 @@ def lut_metadata(settings: dict, identifier: str) -> dict:
         "date": date.today().isoformat(),
         "dimensionality": "3D",
         "method": "LBM-IBM (lattice Boltzmann + immersed boundary, tetrahedral FEM cell)",
-        "model": (f"hyper-elastic solid ({settings['material']}, Poisson ratio {nu:g}) / "
+        "model": (f"hyper-elastic solid ({settings['material']}, Poisson ratio {nu:g}"
+                  + (f"; nucleus cell: gamma {settings['nucleus_stiffness_ratio']:g}, lambda "
+                     f"{settings['nucleus_size_ratio']:g}, emodulus = E_c of the cytoplasm" if nucleated else "")
+                  + ") / "
                   f"{'non-Newtonian' if power_law else 'Newtonian'} fluid"),
         "software": f"elastocell {__version__}",
         "authors": "elastocell",
@@ -576,7 +628,10 @@ def write_lut(path: str | Path, records: list[dict], metadata: dict) -> Path:
     """The look-up table: dclab's commented-JSON text format, columns area_um, deform, emodulus."""
     path = Path(path)
     square = metadata.get("elastocell", {}).get("channel_shape") == "square"
-    comment = ("Look-up table for RT-DC computed with elastocell (pipe flow, centred homogeneous cell).\n"
+    nucleated = metadata.get("elastocell", {}).get("cell_model") == "nucleus"
+    comment = ("Look-up table for RT-DC computed with elastocell (pipe flow, centred "
+               + ("cell with a stiff nucleus: emodulus is the cytoplasm's E_c" if nucleated else "homogeneous cell")
+               + ").\n"
                + ("Square channel of width channel_width." if square else
                   "Approximation: cylindrical channel standing for a square one of width channel_width."))
     body = "".join(f"{a:.6e}\t{d:.6e}\t{e:.6e}\n" for a, d, e in _rows(records))
@@ -635,7 +690,8 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                 scheduler: str | None = None, workers: int | None = None, progress: bool = False,
                 client=None, channel_width=None, security=None, channel_shape=None, channel_height=None,
                 medium=None, temperature=None, flow_index=None, extrapolate: bool = True,
-                coarse_resolution: float | None = None) -> dict:
+                coarse_resolution: float | None = None, stiffness_ratio: float | None = None,
+                size_ratio: float | None = None) -> dict:
     """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``. ``security``:
     a ``distributed.Security`` for a TLS scheduler (docs/usage/cluster.md).
 
@@ -649,7 +705,9 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     summary: paths, the finished records, the failed points (key and one-line error; left out of the table and
     rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion
     (kept in the table, listed in the metadata under ``elastocell.not_stationary``: their shape is a transient
-    mean, not a steady shape)."""
+    mean, not a steady shape). ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
+    0.5): a table for the cell with a centred spherical nucleus (the metadata's ``elastocell.cell_model``; its
+    ``emodulus`` column is the cytoplasm's E_c); without them the cell is homogeneous."""
 
     check_execution(scheduler, workers)
     out = Path(out)
@@ -659,7 +717,8 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                             resolution, duration, stationary_tolerance, channel_width=channel_width,
                             channel_shape=channel_shape, channel_height=channel_height, medium=medium,
                             temperature=temperature, flow_index=flow_index, extrapolate=extrapolate,
-                            coarse_resolution=coarse_resolution)
+                            coarse_resolution=coarse_resolution, stiffness_ratio=stiffness_ratio,
+                            size_ratio=size_ratio)
     lattice = check_lattice(points)
     identifier = identifier or f"elastocell-{out.stem}"
     runs = runs_directory(out)

@@ -11,9 +11,10 @@ from elastocell.studies.cell_models import STUDY as CELL_MODELS
 from elastocell.studies.compression import STUDIES as COMPRESSION_STUDIES
 from elastocell.studies.equivalent_modulus import STUDY as EQUIVALENT_MODULUS
 from elastocell.studies.flow import STUDIES as FLOW_STUDIES
+from elastocell.studies.rtdc_nucleus import STUDY as RTDC_NUCLEUS
 
 STUDIES: dict[str, Study] = {s.name: s for s in [CELL_MODELS, *COMPRESSION_STUDIES, *FLOW_STUDIES,
-                                                EQUIVALENT_MODULUS]}
+                                                EQUIVALENT_MODULUS, RTDC_NUCLEUS]}
 
 
 def study_names() -> list[str]:
