@@ -46,6 +46,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     "axisymmetric": ("Axisymmetric solver as the truth for compression", {
         "axisymmetric.py": ("Its refinement, the 3D defaults against it, and their error budget",
                              "nice python validation/axisymmetric.py"),
+        "felupe_axisymmetric.py": ("FElupe's axisymmetric mode beside it: error and time per curve",
+                                   "nice python validation/felupe_axisymmetric.py"),
         "stiff_3d.py": ("The stiff nucleus in 3D: error budget and the polar layer",
                         "nice python validation/stiff_3d.py"),
     }),
@@ -107,6 +109,10 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "lut_square.py": ("Square-channel MC-PBS points against dclab's HE-3D-FEM-22 and HE-2D-FEM-22",
                           "nice python validation/lut_square.py --radii 5,6 --moduli 1,2 --resolution 6 --duration 8 "
                           "--workers 2 --out /tmp/lut-square"),
+    }),
+    "rtdc_nucleus": ("The modulus RT-DC assigns a cell with a stiff nucleus", {
+        "rtdc_nucleus.py": ("Nucleus cells and the random cell read through homogeneous tables",
+                            "nice python validation/rtdc_nucleus.py --dir results/rtdc-nucleus"),
     }),
     "rtdc": ("Real RT-DC measurements through look-up tables", {
         "rtdc_coverage.py": ("Coverage and moduli of dclab's test measurements, dclab's tables and elastocell's",
