@@ -14,8 +14,9 @@ meridian mesh of scale 0.7 (within 0.13 % of scale 0.5 at nu 0.48).
   0.12 % of its 40-step curve): (a) the cytoplasm between nucleus and plates (poles, the polar layer), (b) the
   nucleus surface, (c) the quadrature rule, (d) the Poisson ratio in both solvers (the crushed layer's volumetric
   stiffness), (e) the contact's resolution (the cell surface alone in the polar cone).
-- defaults: ``elastocell compress`` on its defaults, 40 steps to delta 0.75, each in a new process (the wall time
-  of the process, mesh from the cache or not as the column says, and of the curve alone).
+- defaults: ``elastocell compress`` on its defaults to delta 0.75, each in a new process (the wall time of the
+  process, mesh from the cache or not as the column says, and of the curve alone); the default 40 steps for the
+  stiffness ratios of ``--ratios-at-40``, else ``--steps`` (15: rows every 0.05, the four deltas among them).
 
 Every 3D curve is cached (``elastocell.files.cache_directory``, ``validation-stiff-3d/``) under the hash of the
 resolved cell and the load steps; ``--cached-only`` lists a curve not in the cache as not run.
@@ -58,6 +59,8 @@ BUDGET = [  # (factor, label, cell changes, mesh changes from the previous defau
     ("b", "nucleus surface 0.075", {}, {"interface_size": 0.075}, {}),
     ("c", "quadrature degree 7 (64 points)", {}, {"quadrature_degree": 7}, {}),
     ("d", "nu 0.45 (also the truth)", {"poisson_ratio": 0.45}, {}, {"poisson_ratio": 0.45}),
+    ("e", "cell surface 0.1 within 40 deg, 0.08 deep", {}, {"layer_size": 0.1, "layer_angle": 40, "layer_depth": 0.08},
+     {}),
 ]
 BUDGET_RATIOS = [20, 10]
 RATIOS = [1, 2, 5, 10, 20]
@@ -100,14 +103,15 @@ def screened_curve(ratio: float, cell_changes: dict, mesh_changes: dict, fresh: 
     return record
 
 
-def default_curve(ratio: float, fresh: bool = False, cached_only: bool = False) -> dict | None:
-    """``elastocell compress`` on its defaults for stiffness ratio ``ratio``, STEPS steps to DELTA_MAX, run in a
-    new process (cached under the resolved cell): the curve, nodes, the process's and the curve's wall time."""
+def default_curve(ratio: float, steps: int = STEPS, fresh: bool = False, cached_only: bool = False) -> dict | None:
+    """``elastocell compress`` on its defaults for stiffness ratio ``ratio``, ``steps`` steps to DELTA_MAX, run in
+    a new process (cached under the resolved cell): the curve, nodes, the process's and the curve's wall time.
+    With STEPS steps, a curve of the same cell in validation/axisymmetric.py's cache is taken from there."""
     cell = resolved_cell(ratio, {}, {})
-    path = _path("cli", cell, DELTA_MAX, STEPS)
+    path = _path("cli", cell, DELTA_MAX, steps)
     if path.exists() and not fresh:
         return json.loads(path.read_text())
-    shared = three_d_curve(cell_options(ratio), cached_only=True)  # the same resolved cell, same steps
+    shared = three_d_curve(cell_options(ratio), cached_only=True) if steps == STEPS else None  # same cell, steps
     if shared is not None and not fresh:
         return {**shared, "process_s": float("nan"), "curve_s": shared["seconds"], "mesh_cached": None,
                 "mesh": cell.mesh.model_dump(mode="json"), "run": "axisymmetric.py"}
@@ -121,12 +125,12 @@ def default_curve(ratio: float, fresh: bool = False, cached_only: bool = False) 
         cached_mesh = mesh_cache_path(mesh_parameters(nucleus, cell.mesh)).exists()
         start = time.perf_counter()
         completed = subprocess.run([sys.executable, "-m", "elastocell", "compress", "--out", out, *options,
-                                    "--delta-max", f"{DELTA_MAX:g}", "--steps", str(STEPS), "--quiet"],
+                                    "--delta-max", f"{DELTA_MAX:g}", "--steps", str(steps), "--quiet"],
                                    capture_output=True, text=True)
         wall = time.perf_counter() - start
         metadata = json.loads((Path(out) / "metadata.json").read_text())
         _, table = read_curve_csv(Path(out) / "compression.csv")
-    record = {"ratio": ratio, "delta": np.asarray(table["delta"]).tolist(),
+    record = {"ratio": ratio, "steps": steps, "delta": np.asarray(table["delta"]).tolist(),
               "force": np.asarray(table["force_per_Ec_R2"]).tolist(), "nodes": metadata["mesh"]["n_nodes"],
               "process_s": wall, "curve_s": metadata["solver"]["curve_time_s"], "mesh_cached": cached_mesh,
               "returncode": completed.returncode, "stderr": completed.stderr[-500:],
@@ -152,6 +156,9 @@ def main() -> None:
     parser.add_argument("--only", nargs="+", choices=["budget", "defaults"], default=["budget", "defaults"])
     parser.add_argument("--ratios", nargs="+", type=float, default=RATIOS)
     parser.add_argument("--budget-ratios", nargs="+", type=float, default=BUDGET_RATIOS)
+    parser.add_argument("--steps", type=int, default=15, help="load steps of a default curve not in the cache")
+    parser.add_argument("--ratios-at-40", nargs="*", type=float, default=[1, 2, 5],
+                        help="stiffness ratios whose default curve has the default 40 steps")
     parser.add_argument("--fresh", action="store_true", help="recompute every 3D curve")
     parser.add_argument("--cached-only", action="store_true", help="list a curve not in the cache as not run")
     parser.add_argument("--no-page", action="store_true", help="compute and print, write no page")
@@ -181,21 +188,22 @@ def main() -> None:
     if "defaults" in args.only:
         rows = []
         for ratio in args.ratios:
-            record = default_curve(ratio, args.fresh, args.cached_only)
+            steps = STEPS if ratio in args.ratios_at_40 else args.steps
+            record = default_curve(ratio, steps, args.fresh, args.cached_only)
             if record is None:
                 rows.append({"gamma": ratio, "nodes": "not run"})
                 continue
             mesh = record["mesh"]
-            rows.append({"gamma": ratio, "nodes": record["nodes"],
+            rows.append({"gamma": ratio, "steps": record.get("steps", STEPS), "nodes": record["nodes"],
                          "layer": "none" if mesh.get("layer_size") is None else
                          f"{mesh['layer_size']:g} within {mesh['layer_angle']:g} deg",
                          "degree": mesh["quadrature_degree"] or 2, "process_s": record["process_s"],
                          "curve_s": record["curve_s"], "run": record["run"],
                          "mesh_cached": {True: "yes", False: "no", None: ""}[record["mesh_cached"]],
                          "delta_reached": record["delta"][-1], **errors(record, truth(ratio))})
-        page.table(rows, f"`elastocell compress` on its defaults ({STEPS} steps to delta {DELTA_MAX:g}), each in a "
-                   "new process, against the axisymmetric truth",
-                   columns=["gamma", "nodes", "layer", "degree", "run", "process_s", "curve_s", "mesh_cached",
+        page.table(rows, f"`elastocell compress` on its defaults but the steps (to delta {DELTA_MAX:g}; {STEPS}, the "
+                   "default, or 15: rows every 0.05), each in a new process, against the axisymmetric truth",
+                   columns=["gamma", "steps", "nodes", "layer", "degree", "run", "process_s", "curve_s", "mesh_cached",
                             "delta_reached", *ERRORS], formats=form)
     if not args.no_page:
         page.write()

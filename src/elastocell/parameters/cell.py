@@ -237,7 +237,8 @@ class MeshParameters(ParameterModel):
 
         - p2: bulk 0.35, poles 0.08 graded over 1.4 R, nucleus surface 0.15 (4,656 nodes for the reference
           cell): F within 0.81/0.41/0.31/0.24 % at delta = 0.1/0.3/0.5/0.7. The refined nucleus surface is what
-          lets a stiffness-ratio-10 nucleus reach delta = 0.75 (the soft layer between nucleus and plate).
+          lets a stiffness-ratio-10 nucleus reach delta = 0.75 (the soft layer between nucleus and plate). A
+          compression of a nucleus at least 7 times stiffer also refines that layer (:func:`with_polar_layer`).
         - p1: 3,861 nodes; linear tetrahedra need a finer mesh and still lock (see docs/validation/compression.md).
         """
         return cls(**DEFAULT_MESH_SIZES.get(element, {}), element=element)
