@@ -116,8 +116,10 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
         error = surface.error / surface.force.clip(1e-300)
         past = surface.depth_fraction() >= 0.1
         worst = float(np.nanmax(np.where(past, error, np.nan)))
+        heights = (f" at H/R {', '.join(f'{height:g}' for height in surface.heights)}" if cell_shape == "cap"
+                   else "")
         typer.echo(f"nu={poisson_ratio:g} {material} ({source}): R_b/R {surface.ratio_range[0]:g}..."
-                   f"{surface.ratio_range[1]:g}; largest relative mesh error past a tenth of the depth range: "
+                   f"{surface.ratio_range[1]:g}{heights}; largest relative mesh error past a tenth of the depth range: "
                    f"{100 * worst:.2f} %" + (f" -> {out}" if out else ""))
 
 

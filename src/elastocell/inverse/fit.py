@@ -1315,7 +1315,8 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
                          ) if curve else None,
         "geometry": {"geometry": settings.geometry, "cell_shape": settings.cell_shape if
                      settings.geometry == "sphere-indenter" else None, "indenter_radius": settings.indenter_radius,
-                     "indenter_ratio": settings.indenter_ratio if settings.indenter_radius else None},
+                     "indenter_ratio": settings.indenter_ratio if settings.indenter_radius else None,
+                     "cap_ratio": settings.cap_ratio},
         "delta_definition": "delta = (displacement - contact_point) / (2 R) = 1 - h/(2R); for an instrument file "
                             "displacement = -(tip position), tip position = height (measured) + force / k "
                             "(piezo height minus cantilever deflection)" if settings.geometry == "parallel-plates"

@@ -107,27 +107,24 @@ of a few um), to depth min(h/2, R_b/2), 10 load steps (R_b/h = 0.1, a layer 10 R
 without convergence at depth 0.44 R_b); meshes in units of R_b, the fine one every size x 0.7 at R_b/h
 0.4 and 2 (the curves' cost on a shared 2-core machine bounds the grid; validation/indentation.py measures every
 size x 0.5 at R_b/h = 0.4). Between and beyond the mesh-check ratios the error is interpolated, clamped."""
-CAP = SurfaceGrid(ratios=INDENTER_RATIOS, held_out=HELD_OUT_RATIOS, mesh_check=(0.125, 4.0),
+CAP = SurfaceGrid(ratios=INDENTER_RATIOS, held_out=(), mesh_check=(),
                   meshes={"default": MeridianMeshParameters(), "fine": MeridianMeshParameters().scaled(0.7)},
                   depth_max=0.5, depth_per_ratio=1.0, steps=10)
 """The adherent cap's surface at each of :data:`CAP_HEIGHTS`: R_b/R 0.125-4 (R the base radius; 2-20 um beads on
 5-15 um base radii: 0.13-4), to depth ((H/2)^-2 + R_b^-2)^(-1/2) (a smooth min(H/2, R_b); ``depth_max`` in units of
 the apex height H), 10 load steps;
-the fine mesh (every size x 0.7) on the thinnest cap under the smallest bead and the hemisphere under the largest
-(:data:`CAP_MESH_CHECK`), the held-out ratios at H/R = :data:`CAP_HELD_OUT_RATIO_HEIGHT` (the cost of the curves on
-a shared 2-core machine bounds the grid)."""
+the fine mesh (every size x 0.7) at :data:`CAP_MESH_CHECK`, the held-out curves at :data:`CAP_HELD_OUT` (the
+cost of the curves on a shared 2-core machine bounds the grid)."""
 CAP_HEIGHTS = (0.3, 0.5, 0.75, 1.0)
 """H/R of the tabulated caps: a spread adherent cell (fibroblast, epithelial cell: 3-6 um high over a 10-20 um base
 radius, H/R 0.3-0.5) up to a rounded, weakly adherent one (H/R 0.75) and the hemisphere (1). Between them the
 surface is interpolated in H (PCHIP at the same depth fraction); outside [0.3, 1] the fit is refused."""
-CAP_HELD_OUT_HEIGHTS = (0.4, 0.625)
-"""H/R computed at :data:`CAP_HELD_OUT_HEIGHT_RATIOS` and stored held out: the error of the interpolation in H."""
-CAP_HELD_OUT_HEIGHT_RATIOS = (0.25, 1.0, 4.0)
-CAP_HELD_OUT_RATIO_HEIGHT = 0.5
-"""H/R at which the held-out ratios :data:`HELD_OUT_RATIOS` are computed (the error of the interpolation in R_b/R,
-the suspended sphere's)."""
-CAP_MESH_CHECK = ((0.3, 0.125), (1.0, 4.0))
-"""(H/R, R_b/R) computed on the fine mesh too; the cap's mesh error at a depth fraction is the larger of theirs."""
+CAP_HELD_OUT = ((0.5, 0.707), (0.625, 1.0), (0.35, 2.5), (0.55, 0.6), (0.85, 0.2))
+"""(H/R, R_b/R) computed and stored held out: a bead radius between the tabulated ones on a tabulated height, a
+height between the tabulated ones under a tabulated bead, and three caps on neither: the interpolation's error."""
+CAP_MESH_CHECK = ((0.3, 0.125), (0.3, 4.0), (1.0, 0.125))
+"""(H/R, R_b/R) computed on the fine mesh too (the thinnest cap under the smallest and the largest bead, the
+hemisphere under the smallest); the cap's mesh error at a depth fraction is the largest of theirs."""
 GRIDS = {"sphere": SurfaceGrid(INDENTER_RATIOS, HELD_OUT_RATIOS, MESH_CHECK_RATIOS, MESHES, DEPTH_MAX,
                                DEPTH_PER_RATIO, STEPS),
          "cap": CAP, "layer": LAYER}
@@ -364,8 +361,8 @@ class CapIndentationSurface(CurveFile):
     at any H in the tabulated range: ``g = s / s_Hertz`` (Hertz's bead on the cap's curved apex,
     :func:`small_depth_limit`) interpolated by PCHIP in H at the same (R_b/R, depth fraction) nodes (at a tabulated
     height: its own values); its mesh error at a depth fraction is the largest relative error of the mesh-check
-    curves (:data:`CAP_MESH_CHECK`) there, for every ratio. Rows of the heights :data:`CAP_HELD_OUT_HEIGHTS` and
-    of the ratios :data:`HELD_OUT_RATIOS` are stored flagged ``held_out`` and used by neither interpolation.
+    curves (:data:`CAP_MESH_CHECK`) there, for every ratio. The rows of :data:`CAP_HELD_OUT` are stored flagged
+    ``held_out`` and used by neither interpolation.
     """
 
     cap_height: np.ndarray
@@ -484,9 +481,7 @@ def surface_parameters(poisson_ratio: float, material: str = "neo-hookean", cell
     if cell_shape == "layer":
         parameters["layer_width"] = layer_width(1.0 / np.array(grid.ratios + grid.held_out)).tolist()
     if cell_shape == "cap":
-        parameters.update(heights=list(CAP_HEIGHTS), held_out_heights=list(CAP_HELD_OUT_HEIGHTS),
-                          held_out_height_ratios=list(CAP_HELD_OUT_HEIGHT_RATIOS),
-                          held_out_ratio_height=CAP_HELD_OUT_RATIO_HEIGHT, mesh_check=list(CAP_MESH_CHECK))
+        parameters.update(heights=list(CAP_HEIGHTS), held_out=list(CAP_HELD_OUT), mesh_check=list(CAP_MESH_CHECK))
     return parameters
 
 
@@ -606,9 +601,7 @@ def surface_tasks(poisson_ratio: float, material: str = "neo-hookean", cell_shap
     parameters = surface_parameters(poisson_ratio, material, cell_shape)
     grid = GRIDS[cell_shape]
     if cell_shape == "cap":
-        pairs = [(height, ratio) for height in CAP_HEIGHTS for ratio in grid.ratios]
-        pairs += [(CAP_HELD_OUT_RATIO_HEIGHT, ratio) for ratio in grid.held_out]
-        pairs += [(height, ratio) for height in CAP_HELD_OUT_HEIGHTS for ratio in CAP_HELD_OUT_HEIGHT_RATIOS]
+        pairs = [(height, ratio) for height in CAP_HEIGHTS for ratio in grid.ratios] + list(CAP_HELD_OUT)
         checked = set(CAP_MESH_CHECK)
     else:
         pairs = [(None, ratio) for ratio in parameters["ratios"]]
@@ -617,8 +610,7 @@ def surface_tasks(poisson_ratio: float, material: str = "neo-hookean", cell_shap
              for height, ratio in pairs
              for name, mesh in grid.meshes.items() if name == "default" or (height, ratio) in checked]
     if cell_shape == "cap":  # the tabulated curves first, then the fine mesh, then the held-out curves
-        return sorted(tasks, key=lambda task: 1 if task[4] == "fine" else
-                      2 * (task[3] in grid.held_out or task[2] in CAP_HELD_OUT_HEIGHTS))
+        return sorted(tasks, key=lambda task: 1 if task[4] == "fine" else 2 * ((task[2], task[3]) in CAP_HELD_OUT))
     return sorted(tasks, key=lambda task: task[4] != "fine")
 
 
@@ -659,7 +651,7 @@ def compute_indentation_surface(poisson_ratio: float = 0.48, material: str = "ne
         columns["depth"] += list(depth)
         columns["force"] += list(force)
         columns["error"] += list(np.abs(np.asarray(fine) - force))
-        held = ratio in grid.held_out or height in CAP_HELD_OUT_HEIGHTS
+        held = ratio in grid.held_out or (height, ratio) in CAP_HELD_OUT
         columns["held_out"] += [float(held)] * len(depth)
     metadata = {"command": f"elastocell mastercurve indentation --poisson-ratio {poisson_ratio:g} "
                            f"--material {material}" + ("" if cell_shape == "sphere" else f" --cell-shape {cell_shape}"),
@@ -670,7 +662,8 @@ def compute_indentation_surface(poisson_ratio: float = 0.48, material: str = "ne
                 "depth_per_ratio": grid.depth_per_ratio,
                 **({"layer_width": "2 h + 4 R_b"} if cell_shape == "layer" else {}),
                 **({"depth_range": "((H/2)^-2 + R_b^-2)^(-1/2)", "heights": list(CAP_HEIGHTS),
-                    "held_out_heights": list(CAP_HELD_OUT_HEIGHTS)} if cell_shape == "cap" else {}),
+                    "held_out": list(CAP_HELD_OUT), "mesh_check": list(CAP_MESH_CHECK)} if cell_shape == "cap"
+                   else {}),
                 "elastocell_version": __version__, "software": software_versions()}
     arrays = {key: np.array(values) for key, values in columns.items()}
     if cell_shape == "cap":
