@@ -15,7 +15,13 @@ from elastocell.body.cell import Cell
 from elastocell.cli.app import app
 from elastocell.parameters.cell import cell_parameters
 from elastocell.parameters.units import ParameterError
-from elastocell.scenarios.indentation import indentation_curve, indentation_geometry, indentation_solver
+from elastocell.scenarios.indentation import (
+    POLE_SIZE_FACTOR_3D,
+    indentation_cell_3d,
+    indentation_curve,
+    indentation_geometry,
+    indentation_solver,
+)
 from elastocell.scenarios.indentation_3d import Indentation3DInterrupted, indent_3d
 
 runner = CliRunner()
@@ -54,6 +60,14 @@ def test_impossible_solver_choices_name_the_option(options, shape, solver, optio
     with pytest.raises(ParameterError) as error:
         indentation_solver(solver, cell_parameters(**options), geometry)
     assert error.value.parameter == option
+
+
+def test_the_3d_indentation_halves_the_default_pole_size_only():
+    default = cell_parameters(nucleus="none")
+    assert indentation_cell_3d(default).mesh.pole_size == pytest.approx(default.mesh.pole_size * POLE_SIZE_FACTOR_3D)
+    given = cell_parameters(nucleus="none", pole_size=0.1)
+    assert indentation_cell_3d(given).mesh.pole_size == 0.1
+    assert indentation_cell_3d(default).mesh.mesh_size == default.mesh.mesh_size
 
 
 @pytest.mark.slow

@@ -42,10 +42,10 @@ from elastocell.scenarios.axisymmetric import (
     hertz_half_space_force,
     hertz_sphere_indentation_force,
 )
-from elastocell.scenarios.compression import compression_parameters_for
 from elastocell.scenarios.indentation import (
     check_depth,
     indent_body,
+    indentation_cell_3d,
     indentation_geometry,
     indentation_solver,
 )
@@ -129,7 +129,7 @@ def indent(
     with output_directory(out) as out, interruptible():
         clock = Stopwatch()
         if path == "3d":
-            body = Cell.from_parameters(compression_parameters_for(cell))
+            body = Cell.from_parameters(indentation_cell_3d(cell))
         else:
             body = AxisymmetricCell.from_parameters(cell, geometry=geometry)
         label = f"{describe_cell(cell)}, {cell_shape}, R_b = {bead * cell.radius:g}"

@@ -10,11 +10,15 @@ import typer
 from elastocell.cli.common import user_errors
 from elastocell.cli.options import CELL, opt, plain, takes
 
+# the 3D solver's poles (the bead's and the dish's contacts) are twice as fine as compress's by default
+INDENT_CELL = CELL.but(opt("pole_size", help="3D solver: element size at the bead and dish contacts.",
+                           shown="half compress's default (scenarios.indentation.POLE_SIZE_FACTOR_3D)"))
+
 
 
 @user_errors
 @takes("out", "indenter_radius", "cell_shape", "cap_height", "layer_thickness", "depth_max",
-       opt("steps", default=20, help="Load steps (output rows after depth = 0)."), "solver", CELL,
+       opt("steps", default=20, help="Load steps (output rows after depth = 0)."), "solver", INDENT_CELL,
        opt("resume", help="Continue an interrupted curve of the 3D solver from DIR/checkpoint.npz (same options)."),
        "quiet", "as_json")
 def indent(out: Path, indenter_radius: str, cell_shape: str, cap_height: str | None, layer_thickness: str | None,
