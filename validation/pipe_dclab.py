@@ -1,7 +1,7 @@
 """RT-DC deformation and projected area of the centred cell against dclab's LE-2D-FEM-19, at two lattice
 resolutions and their Richardson extrapolation.
 
-    nice python validation/pipe_dclab.py [--points 6:3,7.66:3,6:2,7.66:4.5] [--resolution 8]
+    nice python validation/pipe_dclab.py [--points 6:3,7.66:3,6:2,7.66:4.5] [--resolution 8] [--before DIR]
                                          [--coarse-resolution 6] [--duration 10] [--workers 2]
                                          [--out results/pipe-dclab] [--cached-only]
 
@@ -297,6 +297,8 @@ def main(argv=None) -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("results/pipe-dclab"))
     parser.add_argument("--cached-only", action="store_true", help="write the page from --out/runs.jsonl alone")
+    parser.add_argument("--before", type=Path, default=None,
+                        help="another --out whose records of the same points are listed too, as the state before")
     args = parser.parse_args(argv)
     coarse_label = "the default coarse resolution (6)" if args.coarse_resolution is None else \
         f"{args.coarse_resolution:g}"
@@ -314,7 +316,9 @@ def main(argv=None) -> None:
         "table's area at elastocell's deformation (the vertical and horizontal distances from that isoelastic: "
         "one error seen along two axes, not two independent ones; the table cannot say which area the same cell "
         "has, and A/(pi R^2) is elastocell's area over the undeformed cell's), "
-        "E_dclab/E_t the modulus dclab reads from elastocell's (area, deform) over the cell's. "
+        "E_dclab/E_t the modulus dclab reads from elastocell's (area, deform) over the cell's. Deformation and area "
+        "are those of the pipe scenario's side view, the outline of the smooth surface fitted through the surface "
+        "nodes (the section 'Error sources' below measures it against the convex hull of the nodes). "
         f"`target met`: deformation and area both within {100 * TARGET:g} % (issue 24). A run "
         "that reached the duration cap before the stationarity criterion is marked `no (cap ...)`; `D drift` and "
         "`A drift` are the relative changes of its deformation and area per unit of 1/gdot_w over its last 2 units "
@@ -335,10 +339,18 @@ def main(argv=None) -> None:
         rows.extend(rows_for(record))
     page.table(rows, f"Deformation and area against {TABLE}: each resolution alone, then extrapolated",
                formats=FORMATS)
+    if args.before is not None:
+        before = read_cache(args.before / "runs.jsonl")
+        before_rows = [row for point in points if case(point) in before for row in rows_for(before[case(point)])]
+        page.table(before_rows, f"Before: the same points from {args.before} (their deformation and area measured "
+                   "on the convex hull of the nodes, the observable before the smooth outline)", formats=FORMATS)
     page.print("Apparent order of the deformation error against the table, ln(err_coarse/err_fine)/ln(ratio of "
                "spacings) with err = D - D_t (the order the Richardson step assumes is "
                f"{CONVERGENCE_ORDER:g}; a larger one makes it overshoot):\n" + "\n".join(
                    apparent_order(rows[i:i + 3]) for i in range(0, len(rows), 3)))
+    if args.before is not None and before_rows:
+        page.print("The same, before:\n" + "\n".join(apparent_order(before_rows[i:i + 3])
+                                                      for i in range(0, len(before_rows), 3)))
     times = [f"R = {r['radius_um']:g} um, E = {r['emodulus_kpa']:g} kPa: " + "; ".join(
              f"R/dx {res}: t = {part['duration']:.2f}/gdot_w ({part['stop_reason']}), {part['steps']} steps, "
              f"{part['wall_time_s']:.0f} s" for res, part in r["parts"].items()) for r in records]
