@@ -1,13 +1,12 @@
-"""The polar layer's refinement (``MeshParameters.layer_size``) and the compression default that takes it for a
-stiff nucleus (``parameters.cell.with_polar_layer``, chosen by validation/stiff_3d.py against the axisymmetric
-truth, docs/validation/axisymmetric.md)."""
+"""The polar layer's refinement (``MeshParameters.layer_size``), an option of the mesh whose effect on a stiff
+nucleus validation/stiff_3d.py measures against the axisymmetric truth (docs/validation/axisymmetric.md)."""
 
 import numpy as np
 import pytest
 
 from elastocell.body.cell import Cell
 from elastocell.body.mesh import NUCLEUS, mesh_parameters
-from elastocell.parameters.cell import MeshParameters, cell_parameters, with_polar_layer
+from elastocell.parameters.cell import MeshParameters, cell_parameters
 
 
 def _with_layer(cell, **layer):
@@ -42,18 +41,3 @@ def test_a_mesh_without_the_layer_keeps_its_data_and_cache_key():
     assert MeshParameters.model_validate(layered.mesh.model_dump()) == layered.mesh
     with pytest.raises(ValueError, match="layer_size"):  # pydantic wraps the ParameterError
         MeshParameters(layer_size=0.5)  # coarser than the bulk
-
-
-def test_compression_refines_the_polar_layer_of_a_stiff_p2_nucleus_only():
-    from elastocell.scenarios.compression import compression_parameters_for
-
-    def layer(**options):
-        return compression_parameters_for(cell_parameters(**options)).mesh.layer_size
-
-    assert layer(stiffness_ratio=10) == layer(stiffness_ratio=20, nucleus="ellipsoid") == 0.1
-    assert layer(stiffness_ratio=10, mesh_size=0.7, pole_size=0.3) == pytest.approx(0.2)  # scales with the bulk
-    assert layer() is None and layer(stiffness_ratio=6.9) is None  # the reference cell keeps its mesh
-    assert layer(nucleus="none") is None and layer(random=True) is None
-    assert layer(stiffness_ratio=20, element="p1") is None
-    given = _with_layer(cell_parameters(stiffness_ratio=20), layer_size=0.2)
-    assert with_polar_layer(given) is given

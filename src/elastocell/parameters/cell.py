@@ -197,7 +197,8 @@ class MeshParameters(ParameterModel):
     Linear elements always use their exact one-point rule, so the option does not apply to them. Does not
     change the mesh.
     layer_size: edge length in the cytoplasm within ``layer_angle`` (degrees) of the plate axis z, i.e. the soft
-    layer a stiff nucleus crushes against the plates, growing to the other sizes over 15 degrees; ``None`` = no such
+    layer a stiff nucleus crushes against the plates, growing to the other sizes over 15 degrees; ``None`` (the
+    default: validation/stiff_3d.py measured it to remove only part of a stiff nucleus's error) = no such
     refinement (the layer fields are then left out of the model's data, so that every mesh, cache key and run key
     without it is what it is without the fields).
     layer_depth: if set, the polar layer's refinement only within this distance of the cell surface, growing to
@@ -237,8 +238,7 @@ class MeshParameters(ParameterModel):
 
         - p2: bulk 0.35, poles 0.08 graded over 1.4 R, nucleus surface 0.15 (4,656 nodes for the reference
           cell): F within 0.81/0.41/0.31/0.24 % at delta = 0.1/0.3/0.5/0.7. The refined nucleus surface is what
-          lets a stiffness-ratio-10 nucleus reach delta = 0.75 (the soft layer between nucleus and plate). A
-          compression of a nucleus at least 7 times stiffer also refines that layer (:func:`with_polar_layer`).
+          lets a stiffness-ratio-10 nucleus reach delta = 0.75 (the soft layer between nucleus and plate).
         - p1: 3,861 nodes; linear tetrahedra need a finer mesh and still lock (see docs/validation/compression.md).
         """
         return cls(**DEFAULT_MESH_SIZES.get(element, {}), element=element)
@@ -275,28 +275,6 @@ class MeshParameters(ParameterModel):
             require(2 <= self.quadrature_degree <= 9, "quadrature_degree",
                      f"must be in [2, 9] for p2 elements, got {self.quadrature_degree}")
         return self
-
-
-POLAR_LAYER = {"layer_size": 0.1, "layer_angle": 40.0}
-"""The polar layer a compression of a stiff nucleus refines (p2, at the default bulk size 0.35; ``layer_size``
-scales with ``mesh_size``), chosen by ``validation/stiff_3d.py`` against the axisymmetric truth
-(docs/validation/axisymmetric.md)."""
-POLAR_LAYER_FROM_STIFFNESS_RATIO = 7.0
-"""The stiffness ratio from which :func:`with_polar_layer` refines the polar layer."""
-
-
-def with_polar_layer(cell: CellParameters) -> CellParameters:
-    """``cell`` with the polar layer of :data:`POLAR_LAYER` refined when it is a p2 cell whose nucleus is at least
-    :data:`POLAR_LAYER_FROM_STIFFNESS_RATIO` times stiffer than the cytoplasm and no ``layer_size`` was given: the
-    soft layer such a nucleus crushes against the plates is where the default mesh errs most (stiffness ratio 20:
-    +7.4 % at delta 0.7 without it, docs/validation/axisymmetric.md). Any other cell is returned unchanged."""
-    mesh, nucleus = cell.mesh, cell.nucleus
-    if (mesh.element != "p2" or mesh.layer_size is not None or cell.random is not None or nucleus.shape == "none"
-            or nucleus.stiffness_ratio < POLAR_LAYER_FROM_STIFFNESS_RATIO):
-        return cell
-    size = POLAR_LAYER["layer_size"] * mesh.mesh_size / DEFAULT_MESH_SIZES["p2"]["mesh_size"]
-    layer = {"layer_size": max(round(size, 10), 0.005), "layer_angle": POLAR_LAYER["layer_angle"]}
-    return cell.model_copy(update={"mesh": MeshParameters(**{**mesh.model_dump(), **layer})})
 
 
 DEFAULT_MESH_SIZES = {

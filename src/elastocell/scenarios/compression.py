@@ -41,7 +41,7 @@ from elastocell.body.elements import (
     nodal_jacobians,
     quadrature_rule,
 )
-from elastocell.parameters.cell import CellParameters, ParameterModel, require, with_polar_layer
+from elastocell.parameters.cell import CellParameters, ParameterModel, require
 from elastocell.solvers.sparse import NotPositiveDefinite, SparseSolver
 
 DEBUG = bool(os.environ.get('ELASTOCELL_DEBUG'))
@@ -587,9 +587,7 @@ def compression_parameters_for(cell: CellParameters) -> CellParameters:
     """``cell`` with the quadrature a compression of it uses: the degree given, else, for p2 elements, a
     neo-Hookean cell and a nucleus at least :data:`NODAL_RULE_FROM_STIFFNESS_RATIO` times stiffer than the
     cytoplasm, degree 5 (its points include the nodes, so no element of the crushed soft layer folds at a node). The
-    Mooney-Rivlin law keeps degree 2: its reference cell stops at delta = 0.619 with degree 5 (README). Such a
-    nucleus also gets the refined polar layer (``parameters.cell.with_polar_layer``)."""
-    cell = with_polar_layer(cell)
+    Mooney-Rivlin law keeps degree 2: its reference cell stops at delta = 0.619 with degree 5 (README)."""
     mesh, nucleus = cell.mesh, cell.nucleus
     if (mesh.element == "p2" and mesh.quadrature_degree is None and cell.random is None and nucleus.shape != "none"
             and nucleus.stiffness_ratio >= NODAL_RULE_FROM_STIFFNESS_RATIO and cell.material.law == "neo-hookean"):
