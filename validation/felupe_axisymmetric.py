@@ -2,8 +2,8 @@
 frictionless plates, in the same run: F/(E R^2) against the converged truth, and the wall time of each curve, so
 that the time at equal accuracy can be read off.
 
-    nice python validation/felupe_axisymmetric.py [--felupe-scales 2 1 0.7] [--elastocell-scales 2 1 0.7]
-        [--penalties 1e3 1e4 1e5] [--delta-max 0.75] [--steps 40]
+    nice python validation/felupe_axisymmetric.py [--felupe-scales 2 1.4 1] [--elastocell-scales 2 1 0.7]
+        [--penalties 1e3 1e4 1e5] [--delta-max 0.50625] [--steps 27] [--reach 0.75] [--contact multipoint]
 
 The cell: R = 1, E = 1, nu = 0.48, W = mu/2 (J^(-2/3) I1 - 3) + kappa/2 (J - 1)^2 (``felupe.NeoHooke(mu, bulk)``,
 checked against W by ``felupe_peer.check_material``), plates at z = +-(1 - delta), delta = 1 - h/(2R).
@@ -18,7 +18,10 @@ the surface nodes of each half, each with a centre point (an extra point carryin
 both plates moved by a ramped ``Boundary`` in a ``Step``/``Job`` (``newtonraphson``, ``pypardiso.spsolve``,
 ``CutbackPlugin``). F is the reaction at the upper plate's centre point: the sum of the penalty forces, each
 the ring force of its node (the integral over the full circle), so F is the whole plate force. The penalty's
-effect is measured by repeating the coarsest mesh with each of ``--penalties``.
+effect is measured by repeating the coarsest mesh with each of ``--penalties``. ``--contact plane`` uses
+``felupe.ContactRigidPlane`` instead (its penalty a factor of the mean normal stiffness of the contact nodes).
+Both codes go to delta 0.50625 in 27 steps (rows of the truth); one more FElupe curve on the coarsest mesh tries
+``--reach`` and says where and why it stopped.
 
 elastocell: ``compress_axisymmetric`` on ``MeridianMeshParameters().scaled(s)`` (exact frictionless contact by an
 active set). The truth: its finest curve (scale 0.5) from the cache of ``validation/axisymmetric.py`` (not
@@ -54,6 +57,9 @@ DELTA_MAX, STEPS = 0.50625, 27
 """Both codes to delta 0.50625 in 27 steps: the rows of the truth (40 steps to 0.75); FElupe stops near 0.525."""
 ERRORS = [f"err@{d:g}" for d in DELTAS]
 _GMSH_TRIANGLE6 = 9
+COMMON = 0.3
+"""Every curve of the table reaches it: times and errors up to it compare the codes at equal accuracy."""
+CONTACTS = {"multipoint": "MultiPointContact", "plane": "ContactRigidPlane"}
 
 
 def mesh_meridian(scale: float):
@@ -119,7 +125,8 @@ def mesh_meridian(scale: float):
 
 
 def felupe_curve(scale: float, delta_max: float, steps: int, penalty: float = 1e4 * E * R,
-                 contact: str = "multipoint", solver: str = "pypardiso") -> dict:
+                 contact: str = "multipoint", solver: str = "pypardiso", linesearch: bool = False,
+                 cutbacks: int = 6) -> dict:
     """F/(E R^2) against delta from FElupe's axisymmetric mode on the mesh of ``scale``: delta, force, nodes,
     seconds (mesh and solve), Newton iterations, the delta reached, the error that stopped it, and the largest
     reaction at the centre node over F."""
@@ -159,7 +166,7 @@ def felupe_curve(scale: float, delta_max: float, steps: int, penalty: float = 1e
     travel = R * deltas + offset  # plate at z = +-(R - R delta)
     step = fem.Step(items=[solid, *contacts], boundaries=boundaries,
                     ramp={boundaries["top"]: -travel, boundaries["bottom"]: travel})
-    record = {"delta": [0.0], "force": [0.0], "centre": [0.0], "iterations": 0}
+    record = {"delta": [0.0], "force": [0.0], "centre": [0.0], "iterations": 0, "times": [0.0]}
 
     class Recorder(fem.Plugin):
         def after_iteration(self, context, state):
@@ -173,8 +180,10 @@ def felupe_curve(scale: float, delta_max: float, steps: int, penalty: float = 1e
             record["delta"].append(float(deltas[state.substepnumber]))
             record["force"].append(float(force))
             record["centre"].append(float(abs(reactions[centre, 0]) / max(abs(force), 1e-300)))
+            record["times"].append(time.perf_counter() - start)
 
-    job = fem.Job(steps=[step], plugins=[fem.CutbackPlugin(factor=0.5, max_cutbacks=6, growth=2.0), Recorder()])
+    plugins = [fem.CutbackPlugin(factor=0.5, max_cutbacks=cutbacks, growth=2.0), Recorder()]
+    job = fem.Job(steps=[step], plugins=[fem.LinesearchPlugin(), *plugins] if linesearch else plugins)
     error = ""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
@@ -185,19 +194,22 @@ def felupe_curve(scale: float, delta_max: float, steps: int, penalty: float = 1e
             error = f"{type(failure).__name__}: {failure}"[:160]
     return {"delta": record["delta"], "force": record["force"], "nodes": n, "elements": len(cells),
             "seconds": time.perf_counter() - start, "newton": record["iterations"], "error": error,
+            "times": record["times"],
             "centre_reaction": max(record["centre"]), "penalty": penalty}
 
 
 def elastocell_curve(scale: float, delta_max: float, steps: int) -> dict:
     """``compress_axisymmetric`` on ``MeridianMeshParameters().scaled(scale)``, timed with its mesh."""
-    start = time.perf_counter()
+    start, times = time.perf_counter(), []
     body = AxisymmetricCell.from_parameters(cell_parameters(**cell_options(1)), MeridianMeshParameters().scaled(scale))
     try:
-        result, error = compress_axisymmetric(body, delta_max, steps), ""
+        result, error = compress_axisymmetric(body, delta_max, steps,
+                                              on_row=lambda _: times.append(time.perf_counter() - start)), ""
     except AxisymmetricError as failure:
         result, error = failure.partial, str(failure)[:160]
     return {"delta": result.load.tolist(), "force": result.force.tolist(), "nodes": body.mesh.n_nodes,
             "elements": len(body.mesh.elements), "seconds": time.perf_counter() - start, "error": error,
+            "times": [0.0, *times],
             "newton": result.newton_iterations}
 
 
@@ -208,10 +220,16 @@ def at_deltas(record: dict) -> np.ndarray:
     return interpolate(record) if len(record["delta"]) > 1 else np.full(len(DELTAS), np.nan)
 
 
+def time_to(record: dict, delta: float) -> float:
+    """Wall time from the start of the curve (its mesh included) to its first row at ``delta`` or beyond."""
+    reached = np.flatnonzero(np.asarray(record["delta"]) >= delta - 1e-9)
+    return record["times"][reached[0]] if len(reached) and reached[0] < len(record["times"]) else np.nan
+
+
 def row(code: str, scale: float, record: dict, truth: np.ndarray, **extra) -> dict:
     errors = at_deltas(record) / truth - 1
     return {"code": code, "scale": scale, "nodes": record["nodes"], "elements": record["elements"],
-            "time_s": record["seconds"], "delta_reached": record["delta"][-1],
+            "time_s": record["seconds"], "time_0.3_s": time_to(record, COMMON), "delta_reached": record["delta"][-1],
             **{name: e for name, e in zip(ERRORS, errors, strict=True)},
             "max_abs_err": float(np.nanmax(np.abs(errors))) if np.isfinite(errors).any() else np.nan,
             **extra, "stop": record["error"]}
@@ -221,13 +239,17 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--felupe-scales", nargs="+", type=float, default=[2.0, 1.4, 1.0])
     parser.add_argument("--elastocell-scales", nargs="+", type=float, default=[2.0, 1.0, 0.7])
+    parser.add_argument("--penalty", type=float, default=1e4, help="FElupe's contact penalty (multipoint: force "
+                        "per length per node, in E R; plane: times the mean normal stiffness of the contact nodes)")
     parser.add_argument("--penalties", nargs="+", type=float, default=[1e3, 1e4, 1e5],
-                        help="contact penalties (force/length per node) on the coarsest FElupe mesh")
+                        help="the penalties tried on the coarsest FElupe mesh")
     parser.add_argument("--delta-max", type=float, default=DELTA_MAX, help="the delta both codes go to")
     parser.add_argument("--steps", type=int, default=STEPS, help="equal load steps to --delta-max")
     parser.add_argument("--reach", type=float, default=0.75,
                         help="delta that one more FElupe curve on the coarsest mesh tries to reach (0: none)")
     parser.add_argument("--threads", type=int, default=1, help="MKL threads of PARDISO (1: the cores are shared)")
+    parser.add_argument("--contact", choices=["multipoint", "plane"], default="multipoint",
+                        help="FElupe's contact: MultiPointContact or ContactRigidPlane")
     parser.add_argument("--no-page", action="store_true", help="print only")
     args = parser.parse_args()
     import felupe as fem
@@ -242,7 +264,7 @@ def main() -> None:
         "The homogeneous cell (R = 1, E = 1, nu 0.48, the same neo-Hookean W) between rigid frictionless plates, "
         f"{args.steps} equal load steps to delta {args.delta_max:g}, solved by FElupe's axisymmetric mode "
         "(`FieldAxisymmetric`, `RegionQuadraticTriangle` on a gmsh half-disc with elastocell's meridian sizes "
-        "times scale; contact by two `MultiPointContact`, a node-to-rigid-line penalty) and by elastocell's "
+        f"times scale; contact by two `{CONTACTS[args.contact]}`, a node-to-rigid-line penalty) and by elastocell's "
         "`compress_axisymmetric` (exact frictionless contact by an active set), one curve after the other in this "
         "process. Every error is F/F_truth - 1, the truth being elastocell's curve on the meridian mesh of scale "
         f"{TRUTH_SCALE:g} ({truth_record['nodes']} nodes; from the cache of `validation/axisymmetric.py`, whose "
@@ -266,7 +288,7 @@ def main() -> None:
                    f"delta {record['delta'][-1]:.3f}, load {loads[-1]:.1f}")
     penalty_rows = []
     for scale in sorted(args.felupe_scales, reverse=True):
-        record = felupe_curve(scale, args.delta_max, args.steps)
+        record = felupe_curve(scale, args.delta_max, args.steps, args.penalty, args.contact)
         rows.append(row("FElupe", scale, record, truth, newton=record["newton"], penalty=f"{record['penalty']:.0e}"))
         loads.append(os.getloadavg()[0])
         page.print(f"FElupe scale {scale:g}: {record['nodes']} nodes, {record['seconds']:.1f} s, "
@@ -275,36 +297,48 @@ def main() -> None:
         if scale == coarse:
             penalty_rows.append((record, rows[-1]))
     for penalty in args.penalties:
-        if penalty == 1e4 * E * R:
+        if penalty == args.penalty:
             continue
-        record = felupe_curve(coarse, args.delta_max, args.steps, penalty=penalty)
+        record = felupe_curve(coarse, args.delta_max, args.steps, penalty=penalty, contact=args.contact)
         penalty_rows.append((record, row("FElupe", coarse, record, truth, newton=record["newton"],
                                          penalty=f"{penalty:.0e}")))
         page.print(f"FElupe scale {coarse:g}, penalty {penalty:.0e}: {record['seconds']:.1f} s, "
                    f"delta {record['delta'][-1]:.3f}")
     if args.reach > args.delta_max:
         steps = round(args.steps * args.reach / args.delta_max)
-        record = felupe_curve(coarse, args.reach, steps)
+        record = felupe_curve(coarse, args.reach, steps, args.penalty, args.contact)
         reach = row("FElupe", coarse, record, truth, newton=record["newton"], penalty=f"{record['penalty']:.0e}")
         page.print(f"FElupe scale {coarse:g} towards delta {args.reach:g} ({steps} steps, up to 6 cut-backs of a "
                    f"step): reached {record['delta'][-1]:.4f} in {record['seconds']:.1f} s, errors "
                    + " ".join(f"{name} {reach[name]:+.3%}" for name in ERRORS)
                    + (f"; stopped by {record['error']}" if record["error"] else ""))
     shown = [name for d, name in zip(DELTAS, ERRORS, strict=True) if d <= args.delta_max + 1e-12]
-    columns = ["code", "scale", "nodes", "elements", "time_s", "newton", "delta_reached", *shown, "max_abs_err",
+    columns = ["code", "scale", "nodes", "elements", "time_s", "time_0.3_s", "newton", "delta_reached", *shown, "max_abs_err",
                "stop"]
-    formats = {"time_s": ".1f", "delta_reached": ".3f", "max_abs_err": ".3%", **{e: "+.3%" for e in ERRORS}}
+    formats = {"time_s": ".1f", "time_0.3_s": ".1f", "delta_reached": ".3f", "max_abs_err": ".3%", **{e: "+.3%" for e in ERRORS}}
     page.table(rows, "Error against the truth and wall time per curve (max_abs_err: the largest |error| at "
                + ", ".join(name.removeprefix("err@") for name in shown) + "; newton: Newton iterations of the "
-               "curve, cut-back tries included; penalty: of FElupe's contact, force per length per node)",
+               "curve, cut-back tries included; time_0.3_s: from the start of the curve to its row at delta 0.3; penalty: "
+               "of FElupe's contact, see --penalty)",
                columns=columns, formats=formats)
+    early = [name for d, name in zip(DELTAS, ERRORS, strict=True) if d <= COMMON + 1e-12]
+    for felupe in (r for r in rows if r["code"] == "FElupe"):
+        error = max(abs(felupe[name]) for name in early)
+        matches = [r for r in rows if r["code"] == "elastocell" and max(abs(r[name]) for name in early) <= error]
+        best = min(matches, key=lambda r: r["time_0.3_s"]) if matches else None
+        page.print(f"FElupe scale {felupe['scale']:g}: largest |error| to delta {COMMON:g} {error:.3%} in "
+                   f"{felupe['time_0.3_s']:.1f} s; " + (
+                       f"elastocell's cheapest curve as accurate (scale {best['scale']:g}, "
+                       f"{max(abs(best[name]) for name in early):.3%}) took {best['time_0.3_s']:.1f} s: "
+                       f"ratio FElupe/elastocell {felupe['time_0.3_s'] / best['time_0.3_s']:.1f}"
+                       if best else "no elastocell curve of this run is as accurate"))
     reference = at_deltas(penalty_rows[0][0])
     penalty_table = [{"penalty": r["penalty"], "time_s": r["time_s"], "delta_reached": r["delta_reached"],
                       **{f"dF@{d:g}": change for d, change, name in
                          zip(DELTAS, at_deltas(record) / reference - 1, ERRORS, strict=True) if name in shown},
                       **{name: r[name] for name in shown}} for record, r in penalty_rows]
     page.table(penalty_table, f"The contact penalty's effect on FElupe's F (scale {coarse:g}): dF is the change "
-               "from the penalty 1e4 of the table above", formats={
+               f"from the penalty {args.penalty:.0e} of the table above", formats={
                    "time_s": ".1f", "delta_reached": ".3f", **{f"dF@{d:g}": "+.1e" for d in DELTAS},
                    **{e: "+.3%" for e in ERRORS}})
     page.print(f"load average (1 min) after each curve: {' '.join(f'{x:.1f}' for x in loads)}")
