@@ -89,6 +89,8 @@ def main() -> None:
         frame["stop"] = [f"{'stationary' if s else 'cap'} ({t:.1f})" for s, t in
                          zip(frame["stationary"], durations, strict=True)]
         for kind, heading in (("nucleus", "Nucleus cells"), ("random", "Random cell"),
+                              ("mesh control", "Mesh controls: the nucleus mesh with gamma = 1 (what the mesh alone "
+                               "does to D; read as a cell)"),
                               ("homogeneous", "Homogeneous reading cells (E/E_c in the name)")):
             rows = frame[frame["kind"] == kind]
             page.table([{label: row[column] for column, label in COLUMNS.items()} for _, row in rows.iterrows()],

@@ -60,10 +60,10 @@ CAPILLARY_NUMBER_WALL = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RAD
 
 STIFFNESS_RATIOS = (2, 5, 10)
 SIZE_RATIOS = (0.3, 0.5, 0.7)
-HOMOGENEOUS_RATIOS = (0.8, 1.0, 1.5, 2.25, 3.5, 5.0)
+HOMOGENEOUS_RATIOS = (0.8, 1.0, 1.5, 2.25, 3.5, 5.0, 8.0)
 """E/E_c of the homogeneous reading cells (full): from below the cytoplasm (a nucleus cell's mesh may deform
 slightly more than the homogeneous cytoplasm's: measured D 0.0508 for gamma 2, lambda 0.5 against 0.0500) to
-above the stiffest E_eff (4.1 E_c)."""
+above the stiffest E_eff (4.1 E_c; the random cell's meshed E_eff is 5.8 E_c)."""
 
 QUICK_CELLS = ((2, 0.5), (10, 0.5))
 QUICK_HOMOGENEOUS_RATIOS = (0.8, 2.5)
@@ -90,6 +90,11 @@ def members(quick: bool) -> list[Member]:
         out.append(Member(Run.of("pipe", **base, capillary_number_wall=CAPILLARY_NUMBER_WALL, random=True, seed=0),
                           {"cell": "random", "kind": "random", "stiffness_ratio": np.nan, "size_ratio": np.nan,
                            "modulus_ratio": np.nan}))
+    if not quick:  # the nucleus mesh with a nucleus as soft as the cytoplasm: what the mesh alone does to D
+        out += [Member(Run.of("pipe", **base, capillary_number_wall=CAPILLARY_NUMBER_WALL, stiffness_ratio=1.0,
+                              size_ratio=float(s)),
+                       {"cell": f"gamma 1 lambda {s:g}", "kind": "mesh control", "stiffness_ratio": 1.0,
+                        "size_ratio": float(s), "modulus_ratio": 1.0}) for s in SIZE_RATIOS]
     for ratio in QUICK_HOMOGENEOUS_RATIOS if quick else HOMOGENEOUS_RATIOS:
         out.append(Member(Run.of("pipe", **base, capillary_number_wall=CAPILLARY_NUMBER_WALL / ratio, nucleus="none"),
                           {"cell": f"homogeneous {ratio:g} E_c", "kind": "homogeneous", "stiffness_ratio": 1.0,
@@ -299,6 +304,12 @@ def claims_rtdc(frame) -> list[Claim]:
     cells = _cells(frame)
     read = cells[np.isfinite(cells["e_rtdc_over_ec"].astype(float))]
     caveat = _caveat(frame)
+    controls = _cells(frame, "mesh control")
+    if not controls.empty:  # what the nucleus mesh alone does: a gamma = 1 cell read through the homogeneous runs
+        caveat = "; ".join(filter(None, [caveat, "mesh controls (gamma 1 on the nucleus meshes) read as E_RTDC/E_c "
+                                         + ", ".join(f"{c}: {v:.3f}" for c, v in zip(controls["cell"],
+                                                                                    controls["e_rtdc_over_ec"],
+                                                                                    strict=True))]))
     note = f" [{caveat}]" if caveat else ""
     out = []
     if read.empty:
