@@ -190,7 +190,9 @@ def main() -> None:
                     base = row
                 rows.append({"gamma": ratio, "factor": factor, "variation": label, "nodes": record["nodes"],
                              "time_s": record["seconds"], "delta_reached": record["delta"][-1], **row,
-                             **({"removed@0.7": 1 - row[ERRORS[-1]] / base[ERRORS[-1]]} if factor and base else {})})
+                             **({f"removed@{d:g}": 1 - row[f"err@{d:g}"] / base[f"err@{d:g}"] for d in (0.5, 0.7)}
+                                if factor and base else {}),
+                             "stop": record["error"].split(":")[0] if record["error"] else ""})
         for ratio in args.budget_ratios:
             screened = screened_curve(ratio, {}, BASE, cached_only=True)
             full = three_d_curve(cell_options(ratio), cached_only=True)
@@ -199,10 +201,10 @@ def main() -> None:
                 page.print(f"gamma {ratio:g}: the default's {SCREEN_STEPS}-step curve differs from its {STEPS}-step "
                            f"curve (validation/axisymmetric.py) by at most {np.nanmax(gap):.2%} at delta 0.1-0.7.")
         page.table(rows, f"Error budget: one factor of the default changed at a time ({SCREEN_STEPS} "
-                   f"steps to delta {SCREEN_DELTA:g}; removed@0.7: the share of the default's error at delta 0.7 "
-                   "that the change removes)", columns=["gamma", "factor", "variation", "nodes", "time_s",
-                                                             "delta_reached", *ERRORS, "removed@0.7"],
-                   formats={**form, "removed@0.7": ".0%"})
+                   f"steps to delta {SCREEN_DELTA:g}; removed@0.5, @0.7: the share of the default's error at that "
+                   "delta that the change removes)", columns=["gamma", "factor", "variation", "nodes", "time_s",
+                                                             "delta_reached", *ERRORS, "removed@0.5", "removed@0.7", "stop"],
+                   formats={**form, "removed@0.5": ".0%", "removed@0.7": ".0%"})
     if "defaults" in args.only:
         rows = []
         for ratio in args.ratios:
