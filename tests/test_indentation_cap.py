@@ -47,15 +47,12 @@ NU = 0.48
 # R_b and as H falls
 HERTZ_LIMIT_TOLERANCE = 0.06
 HERTZ_LIMIT_TALLEST = 0.015
-# measured: the surface against the held-out curves past a tenth of their range, 0.40 % (0.5, 0.707), 0.20 %
-# (0.625, 1), 0.64 % (0.55, 0.6), 0.66 % (0.85, 0.2), and 2.81 % on the thin cap under the large bead (0.35, 2.5),
-# where s / s_Hertz changes by a factor 2 between the tabulated heights 0.3 and 0.5; the mesh error is at most
-# 1.13 % past a tenth of the range
-INTERPOLATION_TOLERANCE = {(0.35, 2.5): 0.035}
-INTERPOLATION_TOLERANCE_ELSEWHERE = 0.01
-# measured round trip (E / E_true - 1): +0.16 % (0.5, 0.707), +0.23 % (0.55, 0.6), +0.09 % (0.625, 1), +0.43 %
-# (0.85, 0.2), and -2.23 % on the thin cap under the large bead (0.35, 2.5), the interpolation's error there
-ROUND_TRIP_TOLERANCE = {(0.35, 2.5): 0.03}
+# measured: the surface against the held-out curves past a tenth of their range, 0.91 % (H/R 0.35, R_b/R 2.5: a
+# thin cap under a large bead, where s / s_Hertz changes fastest with H), 0.40 % (0.5, 0.707), 0.89 % (0.55, 0.6),
+# 0.67 % (0.625, 1), 0.66 % (0.85, 0.2); the mesh error is at most 1.13 % past a tenth of the range
+INTERPOLATION_TOLERANCE = 0.015
+# measured round trip (E / E_true - 1): +0.35 % (0.35, 2.5), +0.16 % (0.5, 0.707), -0.17 % (0.55, 0.6), -0.51 %
+# (0.625, 1), +0.43 % (0.85, 0.2); the issue's target is 2 %
 
 
 @pytest.fixture(scope="module")
@@ -121,7 +118,7 @@ def test_the_interpolation_reproduces_held_out_caps(caps, height, ratio):
     surface = caps.at_height(height)
     assert surface.depth_max(ratio) == pytest.approx(depth[-1], rel=1e-3)
     worst = float(np.max(np.abs(surface(depth[past], ratio) / force[past] - 1)))
-    assert worst < INTERPOLATION_TOLERANCE.get((height, ratio), INTERPOLATION_TOLERANCE_ELSEWHERE), worst
+    assert worst < INTERPOLATION_TOLERANCE, worst
 
 
 def test_a_thinner_cap_is_stiffer_at_the_same_depth(caps):
@@ -195,8 +192,7 @@ def test_the_cli_fits_a_real_bead_curve_on_a_cap_and_records_it(tmp_path):
 @pytest.mark.parametrize("height, ratio", CAP_HELD_OUT)
 def test_round_trip_of_held_out_cap_curves(caps, height, ratio):
     """Held-out curves (a bead radius, or a height, the interpolation has not seen), 0.5 % noise, a baseline before
-    contact: E within 2 % (3 % on the thin cap under the large bead), the contact point within 2 % of the depth
-    range."""
+    contact: E within 2 %, the contact point within 2 % of the depth range."""
     depth, force = caps.held_out_curves()[height, ratio]
     s = curve_function(depth, force, ratio, NU, "cap", height)
     displacement, force = synthetic_curve(s, depth[-1], seed=int(10 * height))
@@ -205,7 +201,7 @@ def test_round_trip_of_held_out_cap_curves(caps, height, ratio):
     row = fit_curve("synthetic", displacement, force, settings, load_indentation_surface(NU, cell_shape="cap",
                                                                                          cap_height=height))
     assert row["flag"] == "", row["flag"]
-    assert row["youngs_modulus"] == pytest.approx(E_TRUE, rel=ROUND_TRIP_TOLERANCE.get((height, ratio), 0.02))
+    assert row["youngs_modulus"] == pytest.approx(E_TRUE, rel=0.02)
     assert row["contact_point"] == pytest.approx(3e-6, abs=0.02 * depth_limit(ratio, "cap", height) * R)
     assert row["cell_shape"] == "cap" and row["cap_height"] == pytest.approx(height * R)
     assert row["depth_max"] == pytest.approx(depth[-1] * R, rel=0.01)

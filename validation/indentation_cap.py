@@ -93,9 +93,9 @@ def refinement(page: Page, cached_only: bool) -> None:
                          "nodes": "/".join(str(c["nodes"]) if c else "not run" for c in curves.values()),
                          "seconds": "/".join(f"{c['seconds']:.0f}" if c else "-" for c in curves.values())})
     page.table(rows, "Meridian refinement of the cap (10 load steps to the surface's depth range ((H/2)^-2 + "
-                     "R_b^-2)^(-1/2)): error = F/F(reference mesh) - 1, the reference every size x 0.5 (x 0.7 for "
-                     "the hemisphere under the largest bead); nodes and wall time per mesh (1, 0.7, 0.5), the time "
-                     "on this loaded machine")
+                     "R_b^-2)^(-1/2)): error = F/F(reference mesh) - 1, the reference every size x 0.5 on the thinnest "
+                     "cap under the smallest bead, x 0.7 elsewhere (the surface's mesh-check curves); nodes and wall "
+                     "time per mesh (1, 0.7, 0.5), the time on this loaded machine")
 
 
 def hertz(page: Page, caps) -> None:
@@ -115,10 +115,12 @@ def hertz(page: Page, caps) -> None:
     page.table(rows, "The tall caps' surface (default mesh) under small beads against Hertz: on a half-space with "
                      "the bead's radius, and with the apex's curvature too (R_eff; the two differ by the last "
                      "column's factor, which tends to 1 as R_b/R -> 0)")
-    small = [row for row in rows if row["depth / R_b"] <= 0.1 + 1e-9]
-    worst = max(abs(row["F / Hertz apex (R_eff)"] - 1) for row in small)
-    page.print(f"depth <= 0.1 R_b: |F / Hertz(R_eff) - 1| at most {100 * worst:.2f} % (H/R 1 and 0.75, R_b/R "
-               "0.125-0.5)")
+    for height in (1.0, 0.75):
+        worst = {ratio: max(abs(row["F / Hertz apex (R_eff)"] - 1) for row in rows if row["H / R"] == height
+                            and row["R_b / R"] == ratio and row["depth / R_b"] <= 0.1 + 1e-9)
+                 for ratio in (0.125, 0.25, 0.5)}
+        page.print(f"H/R = {height:g}, depth <= 0.1 R_b: |F / Hertz(R_eff) - 1| at most "
+                   + ", ".join(f"{100 * value:.2f} % (R_b/R {ratio:g})" for ratio, value in worst.items()))
 
 
 def interpolation(page: Page, caps) -> None:

@@ -83,7 +83,7 @@ def mastercurve_compression(poisson_ratio: float, material: str, out: Path | Non
                                      help="Write the surface (CSV with # JSON metadata) here.", shown="not written"),
        *MASTERCURVE_OPTIONS[3:], opt("workers", annotation=int, default=1, help="Curves computed at a time."),
        opt("cell_shape", help="sphere (a suspended cell on the dish; R the cell radius) | cap (an adherent cell, "
-           "a spherical cap bonded to the dish; R its base radius; apex heights H/R 0.3, 0.5, 0.75, 1) | layer (a "
+           "a spherical cap bonded to the dish; R its base radius; apex heights H/R 0.3, 0.4, 0.5, 0.75, 1) | layer (a "
            "layer bonded to the dish; R = h, its thickness)."))
 def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | None, no_cache: bool, quiet: bool,
                             workers: int, cell_shape: str):

@@ -115,10 +115,11 @@ CAP = SurfaceGrid(ratios=INDENTER_RATIOS, held_out=(), mesh_check=(),
 the apex height H), 10 load steps;
 the fine mesh (every size x 0.7) at :data:`CAP_MESH_CHECK`, the held-out curves at :data:`CAP_HELD_OUT` (the
 cost of the curves on a shared 2-core machine bounds the grid)."""
-CAP_HEIGHTS = (0.3, 0.5, 0.75, 1.0)
+CAP_HEIGHTS = (0.3, 0.4, 0.5, 0.75, 1.0)
 """H/R of the tabulated caps: a spread adherent cell (fibroblast, epithelial cell: 3-6 um high over a 10-20 um base
-radius, H/R 0.3-0.5) up to a rounded, weakly adherent one (H/R 0.75) and the hemisphere (1). Between them the
-surface is interpolated in H (PCHIP at the same depth fraction); outside [0.3, 1] the fit is refused."""
+radius, H/R 0.3-0.5, where the surface changes fastest with H: tabulated closer) up to a rounded, weakly adherent
+one (H/R 0.75) and the hemisphere (1). Between them the surface is interpolated in H (PCHIP at the same depth
+fraction); outside [0.3, 1] the fit is refused."""
 CAP_HELD_OUT = ((0.5, 0.707), (0.625, 1.0), (0.35, 2.5), (0.55, 0.6), (0.85, 0.2))
 """(H/R, R_b/R) computed and stored held out: a bead radius between the tabulated ones on a tabulated height, a
 height between the tabulated ones under a tabulated bead, and three caps on neither: the interpolation's error."""
