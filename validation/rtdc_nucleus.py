@@ -40,7 +40,8 @@ from elastocell.studies.rtdc_nucleus import (
 
 COLUMNS = {"cell": "cell", "stop": "stop (t)", "deformation": "D", "area_um": "area_um", "e_eff_over_ec": "E_eff/E_c",
            "e_rtdc_over_ec": "E_RTDC/E_c", "e_rtdc_over_eeff": "E_RTDC/E_eff",
-           "position_ec_to_eeff": "(E_RTDC-E_c)/(E_eff-E_c)", "e_fit_over_ec": "E_fit/E_c",
+           "position_ec_to_eeff": "(E_RTDC-E_c)/(E_eff-E_c)",
+           "e_rtdc_mesh_corrected_over_ec": "E_RTDC,mesh/E_c", "e_fit_over_ec": "E_fit/E_c",
            "e_rtdc_dclab_over_ec": "E_dclab/E_c", "e_rtdc_dclab_over_eeff": "E_dclab/E_eff",
            "volume_change_max_abs": "max |dV/V|", "wall_time_s": "wall (s)"}
 
@@ -79,7 +80,8 @@ def main() -> None:
         "converted to nu = 0.48 at equal shear modulus (NaN: outside the table). E_eff = gamma_eff E_c, the "
         "volume average of the meshed cell; E_fit: the homogeneous modulus closest to the whole stationary shape "
         "(D, eps_x - 1, eps_r - 1) in log. `stop`: `stationary` or the duration cap (`cap`: a transient mean, "
-        "not a stationary shape)."))
+        "not a stationary shape). E_RTDC,mesh: E_RTDC read from the deformation times D(homogeneous mesh, E_c)/D(the "
+        "gamma 1 control on the cell's nucleus mesh), the mesh's own error divided out."))
     pairs, missing = finished_pairs(args.dir, args.quick)
     frame = STUDY.table(pairs, args.dir, args.quick) if pairs else None
     if frame is not None:
