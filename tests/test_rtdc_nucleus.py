@@ -161,8 +161,8 @@ def test_the_study_is_registered():
 
 @pytest.mark.slow
 def test_quick_study_runs_and_a_stiffer_nucleus_reads_stiffer(tmp_path):
-    """`elastocell study run rtdc-nucleus --quick` (4 runs at R/dx 5 for 4 units of 1/gdot_w; measured 45 s of
-    CPU on a 2-core machine): table, figure and claims; at equal E_c and nucleus size, the gamma 10 cell deforms
+    """`elastocell study run rtdc-nucleus --quick` (4 runs at R/dx 5 for 4 units of 1/gdot_w; measured 21 s wall
+    on the idle 2-core machine, warm Numba cache): table, figure and claims; at equal E_c and nucleus size, the gamma 10 cell deforms
     less than the gamma 2 cell and the homogeneous table reads it stiffer (a simulated outcome, not built in)."""
     result = CliRunner().invoke(app, ["study", "run", "rtdc-nucleus", "--quick", "--workers", "1", "--out",
                                       str(tmp_path), "--quiet"])

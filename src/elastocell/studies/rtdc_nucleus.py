@@ -252,7 +252,8 @@ def _cells(frame, kind: str = "nucleus"):
 def plot_rtdc(frame, directory: Path, stem: str) -> list[Path]:
     """(a, b) E_RTDC/E_c and E_RTDC/E_eff against the stiffness ratio, one line per size ratio; (c, d) the same
     against the size ratio, one line per stiffness ratio. Filled: elastocell's homogeneous reading; open:
-    LE-2D-FEM-19; dashed (a, c): E_eff/E_c; grey band: the random cell."""
+    LE-2D-FEM-19; crosses: elastocell's reading with the mesh correction (where the gamma 1 control ran); dashed
+    (a, c): E_eff/E_c; grey band: the random cell."""
     figure, axes = new_figure(2, 2)
     cells = _cells(frame)
     random = _cells(frame, "random")
@@ -265,6 +266,12 @@ def plot_rtdc(frame, directory: Path, stem: str) -> list[Path]:
                 axis.plot(part[x], part[column], "o-", color=colour, label=f"{label}, elastocell table")
                 dclab = column.replace("e_rtdc", "e_rtdc_dclab")
                 axis.plot(part[x], part[dclab], "o", mfc="none", color=colour, label=f"{label}, {TABLE}")
+                if "e_rtdc_mesh_corrected_over_ec" in part:
+                    corrected = part["e_rtdc_mesh_corrected_over_ec"].to_numpy(float)
+                    if column == "e_rtdc_over_eeff":
+                        corrected = corrected / part["e_eff_over_ec"].to_numpy(float)
+                    if np.isfinite(corrected).any():
+                        axis.plot(part[x], corrected, "x:", color=colour, label=f"{label}, mesh-corrected")
             axes[row][0].plot(part[x], part["e_eff_over_ec"], "--", color=colour, lw=1, label=f"{label}, E_eff/E_c")
         for column, axis in (("e_rtdc_over_ec", axes[row][0]), ("e_rtdc_over_eeff", axes[row][1])):
             for _, cell in random.iterrows():
