@@ -49,17 +49,17 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=None)
     arguments = parser.parse_args()
     start = time.time()
+    page = Page("rtdc", "rtdc_coverage.py", intro=(
+        "dclab's test measurements (tests/data/rtdc: 8 files, 79 events) converted event by event by `elastocell "
+        "fit rtdc` through dclab's tables and elastocell's: coverage, and the modulus over HE-3D-FEM-22's on the "
+        "events both convert. A real event's modulus has no known truth; the spread between tables built on "
+        "different models is the point."))
     out = arguments.out or Path(tempfile.mkdtemp(prefix="rtdc-coverage-"))
     files = unpack(out / "measurements")
     tables = [*DCLAB_TABLES, *arguments.lut]
     result = fit_rtdc(files, tables, out / "fit", temperature=arguments.temperature, plots=False)
     coverage, events = result["coverage"], result["events"]
 
-    page = Page("rtdc", "rtdc_coverage.py", intro=(
-        "dclab's test measurements (tests/data/rtdc: 8 files, 79 events) converted event by event by `elastocell "
-        "fit rtdc` through dclab's tables and elastocell's: coverage, and the modulus over HE-3D-FEM-22's on the "
-        "events both convert. A real event's modulus has no known truth; the spread between tables built on "
-        "different models is the point."))
     page.print(f"files that record no temperature are converted at {arguments.temperature:g} degC (marked *); "
                "tables: " + ", ".join(table_name(t) for t in tables))
     rows = []
