@@ -57,6 +57,8 @@ BUDGET = [  # (factor, label, cell changes, mesh changes from the default, truth
     ("a", "poles 0.04", {}, {"pole_size": 0.04}, {}),
     ("a", "polar layer 0.1 within 40 deg", {}, {"layer_size": 0.1, "layer_angle": 40}, {}),
     ("b", "nucleus surface 0.075", {}, {"interface_size": 0.075}, {}),
+    ("a+b", "polar layer 0.1 within 40 deg, nucleus surface 0.075", {},
+     {"layer_size": 0.1, "layer_angle": 40, "interface_size": 0.075}, {}),
     ("c", "quadrature degree 2 (4 points)", {}, {"quadrature_degree": 2}, {}),
     ("c", "quadrature degree 7 (64 points)", {}, {"quadrature_degree": 7}, {}),
     ("d", "nu 0.45 (also the truth)", {"poisson_ratio": 0.45}, {}, {"poisson_ratio": 0.45}),
