@@ -189,7 +189,8 @@ EXPECTED_OPTIONS = {
               '--json=False',
     'lut': '--channel-radius=None --channel-width=None --channel-shape=None --channel-height=None --flow-rate! '
            '--viscosity=None --medium=newtonian --temperature=None --flow-index=None --out! --radii=None '
-           '--moduli=None --quick=False --poisson-ratio=0.48 --material=neo-hookean --resolution=None '
+           '--moduli=None --quick=False --stiffness-ratio=None --size-ratio=None --poisson-ratio=0.48 '
+           '--material=neo-hookean --resolution=None '
            '--extrapolate=True --coarse-resolution=None --duration=None --stationary-tolerance=None '
            '--identifier=None --scheduler=None --workers=None --quiet=False',
     'mastercurve compression': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False '
