@@ -67,7 +67,8 @@ def test_moduli_equal_dclabs_own_pipeline_event_by_event(measurements, tmp_path)
                         "--temperature", "23", "--out", tmp_path, "--no-plots")
     assert code == 0, output
     events = pd.read_csv(tmp_path / "rtdc_fits.csv", keep_default_na=False, na_values=[""])
-    assert list(events.columns) == ["file", "event", "area_um", "deform", "lut", "youngs_modulus", "flag"]
+    assert list(events.columns) == ["file", "event", "area_um", "deform", "lut", "youngs_modulus", "flag",
+                                     "path"]
     for name in names:
         path = measurements[name]
         for table in ("LE-2D-FEM-19", "HE-3D-FEM-22"):
@@ -146,3 +147,22 @@ def test_impossible_inputs_are_refused_in_one_line_before_reading(tmp_path):
     assert code == 2 and output.strip().count("\n") == 0 and "lut" in output
     code, output = _fit(tmp_path, "--lut", "LE-2D-FEM-20", "--out", tmp_path)
     assert code == 2 and "neither one of dclab's tables" in output
+
+
+def test_reservoir_measurements_and_twin_names_are_told_apart(measurements, tmp_path):
+    import shutil
+
+    import h5py
+
+    good = measurements["fmt-hdf5_wide-channel_2023"]
+    for folder in ("day1", "day2"):
+        (tmp_path / folder).mkdir()
+        shutil.copy(good, tmp_path / folder / "M001_data.rtdc")
+    with h5py.File(tmp_path / "day2" / "M001_data.rtdc", "a") as h5:  # the same events, taken in the reservoir
+        h5.attrs["setup:chip region"] = "reservoir"
+    code, output = _fit(tmp_path, "--out", tmp_path / "fit", "--no-plots")
+    assert code == 0, output
+    coverage = pd.read_csv(tmp_path / "fit" / "rtdc_coverage.csv", keep_default_na=False).set_index("path")
+    day1, day2 = str(tmp_path / "day1" / "M001_data.rtdc"), str(tmp_path / "day2" / "M001_data.rtdc")
+    assert coverage.loc[day1, "flag"] == "" and int(coverage.loc[day1, "converted"]) == 12
+    assert "reservoir" in coverage.loc[day2, "flag"] and int(coverage.loc[day2, "converted"]) == 0

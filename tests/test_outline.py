@@ -81,3 +81,25 @@ def test_pipe_cell_at_rest_reads_a_circle():
     assert series["time"][0] == 0.0
     assert abs(series["deformation"][0]) < 5e-5
     assert abs(series["projected_area"][0] / math.pi - 1.0) < 2e-4
+
+
+def test_a_cup_shaped_cell_falls_back_to_the_nodes_hull(monkeypatch):
+    # a cup (rear pole pushed past the centre, x -> x + 1.2 x^2 where x < 0): no radial function describes it.
+    # Measured on 146 nodes: the radial fit's outline encloses 1.61x the nodes' hull (which lies inside the true
+    # outline); guarded, the outline is that hull.
+    from scipy.spatial import ConvexHull
+
+    from elastocell.body import observables
+
+    x = fibonacci_sphere(146)
+    x[:, 0] = np.where(x[:, 0] < 0, x[:, 0] + 1.2 * x[:, 0] ** 2, x[:, 0])
+    hull = ConvexHull(x[:, :2])
+    area, perimeter = smooth_outline(x)
+    assert area == pytest.approx(hull.volume, rel=1e-12) and perimeter == pytest.approx(hull.area, rel=1e-12)
+    monkeypatch.setattr(observables, "OUTLINE_MAX_AREA_RATIO", 1e9)  # the unguarded fit
+    assert smooth_outline(x)[0] > 1.5 * hull.volume
+    # a mild dent (x -> x + 0.5 x^2) stays a radial function: the smooth outline, not the hull (2.4 % larger)
+    monkeypatch.undo()
+    y = fibonacci_sphere(146)
+    y[:, 0] = np.where(y[:, 0] < 0, y[:, 0] + 0.5 * y[:, 0] ** 2, y[:, 0])
+    assert smooth_outline(y)[0] > 1.01 * ConvexHull(y[:, :2]).volume

@@ -85,12 +85,15 @@ class Conditions:
     flow_rate_ul_s: float
     pixel_size_um: float
     medium: str | float
-    temperature_c: float | None
+    temperature_c: float | np.ndarray | None  # an array: each event's own
     viscosity_model: str | None
 
     def record(self) -> dict:
+        per_event = isinstance(self.temperature_c, np.ndarray)
         return {"channel_width_um": self.channel_width_um, "flow_rate_ul_s": self.flow_rate_ul_s,
-                "pixel_size_um": self.pixel_size_um, "medium": self.medium, "temperature_c": self.temperature_c,
+                "pixel_size_um": self.pixel_size_um, "medium": self.medium,
+                "temperature_c": float(np.nanmean(self.temperature_c)) if per_event else self.temperature_c,
+                "temperature_source": "each event's (temp)" if per_event else "file or --temperature",
                 "viscosity_model": self.viscosity_model}
 
 
@@ -98,16 +101,27 @@ class Unconvertible(ValueError):
     """A measurement whose conditions do not allow a conversion (the reason becomes the file's flag)."""
 
 
-def conditions_of(config, medium: str | None = None, temperature: float | None = None) -> Conditions:
+def conditions_of(config, medium: str | None = None, temperature: float | None = None,
+                  event_temperature: np.ndarray | None = None) -> Conditions:
     """The :class:`Conditions` of a dataset's configuration (``dataset.config``). ``medium`` and ``temperature``
     stand in where the file records none (or a medium dclab does not know, such as "other"); a recorded value is
     kept. Raises :class:`Unconvertible` with the reason when something is still missing."""
     from dclab.features.emodulus.viscosity import ALIAS_MEDIA  # lazy: optional dependency (see _dclab)
 
     def known(name) -> str | None:
-        return None if name is None else ALIAS_MEDIA.get(str(name), ALIAS_MEDIA.get(re.sub(r"%\s*", "% ", str(name))))
+        if name is None:
+            return None
+        spaced = re.sub(r"%\s*", "% ", str(name))
+        for candidate in (str(name), spaced, spaced.lower()):
+            if candidate in ALIAS_MEDIA:
+                return ALIAS_MEDIA[candidate]
+        return None
 
     setup, imaging = config["setup"], config["imaging"]
+    region = setup.get("chip region", "channel")
+    if region != "channel":
+        raise Unconvertible(f"measured in the {region} (setup: chip region), not in the channel: a look-up table "
+                            "converts channel measurements only")
     missing = [key for key in ("channel width", "flow rate") if key not in setup]
     if "pixel size" not in imaging:
         missing.append("pixel size")
@@ -122,12 +136,14 @@ def conditions_of(config, medium: str | None = None, temperature: float | None =
         raise Unconvertible(f"medium {recorded!r} is not one dclab knows the viscosity of (an MC-PBS buffer, "
                             "CellCarrier, CellCarrierB or water): give --medium")
     value = setup.get("temperature", temperature)
+    if value is None and event_temperature is not None:
+        value = np.asarray(event_temperature, dtype=float)  # each event's own (dclab's "temp" feature)
     if value is None:
         raise Unconvertible("the file does not record its temperature, which sets the medium's viscosity: give "
                             "--temperature")
     model = WATER_VISCOSITY_MODEL if canonical == "water" else MC_PBS_VISCOSITY_MODEL
     return Conditions(float(setup["channel width"]), float(setup["flow rate"]), float(imaging["pixel size"]),
-                      canonical, float(value), model)
+                      canonical, value if isinstance(value, np.ndarray) else float(value), model)
 
 
 def emodulus_of_events(area_um: np.ndarray, deform: np.ndarray, conditions: Conditions, table: str
@@ -152,16 +168,19 @@ def _read(path: Path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # dclab's warnings about unknown configuration keys of older files
         dataset = dclab.new_dataset(str(path))
+        missing = [name for name in ("area_um", "deform") if name not in dataset]
+        if missing:
+            raise ValueError(f"no {' and no '.join(missing)} feature")
         return dataset, np.asarray(dataset["area_um"], dtype=float), np.asarray(dataset["deform"], dtype=float)
 
 
 def expand_files(files: list[Path]) -> list[Path]:
-    """The files as given, a folder contributing its ``.rtdc`` files (sorted); a path that does not exist is
-    refused in one line."""
+    """The files as given, a folder contributing the ``.rtdc`` files in it and its sub-folders (sorted); a path
+    that does not exist is refused in one line."""
     expanded = []
     for path in map(Path, files):
         if path.is_dir():
-            expanded += sorted(path.glob("*.rtdc"))
+            expanded += sorted(p for p in path.rglob("*.rtdc") if p.is_file())
         elif path.exists():
             expanded.append(path)
         else:
@@ -176,7 +195,8 @@ def fit_rtdc(files: list[Path], tables: list[str], out: Path, medium: str | None
     """Young's modulus of every event of every file through every table.
 
     Writes ``out/rtdc_fits.csv`` (one row per event and table: ``file, event, area_um, deform, lut,
-    youngs_modulus`` in Pa, NaN outside the table, and ``flag``: empty when converted, else why not),
+    youngs_modulus`` in Pa, NaN outside the table, ``flag``: empty when converted, else why not, and ``path``: the
+    file as found, since instruments give many files one name),
     ``out/rtdc_coverage.csv`` (one row per file and table: events, converted, coverage, the median and quartiles
     of E, the conditions used, dclab's warnings, the file's flag) and ``out/fit_settings.json``; with ``plots``
     ``out/rtdc_events.png`` (every event on the area-deformation plane, converted or not, per table). A file that
@@ -193,11 +213,12 @@ def fit_rtdc(files: list[Path], tables: list[str], out: Path, medium: str | None
         try:
             dataset, area_um, deform = _read(path)
         except Exception as error:  # noqa: BLE001 - any reader failure becomes the file's flag
-            coverage += [{"file": path.name, "lut": table_name(t), "events": 0, "converted": 0,
+            coverage += [{"file": path.name, "path": str(path), "lut": table_name(t), "events": 0, "converted": 0,
                           "flag": f"unreadable: {error}".splitlines()[0]} for t in tables]
             continue
         try:
-            conditions = conditions_of(dataset.config, medium, temperature)
+            conditions = conditions_of(dataset.config, medium, temperature,
+                                       np.asarray(dataset["temp"]) if "temp" in dataset else None)
         except Unconvertible as reason:
             conditions, flag = None, str(reason)
         for table in tables:
@@ -208,10 +229,11 @@ def fit_rtdc(files: list[Path], tables: list[str], out: Path, medium: str | None
                 values, notes = emodulus_of_events(area_um, deform, conditions, table)
                 row_flag = ""
             converted = np.isfinite(values)
-            events.append(pd.DataFrame({"file": path.name, "event": np.arange(len(deform)), "area_um": area_um,
+            events.append(pd.DataFrame({"file": path.name, "path": str(path), "event": np.arange(len(deform)),
+                                        "area_um": area_um,
                                         "deform": deform, "lut": name, "youngs_modulus": values,
                                         "flag": np.where(converted, "", row_flag or "outside the table")}))
-            summary = {"file": path.name, "lut": name, "events": int(len(deform)),
+            summary = {"file": path.name, "path": str(path), "lut": name, "events": int(len(deform)),
                        "converted": int(converted.sum()),
                        "coverage": float(converted.mean()) if len(deform) else float("nan"), "flag": row_flag,
                        "dclab_warnings": "; ".join(notes)}
@@ -221,7 +243,7 @@ def fit_rtdc(files: list[Path], tables: list[str], out: Path, medium: str | None
             if conditions is not None:
                 summary.update(conditions.record())
             coverage.append(summary)
-    columns = ["file", "event", "area_um", "deform", "lut", "youngs_modulus", "flag"]
+    columns = ["file", "event", "area_um", "deform", "lut", "youngs_modulus", "flag", "path"]
     frame = pd.concat(events, ignore_index=True) if events else pd.DataFrame(columns=columns)
     replace_atomically(out / "rtdc_fits.csv",
                        lambda temporary: frame[columns].to_csv(temporary, index=False, float_format="%.8g"))
