@@ -2,7 +2,8 @@
 and :class:`ParameterError`, the one-line error every impossible input raises.
 
 One rule for bare numbers: a bare number is in its quantity's documented unit, :data:`BARE_UNITS` (a length in
-um, a viscosity in mPa*s, a flow rate in uL/s, a modulus or stress in Pa, a rate in 1/s, ...). The one
+um, a viscosity in mPa*s, a flow rate in uL/s, a modulus or stress in Pa, a rate in 1/s, an angle in degrees, ...).
+The one
 exception is a dimensionless scale: ``parse_quantity(..., scale="units of R")`` returns a bare number as it is
 (the cell radius and Young's modulus of a simulation, whose default 1 gives results in units of R and E_c).
 
@@ -57,6 +58,7 @@ BARE_UNITS: dict[str, Quantity] = {q.si: q for q in (
     Quantity("Pa/m", "a pressure gradient", "1e5Pa/m", "Pa/m"),
     Quantity("N/m", "a spring constant", "0.05N/m", "N/m"),
     Quantity("m/V", "a sensitivity", "50nm/V", "nm/V"),
+    Quantity("deg", "an angle", "20deg", "deg"),
 )}
 
 _PREFIXES = ("", "p", "n", "u", "m", "c", "d", "k", "M", "G")
@@ -68,11 +70,12 @@ _WORDS = ("meter", "metre", "second", "pascal", "newton", "volt", "liter", "litr
 @lru_cache(maxsize=1)
 def unit_names() -> frozenset[str]:
     """Every unit name a quantity may use: SI prefixes p n u (or µ) m c d k M G on m s Pa N V L l g Hz rad P
-    (poise), the same spelled out (micrometre(s), millipascal, ...), hertz, min, minute(s), h, hour(s)."""
+    (poise), the same spelled out (micrometre(s), millipascal, ...), hertz, min, minute(s), h, hour(s), deg,
+    degree(s)."""
     names = {p + s for p in _PREFIXES for s in _SYMBOLS}
     names |= {p + w + plural for p in _WORD_PREFIXES for w in _WORDS for plural in ("", "s")}
     names |= {p + "hertz" for p in _WORD_PREFIXES}
-    names |= {"min", "minute", "minutes", "h", "hour", "hours"}
+    names |= {"min", "minute", "minutes", "h", "hour", "hours", "deg", "degree", "degrees"}
     return frozenset(names)
 
 
