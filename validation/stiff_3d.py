@@ -64,6 +64,12 @@ BUDGET = [  # (factor, label, cell changes, mesh changes from the default, truth
     ("d", "nu 0.45 (also the truth)", {"poisson_ratio": 0.45}, {}, {"poisson_ratio": 0.45}),
     ("e", "cell surface 0.1 within 40 deg, 0.08 deep", {}, {"layer_size": 0.1, "layer_angle": 40, "layer_depth": 0.08},
      {}),
+    ("f", "projected J (P1, volumetric projected)", {}, {"volumetric": "projected"}, {}),
+    ("f", "mean dilatation (P0, volumetric mean)", {}, {"volumetric": "mean"}, {}),
+    ("b+f", "nucleus surface 0.075, projected J", {}, {"interface_size": 0.075, "volumetric": "projected"}, {}),
+    ("b+f", "nucleus surface 0.075, mean dilatation", {}, {"interface_size": 0.075, "volumetric": "mean"}, {}),
+    ("a+b+f", "polar layer 0.1 within 40 deg, nucleus surface 0.075, projected J", {},
+     {"layer_size": 0.1, "layer_angle": 40, "interface_size": 0.075, "volumetric": "projected"}, {}),
 ]
 BUDGET_RATIOS = [20, 10]
 RATIOS = [1, 2, 5, 10, 20]

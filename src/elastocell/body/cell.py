@@ -18,7 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from elastocell.body.elements import ElementGeometry, reference_element
+from elastocell.body.elements import ElementGeometry, dilatation_projections, reference_element
 from elastocell.body.materials import Law, computes_in_float64, determinant, law, material_tangent
 from elastocell.body.mesh import NUCLEUS, CellMesh, build_mesh, cache_directory
 from elastocell.parameters.cell import CellParameters
@@ -114,21 +114,45 @@ class Cell:
         weights = jnp.asarray(self.geometry.weights)
         params = jnp.asarray(self.material_parameters.T[:, :, None])  # [k, e, 1]: broadcast over the points
         energy_law = self.law
+        projections = self.dilatation_projections
+        projections = None if projections is None else jnp.asarray(projections)
+
+        def element_gradients(x_elements):
+            """F[i, j, e, q] = sum_k x_(e_k) i dN_k/dX_j (the materials' layout: the points last)."""
+            return jnp.einsum("eki,eqkj->ijeq", x_elements, gradients)
 
         def deformation_gradients(x):
-            """F[i, j, e, q] = sum_k x_(e_k) i dN_k/dX_j (the materials' layout: the points last)."""
-            return jnp.einsum("eki,eqkj->ijeq", x[elements], gradients)
+            return element_gradients(x[elements])
+
+        def law_gradients(f):
+            """The F the law is evaluated on: F itself, or F_bar = (J_bar/J)^(1/3) F with J_bar the projection of
+            the points' J within each element (MeshParameters.volumetric)."""
+            if projections is None:
+                return f
+            volume_ratio = determinant(f)
+            return f * (jnp.einsum("eqr,er->eq", projections, volume_ratio) / volume_ratio) ** (1.0 / 3.0)
 
         def energy(x):
-            return jnp.sum(weights * energy_law(deformation_gradients(x), params))
+            return jnp.sum(weights * energy_law(law_gradients(deformation_gradients(x)), params))
 
         def tangents(x):
             # w_q d2W/dF2 per quadrature point by autodiff, [i, j, k, l, e, q]; contracted with dN/dX into the
             # element matrices by stiffness_kernel.element_stiffness_matrices
             return material_tangent(energy_law, deformation_gradients(x), params) * weights
 
+        def element_hessians(x):
+            # with a projected J the points of an element are coupled: d2E_e/dx_e2 by forward-over-reverse
+            # autodiff of the element energies, one direction (node, component) at a time
+            x_elements = x[elements]
+            gradient = jax.grad(lambda xe: jnp.sum(weights * energy_law(law_gradients(element_gradients(xe)), params)))
+            n = x_elements.shape[1] * 3
+            directions = jnp.eye(n).reshape(n, 1, -1, 3)
+            columns = jax.lax.map(lambda d: jax.jvp(gradient, (x_elements,),
+                                                    (jnp.broadcast_to(d, x_elements.shape),))[1], directions)
+            return jnp.moveaxis(columns.reshape(n, len(x_elements), n), 0, 1)
+
         def stresses(x):
-            f = deformation_gradients(x)
+            f = law_gradients(deformation_gradients(x))
             piola = jax.grad(lambda ff: jnp.sum(energy_law(ff, params)))(f)
             sigma = jnp.einsum("ik...,jk...->ij...", piola, f) / determinant(f)
             return jnp.einsum("eq,ijeq->eij", weights, sigma) / jnp.sum(weights, axis=1)[:, None, None]
@@ -138,9 +162,16 @@ class Cell:
             gradient=jax.jit(jax.grad(energy)),
             min_jacobian=jax.jit(lambda x: jnp.min(determinant(deformation_gradients(x)))),
             tangents=jax.jit(tangents),
+            element_hessians=jax.jit(element_hessians),
             stresses=jax.jit(stresses),
         )
         return self._kernels
+
+    @cached_property
+    def dilatation_projections(self) -> np.ndarray | None:
+        """J_bar = P_e J per element (``elements.dilatation_projections``), or None for ``volumetric`` standard."""
+        reference = reference_element(self.mesh.order, self.parameters.mesh.quadrature_degree)
+        return dilatation_projections(self.parameters.mesh.volumetric, reference.points, self.geometry.weights)
 
     @cached_property
     def _shape_gradients_points_last(self) -> np.ndarray:
@@ -158,7 +189,10 @@ class Cell:
     def element_stiffness(self, x: np.ndarray) -> np.ndarray:
         """Element Hessians d^2 E_e / dx_e^2, (n_elements, 3k, 3k), dof order (node, component): the material
         tangent at each quadrature point by JAX, contracted with the shape-function gradients by a compiled
-        kernel (:func:`stiffness_kernel.element_stiffness_matrices`)."""
+        kernel (:func:`stiffness_kernel.element_stiffness_matrices`); with a projected J (the points of an element
+        coupled) the element energies' Hessian by JAX directly."""
+        if self.dilatation_projections is not None:
+            return np.asarray(self._compiled()["element_hessians"](jnp.asarray(x)))
         from elastocell.solvers.stiffness_kernel import (
             element_stiffness_matrices,  # lazy: the Numba stiffness kernel compiles/loads only when a stiffness is needed
         )

@@ -184,3 +184,24 @@ def conical_product_rule(n: int) -> tuple[np.ndarray, np.ndarray]:
     points = np.stack([x, s * (1 - x), t * (1 - x) * (1 - s)], axis=-1).reshape(-1, 3)
     weights = (wx[:, None, None] * ws[None, :, None] * wt[None, None, :]).ravel()
     return _read_only(points), _read_only(weights)
+
+
+VOLUMETRIC_TREATMENTS = ("standard", "projected", "mean")
+"""How J enters a p2 element's law (``MeshParameters.volumetric``): as det F at each point, L2-projected onto the
+linear polynomials of the element (P1, discontinuous) or onto the constants (P0, mean dilatation)."""
+
+
+def dilatation_projections(treatment: str, points: np.ndarray, weights: np.ndarray) -> np.ndarray | None:
+    """Per-element matrices P_e (n_elements, n_points, n_points) with J_bar = P_e J at the quadrature points:
+    the L2 projection, weighted by the points' reference volumes ``weights`` (n_elements, n_points), onto the
+    polynomials in the reference coordinates ``points`` (n_points, 3) of degree 1 (``projected``) or 0
+    (``mean``); None for ``standard``. Exact per element, curved ones included; a J that is such a polynomial
+    (a uniform deformation: a constant) is its own projection."""
+    if treatment == "standard":
+        return None
+    if treatment not in VOLUMETRIC_TREATMENTS:
+        raise ValueError(f"volumetric treatment must be one of {VOLUMETRIC_TREATMENTS}, got {treatment!r}")
+    basis = np.ones((len(points), 1)) if treatment == "mean" else np.column_stack([np.ones(len(points)), points])
+    mass = np.einsum("qa,eq,qb->eab", basis, weights, basis)  # (e, m, m)
+    moments = np.einsum("ra,er->ear", basis, weights)  # (e, m, q)
+    return np.einsum("qa,ear->eqr", basis, np.linalg.solve(mass, moments))

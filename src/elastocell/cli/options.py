@@ -198,6 +198,10 @@ OPTIONS: dict[str, Opt] = _declare(
         "points that include the nodes, so that no element folds at a node in a crushed soft layer, at about "
         "twice the time of a degree-2 curve.",
         shown="5 for a neo-Hookean cell whose nucleus is at least 7 times stiffer than the cytoplasm, else 2"),
+    Opt("volumetric", str, "standard", "p2 only: how J = det F enters the law. standard: at each quadrature point; "
+        "projected: L2-projected onto linear polynomials per element and the law evaluated on "
+        "(J_bar/J)^(1/3) F (F-bar, relieves the volumetric locking of a crushed soft layer; needs a quadrature "
+        "degree above 2); mean: the element's mean dilatation."),
     # ---------------------------------------------------------------- compress
     Opt("delta_max", float, 0.75, "Final deformation delta = 1 - h/(2R) in (0, 1).", units=_DIMENSIONLESS),
     Opt("steps", int, 40, "Load steps (output rows after delta = 0)."),
@@ -243,10 +247,14 @@ OPTIONS: dict[str, Opt] = _declare(
         quantity="m", shown="--channel-width: a square"),
     Opt("medium", str, "newtonian", "Suspending medium: newtonian | 0.49%MC-PBS | 0.59%MC-PBS | 0.83%MC-PBS (RT-DC "
         "buffers: shear-thinning power laws of Buyukurganci et al. 2022, as dclab) | power-law (with --flow-index)."),
-    Opt("temperature", float | None, None, "Temperature of an MC-PBS medium (fit: 22-37 degC).", units="degC",
-        shown="23"),
+    Opt("temperature", str | None, None, "Temperature of an MC-PBS medium (fit: 22-37 degC): 23degC, 23°C and "
+        "296.15K are the same.", quantity="degC", shown="23degC"),
     Opt("flow_index", float | None, None, "Power-law index n of --medium power-law (eta ~ shear_rate^(n-1)).",
         units=_DIMENSIONLESS, shown="none"),
+    Opt("channel_length", str | None, None, "Length L of a finite channel (RT-DC chips: about 300um, measured near "
+        "the outlet): the cell starts undeformed at the inlet and is measured when it has travelled L (its own axial "
+        "speed integrated over time); --duration is then the cap.", quantity="m",
+        shown="none: the stationary state"),
     Opt("stationary_observable", StationaryObservable, StationaryObservable.strain_axial,
         "Observable of the stationary stop: strain_axial | deformation."),
     # ---------------------------------------------------------------- bench lattice
@@ -260,12 +268,17 @@ OPTIONS: dict[str, Opt] = _declare(
         "section or gel of thickness --layer-thickness bonded to the dish)."),
     Opt("indenter_radius", str, REQUIRED, "R_b, the radius of the spherical indenter (bead).", quantity="m",
         scale=RADIUS_SCALE),
+    Opt("indenter", str, "sphere", "sphere (a bead of radius --indenter-radius) | cone (a sharp tip of half-angle "
+        "--half-angle; axisymmetric solver) | pyramid (four-sided, face half-angle --half-angle, as the cone of the "
+        "same cross-section area)."),
+    Opt("half_angle", str | None, None, "Half-angle of the cone (axis to flank) or the pyramid's face half-angle "
+        "(--indenter cone|pyramid).", quantity="deg", shown="required with --indenter cone|pyramid"),
     Opt("cap_height", str | None, None, "H, apex height of the cap (--cell-shape cap).", quantity="m",
         scale=RADIUS_SCALE, shown="--radius: a hemisphere"),
     Opt("layer_thickness", str | None, None, "h, thickness of the layer (--cell-shape layer).", quantity="m",
         scale=RADIUS_SCALE, shown="required with --cell-shape layer"),
     Opt("depth_max", float, 0.3, "Final indentation depth (indenter displacement after first contact).",
-        units="R, the cell radius (the layer: R_b)"),
+        units="R, the cell radius (the layer: R_b; under a cone or pyramid: h, its thickness)"),
     Opt("solver", str, "auto", "auto (the axisymmetric solver for a cell symmetric about z, the 3D tetrahedral cell "
         "for any other suspended sphere: random, offset nucleus, tilted ellipsoid) | 3d (--cell-shape sphere only; "
         "the mesh options apply) | axisymmetric."),
@@ -336,7 +349,7 @@ def opt(name: str, **changes) -> Opt:
 CELL = Group("cell", tuple(OPTIONS[name] for name in (
     "nucleus", "stiffness_ratio", "size_ratio", "offset", "offset_axis", "semi_axes", "nucleus_axis", "random",
     "seed", "mesh_size", "pole_size", "interface_size", "poisson_ratio", "youngs_modulus", "radius", "material",
-    "element", "quadrature_degree")))
+    "element", "quadrature_degree", "volumetric")))
 
 # the flow scenarios' cell: uniform linear tetrahedra of edge 2 dx unless given
 FLOW_CELL = CELL.but(
@@ -344,7 +357,7 @@ FLOW_CELL = CELL.but(
     opt("pole_size", help="Element size at the poles.", shown="uniform"),
     opt("interface_size", help="Element size on the nucleus surface.", shown="uniform"),
     opt("element", default="p1", help="p1 (4-node, the paper's; flow default) | p2 (10-node)."),
-    without=("quadrature_degree",))
+    without=("quadrature_degree", "volumetric"))
 
 
 def takes(*items: str | Opt | Group):

@@ -203,6 +203,14 @@ class MeshParameters(ParameterModel):
     without it is what it is without the fields).
     layer_depth: if set, the polar layer's refinement only within this distance of the cell surface, growing to
     the other sizes over 0.1 R inwards (the contact zone alone: a diagnostic of the contact's resolution).
+    volumetric: how the volume ratio J enters the law. ``standard``: J = det F at each quadrature point.
+    ``projected``: J is L2-projected, element by element, onto the linear polynomials (a discontinuous P1
+    dilatation, statically condensed) and the law is evaluated on F_bar = (J_bar/J)^(1/3) F; ``mean``: onto
+    the constants (mean dilatation, P0). Both relieve the volumetric locking of a nearly incompressible layer
+    crushed between a stiff nucleus and a plate (docs/theory.md). p2 only; with the 4-point rule the P1
+    projection is the identity (four points, four polynomials), so ``projected`` refuses degree 2 and a
+    compression takes degree 5 for it when none is given. Does not change the mesh; ``standard`` is left out of
+    the model's data (cache and run keys unchanged).
     """
 
     element: Literal["p1", "p2"] = "p2"
@@ -215,6 +223,7 @@ class MeshParameters(ParameterModel):
     layer_size: float | None = None
     layer_angle: float = 40.0
     layer_depth: float | None = None
+    volumetric: str = "standard"
 
     @model_serializer(mode="wrap")
     def _dump(self, handler):
@@ -224,6 +233,8 @@ class MeshParameters(ParameterModel):
             data.pop("layer_angle", None)
         if self.layer_depth is None:
             data.pop("layer_depth", None)
+        if self.volumetric == "standard":
+            data.pop("volumetric", None)
         return data
 
     @property
@@ -269,6 +280,12 @@ class MeshParameters(ParameterModel):
         require(0 < self.layer_angle <= 90, "layer_angle", f"must be in (0, 90] degrees, got {self.layer_angle}")
         if self.layer_depth is not None:
             require(0 < self.layer_depth <= 1, "layer_depth", f"must be in (0, 1] (units of R), got {self.layer_depth}")
+        require(self.volumetric in ("standard", "projected", "mean"), "volumetric",
+                f"must be standard, projected or mean, got {self.volumetric!r}")
+        require(self.volumetric == "standard" or self.element == "p2", "volumetric",
+                "applies to p2 elements only (a p1 element has one point: nothing to project)")
+        require(not (self.volumetric == "projected" and self.quadrature_degree == 2), "volumetric",
+                "projected needs a quadrature degree above 2: the linear projection of the 4-point rule's J is J")
         if self.quadrature_degree is not None:
             require(self.element == "p2", "quadrature_degree",
                      "applies to p2 elements only (p1 uses its exact one-point rule)")
@@ -339,6 +356,7 @@ def cell_parameters(
     pole_radius: float | None = None,
     element: str = "p2",
     quadrature_degree: int | None = None,
+    volumetric: str = "standard",
     material: str = "neo-hookean",
     poisson_ratio: float = 0.48,
     youngs_modulus: float | str = 1.0,
@@ -366,7 +384,7 @@ def cell_parameters(
         interface_size = defaults.interface_size * mesh_size / defaults.mesh_size
     mesh = MeshParameters(element=element, mesh_size=mesh_size, pole_size=pole_size, interface_size=interface_size,
                           pole_radius=defaults.pole_radius if pole_radius is None else pole_radius,
-                          quadrature_degree=quadrature_degree)
+                          quadrature_degree=quadrature_degree, volumetric=volumetric)
     return CellParameters(
         nucleus=NucleusParameters(
             shape=nucleus, stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, offset=offset,

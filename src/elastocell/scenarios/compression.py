@@ -587,8 +587,12 @@ def compression_parameters_for(cell: CellParameters) -> CellParameters:
     """``cell`` with the quadrature a compression of it uses: the degree given, else, for p2 elements, a
     neo-Hookean cell and a nucleus at least :data:`NODAL_RULE_FROM_STIFFNESS_RATIO` times stiffer than the
     cytoplasm, degree 5 (its points include the nodes, so no element of the crushed soft layer folds at a node). The
-    Mooney-Rivlin law keeps degree 2: its reference cell stops at delta = 0.619 with degree 5 (README)."""
+    Mooney-Rivlin law keeps degree 2: its reference cell stops at delta = 0.619 with degree 5 (README). A cell whose
+    J is projected onto linear polynomials (``volumetric`` projected) takes degree 5 too: with 4 points that
+    projection is the identity."""
     mesh, nucleus = cell.mesh, cell.nucleus
+    if mesh.volumetric == "projected" and mesh.quadrature_degree is None:
+        return cell.model_copy(update={"mesh": mesh.model_copy(update={"quadrature_degree": 5})})
     if (mesh.element == "p2" and mesh.quadrature_degree is None and cell.random is None and nucleus.shape != "none"
             and nucleus.stiffness_ratio >= NODAL_RULE_FROM_STIFFNESS_RATIO and cell.material.law == "neo-hookean"):
         return cell.model_copy(update={"mesh": mesh.model_copy(update={"quadrature_degree": 5})})
