@@ -1,6 +1,6 @@
 """The axisymmetric solver as the truth for compression between plates: its own mesh refinement, the 3D
-defaults against it for every stiffness ratio, the error budget of the 3D defaults for a stiff nucleus, and
-FElupe's axisymmetric mode on the same problem.
+defaults against it for every stiffness ratio and the error budget of the 3D defaults for a stiff nucleus
+(FElupe's axisymmetric mode on the same problem: validation/felupe_axisymmetric.py).
 
     python validation/axisymmetric.py [--only refinement three-d budget peer] [--ratios 1 2 5 10 20]
         [--fill-cache] [--fresh]
@@ -15,8 +15,8 @@ FElupe's axisymmetric mode on the same problem.
 - budget: one factor of the 3D default changed at a time (interface size, pole size, quadrature degree, Poisson
   ratio, the last also in the truth), stiffness ratios 10 and 20; a variation not in the cache is listed as not
   run unless ``--fresh``.
-- peer: FElupe's axisymmetric mode is not set up (it has no frictionless rigid-plate contact for axisymmetric
-  fields in this script); the section says so.
+- peer: a pointer to validation/felupe_axisymmetric.py, which runs FElupe's axisymmetric mode beside
+  ``compress_axisymmetric`` (its own section of the page).
 
 The 3D curves cost minutes each; they are kept in the cache directory (``elastocell.files.cache_directory``,
 ``validation-axisymmetric/``) under the hash of the resolved cell parameters and the load steps, so that a rerun
@@ -287,8 +287,8 @@ def main() -> None:
                    "in the truth)", columns=["gamma", "variation", "nodes", "time_s", "delta_reached", *ERRORS],
                    formats={"time_s": ".0f", "delta_reached": ".3f", **{f"err@{d:g}": "+.2%" for d in DELTAS}})
     if "peer" in args.only:
-        page.print("FElupe's axisymmetric mode: not run by this script (no frictionless rigid-plate contact set up "
-                   "for FElupe's axisymmetric fields yet).")
+        page.print("FElupe's axisymmetric mode: run beside compress_axisymmetric by validation/felupe_axisymmetric.py "
+                   "(its section of this page: error against this truth and time per curve).")
     page.write()
 
 
