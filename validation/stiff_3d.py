@@ -112,21 +112,26 @@ def screened_curve(ratio: float, cell_changes: dict, mesh_changes: dict, fresh: 
     return record
 
 
-def default_curve(ratio: float, steps: int = STEPS, fresh: bool = False, cached_only: bool = False) -> dict | None:
-    """``elastocell compress`` on its defaults for stiffness ratio ``ratio``, ``steps`` steps to DELTA_MAX, run in
-    a new process (cached under the resolved cell): the curve, nodes, the process's and the curve's wall time.
-    With STEPS steps, a curve of the same cell in validation/axisymmetric.py's cache is taken from there."""
-    cell = resolved_cell(ratio, {}, {})
+def default_curve(ratio: float, steps: int = STEPS, fresh: bool = False, cached_only: bool = False,
+                  changes: dict | None = None) -> dict | None:
+    """``elastocell compress`` on its defaults for stiffness ratio ``ratio`` (with the cell options ``changes``, a
+    candidate for the defaults: e.g. ``{"volumetric": "projected"}``), ``steps`` steps to DELTA_MAX, run in a new
+    process (cached under the resolved cell): the curve, nodes, the process's and the curve's wall time. With
+    STEPS steps, a default curve of the same cell in validation/axisymmetric.py's cache is taken from there."""
+    changes = changes or {}
+    cell = compression_parameters_for(cell_parameters(**cell_options(ratio, **changes)))
     path = _path("cli", cell, DELTA_MAX, steps)
     if path.exists() and not fresh:
         return json.loads(path.read_text())
-    shared = three_d_curve(cell_options(ratio), cached_only=True) if steps == STEPS else None  # same cell, steps
+    shared = (three_d_curve(cell_options(ratio), cached_only=True) if steps == STEPS and not changes
+              else None)  # same cell, same steps
     if shared is not None and not fresh:
         return {**shared, "process_s": float("nan"), "curve_s": shared["seconds"], "mesh_cached": None,
                 "mesh": cell.mesh.model_dump(mode="json"), "run": "axisymmetric.py"}
     if cached_only:
         return None
     options = ["--nucleus", "none"] if ratio == 1 else ["--stiffness-ratio", f"{ratio:g}", "--size-ratio", "0.5"]
+    options += [item for name, value in changes.items() for item in (f"--{name.replace('_', '-')}", f"{value}")]
     with tempfile.TemporaryDirectory() as out:
         from elastocell.body.mesh import mesh_cache_path, mesh_parameters  # lazy: only when a curve is computed
 
@@ -139,7 +144,7 @@ def default_curve(ratio: float, steps: int = STEPS, fresh: bool = False, cached_
         wall = time.perf_counter() - start
         metadata = json.loads((Path(out) / "metadata.json").read_text())
         _, table = read_curve_csv(Path(out) / "compression.csv")
-    record = {"ratio": ratio, "steps": steps, "delta": np.asarray(table["delta"]).tolist(),
+    record = {"ratio": ratio, "steps": steps, "changes": changes, "delta": np.asarray(table["delta"]).tolist(),
               "force": np.asarray(table["force_per_Ec_R2"]).tolist(), "nodes": metadata["mesh"]["n_nodes"],
               "process_s": wall, "curve_s": metadata["solver"]["curve_time_s"], "mesh_cached": cached_mesh,
               "returncode": completed.returncode, "stderr": completed.stderr[-500:],
@@ -162,7 +167,11 @@ def errors(record: dict, reference: np.ndarray) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("--only", nargs="+", choices=["budget", "defaults"], default=["budget", "defaults"])
+    parser.add_argument("--only", nargs="+", choices=["budget", "defaults", "candidate"],
+                        default=["budget", "defaults", "candidate"])
+    parser.add_argument("--candidate", nargs="+", default=["volumetric=projected"],
+                        help="cell options NAME=VALUE of the candidate defaults (the candidate table)")
+    parser.add_argument("--candidate-ratios", nargs="+", type=float, default=RATIOS)
     parser.add_argument("--ratios", nargs="+", type=float, default=RATIOS)
     parser.add_argument("--budget-ratios", nargs="+", type=float, default=BUDGET_RATIOS)
     parser.add_argument("--steps", type=int, default=15, help="load steps of a default curve not in the cache")
@@ -233,6 +242,25 @@ def main() -> None:
                    "default, or 15: rows every 0.05), each in a new process, against the axisymmetric truth",
                    columns=["gamma", "steps", "nodes", "layer", "degree", "run", "process_s", "curve_s", "mesh_cached",
                             "delta_reached", *ERRORS], formats=form)
+    if "candidate" in args.only:
+        changes = dict(item.split("=", 1) for item in args.candidate)
+        rows = []
+        for ratio in args.candidate_ratios:
+            record = default_curve(ratio, args.steps, args.fresh, args.cached_only, changes)
+            if record is None:
+                rows.append({"gamma": ratio, "nodes": "not run"})
+                continue
+            default = default_curve(ratio, args.steps, cached_only=True) or default_curve(ratio, cached_only=True)
+            rows.append({"gamma": ratio, "steps": record["steps"], "nodes": record["nodes"],
+                         "degree": record["mesh"]["quadrature_degree"] or 2, "process_s": record["process_s"],
+                         "curve_s": record["curve_s"],
+                         "curve_s/default": record["curve_s"] / default["curve_s"] if default else float("nan"),
+                         "delta_reached": record["delta"][-1], **errors(record, truth(ratio))})
+        page.table(rows, f"Candidate defaults: `elastocell compress` with {' '.join(f'--{k.replace(chr(95), chr(45))} {v}' for k, v in changes.items())} "
+                   f"({args.steps} steps to delta {DELTA_MAX:g}), each in a new process, against the axisymmetric "
+                   "truth; curve_s/default: its curve's wall time over the default's (a different run, other load)",
+                   columns=["gamma", "steps", "nodes", "degree", "process_s", "curve_s", "curve_s/default",
+                            "delta_reached", *ERRORS], formats={**form, "curve_s/default": ".1f"})
     if not args.no_page:
         page.write()
 
