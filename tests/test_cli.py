@@ -188,7 +188,8 @@ EXPECTED_OPTIONS = {
               '--radius=1 --material=neo-hookean --element=p2 --quadrature-degree=None --resume=False --quiet=False '
               '--json=False',
     'lut': '--channel-radius=None --channel-width=None --channel-shape=None --channel-height=None --flow-rate! '
-           '--viscosity=None --medium=newtonian --temperature=None --flow-index=None --out! --radii=None '
+           '--viscosity=None --medium=newtonian --temperature=None --flow-index=None --channel-length=None '
+           '--out! --radii=None '
            '--moduli=None --quick=False --stiffness-ratio=None --size-ratio=None --poisson-ratio=0.48 '
            '--material=neo-hookean --resolution=None '
            '--extrapolate=True --coarse-resolution=None --duration=None --stationary-tolerance=None '
@@ -205,7 +206,7 @@ EXPECTED_OPTIONS = {
             '--start-offset=0.0 --resolution=8.0 --extrapolate=True --coarse-resolution=None --channel-shape=None '
             '--channel-width=None --channel-height=None '
             '--channel-aspect-ratio=None --medium=newtonian --temperature=None --flow-index=None '
-            '--duration=10.0 --pressure-gradient=None --wall-clock=None '
+            '--channel-length=None --duration=10.0 --pressure-gradient=None --wall-clock=None '
             '--stationary-tolerance=None --stationary-observable=strain_axial --record-interval=0.1 '
             '--checkpoint-every=20 --vtk-interval=1.0 --resume=False --backend=numba --quiet=False',
     'reproduce': '--quick=False --scheduler=None --workers=None --out! --quiet=False',

@@ -56,7 +56,7 @@ def test_the_documented_bare_units():
     """One unit per quantity for bare numbers, everywhere (command line and Python API)."""
     assert {q.si: q.bare for q in BARE_UNITS.values()} == {
         "m": "um", "Pa": "Pa", "Pa*s": "mPa*s", "1/s": "1/s", "m^3/s": "uL/s", "Pa/m": "Pa/m", "N/m": "N/m",
-        "m/V": "nm/V", "deg": "deg"}
+        "m/V": "nm/V", "deg": "deg", "degC": "degC"}
     assert parse_quantity(3, "Pa*s", "viscosity")[0] == pytest.approx(3e-3, rel=1e-12)
 
 

@@ -2,10 +2,20 @@
 and VTK files to a directory, and resumes from its checkpoint. By default a run at R/dx above 6 is two runs, at
 R/dx 6 and at the resolution, whose stationary values are Richardson-extrapolated
 (``elastocell.simulation.extrapolation``).
+
+A finite channel (``channel_length``, RT-DC's measurement region near the outlet): the cell starts undeformed on its
+path at the inlet and the run ends when the distance it has travelled, its own axial speed integrated over time
+(the ``axial_position`` of its volume centroid; the periodic lattice makes the channel's length no part of the
+geometry), reaches the length L: :class:`TransitStop`. The summary's ``state`` says which state a run reports:
+"stationary" (the stationarity stop), "transit L um" (the end of the channel) or "cap" (the duration or wall clock
+ran out first).
 """
 
 from __future__ import annotations
 
+import math
+import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +24,7 @@ from elastocell.body.cell import Cell, enable_compilation_cache
 from elastocell.files import Stopwatch, write_json
 from elastocell.parameters.cell import describe_cell
 from elastocell.parameters.flow import flow_cell
-from elastocell.parameters.units import ParameterError
+from elastocell.parameters.units import ParameterError, parse_quantity, parse_temperature
 from elastocell.scenarios.pipe import STATIONARY_OBSERVABLES, PipeFlowParameters, PipeRun, plot_pipe
 from elastocell.simulation.directory import interruptible, output_directory
 from elastocell.simulation.extrapolation import coarse_resolution_of, run_extrapolated
@@ -25,6 +35,62 @@ EXTRAPOLATED = ("strain_axial_mean", "strain_radial_mean", "strain_transverse_me
                 "projected_area_mean", "axial_velocity_mean")
 """The stationary shape and velocity an extrapolated run reports extrapolated (the others, the radial migration
 among them, are the finer run's)."""
+
+TRANSIT_COLUMNS = ("deformation", "projected_area", "strain_axial", "strain_radial", "strain_transverse",
+                   "axial_velocity", "radial_position", "volume_change")
+"""The observables a transit run reports at the end of the channel (``summary["transit"]``)."""
+
+
+@dataclass(frozen=True)
+class TransitStop(StopCriteria):
+    """The stop criteria plus the end of a finite channel: the run ends ("transit") at the first record whose
+    travelled distance ``axial_position`` (units of R) reaches ``channel_length`` (units of R), so within one record
+    interval of it."""
+
+    channel_length: float = math.inf
+
+    def reached(self, series: dict) -> str:
+        distance = series["axial_position"]
+        return "transit" if distance and distance[-1] >= self.channel_length else ""
+
+
+def channel_length_of(channel_length, cell) -> float | None:
+    """The channel length L in units of the cell radius R (None: the stationary state), from a quantity (a bare
+    number in um) and the cell's physical radius; refuses L <= 0, L below the cell's diameter 2R and a cell
+    without a physical radius, in one line."""
+    if channel_length is None:
+        return None
+    length, _ = parse_quantity(channel_length, "m", "channel_length")
+    if not length > 0:
+        raise ParameterError("channel_length", f"must be > 0, got {channel_length}")
+    if not cell.radius_is_physical:
+        raise ParameterError("channel_length", "needs a physical --radius (e.g. 8um) to set L/R")
+    if length < 2.0 * cell.radius:
+        raise ParameterError("channel_length", f"L = {length * 1e6:g} um is shorter than the cell's diameter "
+                             f"2R = {2e6 * cell.radius:g} um: the cell would not fit in the channel")
+    return length / cell.radius
+
+
+def run_state(stop_reason: str, channel_length_um: float | None) -> str:
+    """"stationary", "transit L um" or "cap": which state a run's values describe."""
+    if stop_reason == "stationary":
+        return "stationary"
+    if stop_reason == "transit":
+        return f"transit {channel_length_um:g} um"
+    return "cap"
+
+
+def transit_values(series: dict, channel_length: float) -> dict:
+    """The observables :data:`TRANSIT_COLUMNS` and the time at the travelled distance ``channel_length`` (units of R),
+    interpolated linearly between the two records around it (the last record's if the run ended short of it)."""
+    distance = np.asarray(series["axial_position"], dtype=float)
+    after = np.nonzero(distance >= channel_length)[0]
+    names = ("time",) + TRANSIT_COLUMNS
+    if after.size == 0 or after[0] == 0:
+        return {name: float(series[name][-1]) for name in names}
+    i = int(after[0])
+    w = (channel_length - distance[i - 1]) / (distance[i] - distance[i - 1])
+    return {name: float((1 - w) * series[name][i - 1] + w * series[name][i]) for name in names}
 
 
 def pipe(
@@ -38,7 +104,7 @@ def pipe(
     channel_shape: str | None = None,
     channel_aspect_ratio: float | None = None,
     medium: str | None = None,
-    temperature: float | None = None,
+    temperature: float | str | None = None,
     flow_index: float | None = None,
     duration: float = 10.0,
     resume: bool = False,
@@ -53,6 +119,7 @@ def pipe(
     capillary_number_modulus: str = "reference",
     extrapolate: bool = True,
     coarse_resolution: float | None = None,
+    channel_length: float | str | None = None,
     **cell_options,
 ) -> dict:
     """A cell in a capillary; writes ``out/timeseries.csv``, ``summary.json``, ``pipe.png``, ``vtk/`` and
@@ -61,8 +128,8 @@ def pipe(
     capillary_number_wall: Ca_w = G R_ch/(2 mu_c) (mu_eff with ``equivalent``). cell: CellParameters or the
     CELL OPTIONS of ``cell_parameters`` (default mesh: uniform p1 with edges of 2 dx, as shear flow).
     channel_shape: "cylinder" (default), "square" or "rectangle" (width 2 R_ch, height channel_aspect_ratio times
-    the width). medium: "newtonian" (default), "0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS" (at ``temperature``
-    degC) or "power-law" (with ``flow_index``); see :class:`PipeFlowParameters`.
+    the width). medium: "newtonian" (default), "0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS" (at ``temperature``:
+    "23degC", "23°C", "296.15K" or a bare number in degC) or "power-law" (with ``flow_index``); see :class:`PipeFlowParameters`.
     duration: units of 1/gdot_w. resume: continue from ``out/checkpoint.npz`` if it exists.
     stationary_tolerance: stop once the running mean of ``stationary_observable`` ("strain_axial" or
     "deformation") over the last unit of time changes by less than this fraction of it (see
@@ -76,6 +143,10 @@ def pipe(
     area and axial velocity (:data:`EXTRAPOLATED`) extrapolated to dx -> 0 with order 2
     (``summary["extrapolation"]``; the top-level time series and plot are the finer run's). Without cell= the
     mesh (edges 2 dx) follows each resolution.
+    channel_length: a finite channel of length L (a quantity such as "300um"; a bare number in um; needs a physical
+    radius): the run ends when the cell has travelled L (:class:`TransitStop`; ``duration`` is then the cap), and
+    ``summary["transit"]`` holds its shape at L (with ``extrapolate``: the finer run's, each run's in its own
+    directory); ``summary["state"]`` is "transit L um", or "cap" if the duration ran out first. None: the stationary state.
     """
 
     if stationary_tolerance is None and stationary_observable != "strain_axial":
@@ -85,14 +156,15 @@ def pipe(
     for name, value in (("channel_radius_ratio", channel_radius_ratio), ("start_offset", start_offset),
                         ("resolution", resolution), ("channel_shape", channel_shape),
                         ("channel_aspect_ratio", channel_aspect_ratio), ("medium", medium),
-                        ("temperature", temperature), ("flow_index", flow_index)):
+                        ("temperature", parse_temperature(temperature)), ("flow_index", flow_index)):
         if value is not None:
             flow_options[name] = value
     params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)
     coarse = coarse_resolution_of(extrapolate, params.resolution, coarse_resolution)
+    length = channel_length_of(channel_length, flow_cell(cell, cell_options, params.resolution))
     arguments = (capillary_number_wall, cell, equivalent, duration, resume, progress, wall_clock, stationary_tolerance,
                  stationary_observable, record_interval, checkpoint_every, vtk_interval, capillary_number_modulus,
-                 cell_options)
+                 cell_options, length)
     if coarse is None:
         return _single(out, params, *arguments)[0]
 
@@ -115,14 +187,16 @@ def pipe(
 
 def _single(out, params, capillary_number_wall, cell, equivalent, duration, resume, progress, wall_clock,
             stationary_tolerance, stationary_observable, record_interval, checkpoint_every, vtk_interval,
-            capillary_number_modulus, cell_options, part: str = "") -> tuple[dict, dict]:
-    """One run at ``params.resolution`` in ``out`` (:func:`pipe`'s arguments; ``part`` labels its progress):
-    (its summary, its time series)."""
+            capillary_number_modulus, cell_options, channel_length=None, part: str = "") -> tuple[dict, dict]:
+    """One run at ``params.resolution`` in ``out`` (:func:`pipe`'s arguments, ``channel_length`` in units of R;
+    ``part`` labels its progress): (its summary, its time series)."""
     if stationary_observable not in STATIONARY_OBSERVABLES:
         raise ParameterError("stationary_observable", f"must be one of {', '.join(STATIONARY_OBSERVABLES)}, "
                              f"got {stationary_observable!r}")
     stop = StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                         stationary_observable=stationary_observable, unit=PipeRun.TIME_UNIT)
+    if channel_length is not None:
+        stop = TransitStop(**{**stop.__dict__, "channel_length": channel_length})
     if vtk_interval is not None and not vtk_interval > 0:
         raise ParameterError("vtk_interval", f"must be > 0 (units of 1/gdot_w), got {vtk_interval}")
     cell = flow_cell(cell, cell_options, params.resolution)
@@ -143,6 +217,12 @@ def _single(out, params, capillary_number_wall, cell, equivalent, duration, resu
             capillary_number_mu_c = capillary_number_wall * body.effective_stiffness_ratio
     run = PipeRun(body, params, record_interval=record_interval)
     check_run_cost(stop.duration * run.units.steps_per_time * float(np.prod(run.units.shape)))
+    if channel_length is not None:  # not even the centre-line speed carries the cell through within the duration
+        reach = duration * run.units.centre_speed / run.units.wall_shear_rate / run.units.radius  # units of R
+        if reach < channel_length:
+            raise ParameterError("duration", f"{duration:g}/gdot_w is too short for the channel length L = "
+                                 f"{channel_length:.4g} R: even the centre-line speed covers only {reach:.4g} R; "
+                                 f"give at least {duration * channel_length / reach:.3g}")
     with output_directory(out) as out, interruptible():
         resumed, vtk = run_in_directory(run, out, stop, resume=resume, progress=progress,
                                         description=f"pipe Ca_w={capillary_number_wall:g}{part}",
@@ -151,9 +231,20 @@ def _single(out, params, capillary_number_wall, cell, equivalent, duration, resu
         summary = {"scenario": "pipe", "label": label}
         summary.update(run.summary())
         summary["capillary_number_wall_mu_c"] = capillary_number_mu_c
+        if channel_length is not None:
+            length_um = channel_length * body.parameters.radius * 1e6
+            summary["channel_length_um"] = length_um
+            summary["channel_length_r"] = channel_length
+            summary["transit"] = transit_values(run.arrays(), channel_length)
+        summary["state"] = run_state(run.stop_reason, length_um if channel_length is not None else None)
         summary.update(directory_summary(run, body, cell, params, clock, resumed, equivalent))
         write_json(out / "summary.json", summary)
-        warn_if_not_stationary(summary, out)
+        if channel_length is None:
+            warn_if_not_stationary(summary, out)
+        elif summary["state"] == "cap":
+            warnings.warn(f"{out / 'summary.json'}: the cell travelled {run.series['axial_position'][-1]:.4g} R of "
+                          f"the channel's {channel_length:.4g} R before the run stopped ({run.stop_reason}): its values "
+                          "are not those at the end of the channel; run longer (duration)", stacklevel=2)
         plot_pipe(out / "pipe.png", run.arrays(), summary,
                   title=f"{label}, {params.channel_shape} channel, {params.medium}, Ca_w = {capillary_number_wall:g}, "
                         f"R_ch/R = {params.channel_radius_ratio:g}, "

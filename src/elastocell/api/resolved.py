@@ -33,6 +33,10 @@ NOT_COMPUTED = ("out", "progress", "resume", "checkpoint_every")
 """API options that do not change what a run computes: where it writes, its progress bar, whether it continues a
 checkpoint, how often it writes one."""
 
+UNSET_LEFT_OUT = ("channel_length",)
+"""API options left out of the resolved parameters when None (the pipe's stationary state): a run that does not
+use them resolves as one that cannot."""
+
 FUNCTIONS = {"compress": compress, "shear": shear, "pipe": pipe}
 
 
@@ -47,6 +51,9 @@ def _bound(scenario: str, options: dict) -> dict:
     arguments = dict(bound.arguments)
     for name in NOT_COMPUTED:
         arguments.pop(name, None)
+    for name in UNSET_LEFT_OUT:
+        if name in arguments and arguments[name] is None:
+            arguments.pop(name)
     return arguments
 
 

@@ -20,7 +20,7 @@ from elastocell.cli.options import CELL, FLOW_CELL, opt, plain, takes
 from elastocell.cli.study import reproduce, study_app
 from elastocell.parameters.cell import cell_parameters
 from elastocell.parameters.flow import shear_mesh_size
-from elastocell.parameters.units import ParameterError, parse_quantity
+from elastocell.parameters.units import ParameterError, parse_quantity, parse_temperature
 from elastocell.version import __version__
 
 HELP = """elastocell: mechanics of living cells, hyperelastic bodies with a nucleus, in silico.
@@ -255,7 +255,9 @@ def equivalent_command(cell: dict, as_json: bool):
        "channel_radius_ratio", "start_offset", "resolution", "extrapolate", "coarse_resolution", "channel_shape",
        opt("channel_width", help="Width W of a square or rectangular channel, with a physical --radius: sets "
            "--channel-radius-ratio to W/(2R)."), "channel_height", "channel_aspect_ratio", "medium", "temperature",
-       "flow_index",
+       "flow_index", opt("channel_length", help="Length L of a finite channel, with a physical --radius (RT-DC chips: "
+                         "about 300um, measured near the outlet): the run ends when the cell, started undeformed at "
+                         "the inlet, has travelled L; --duration is then the cap."),
        opt("duration", default=10.0, units="1/gdot_w, gdot_w the wall shear rate"), "pressure_gradient",
        "wall_clock",
        opt("stationary_tolerance", help="Stop when the running mean of --stationary-observable over 1/gdot_w "
@@ -267,12 +269,15 @@ def equivalent_command(cell: dict, as_json: bool):
        "resume", "backend", "quiet")
 def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent: bool, channel_radius_ratio: float,
          start_offset: float, resolution: float, extrapolate: bool, coarse_resolution: float | None, channel_shape, channel_width: str | None, channel_height: str | None,
-         channel_aspect_ratio: float | None, medium: str, temperature: float | None, flow_index: float | None,
-         duration: float, pressure_gradient: str | None,
+         channel_aspect_ratio: float | None, medium: str, temperature: str | None, flow_index: float | None,
+         channel_length: str | None, duration: float, pressure_gradient: str | None,
          wall_clock: float | None, stationary_tolerance: float | None, stationary_observable, record_interval: float,
          checkpoint_every: int, vtk_interval: float, resume: bool, backend, quiet: bool):
     """A cell in pressure-driven flow through a cylindrical or square/rectangular channel, in a Newtonian or
     shear-thinning (MC-PBS) medium: migration and bullet shape."""
+    from elastocell.api.pipe import (
+        channel_length_of,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+    )
     from elastocell.api.pipe import (
         pipe as run,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
@@ -312,10 +317,11 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
         raise ParameterError("capillary_number_wall", "required (or --pressure-gradient)")
     flow_options = {"channel_radius_ratio": channel_radius_ratio, "start_offset": start_offset, "resolution": resolution,
                     "backend": backend.value, "channel_shape": shape, "channel_aspect_ratio": channel_aspect_ratio,
-                    "medium": medium, "temperature": temperature, "flow_index": flow_index}
+                    "medium": medium, "temperature": parse_temperature(temperature), "flow_index": flow_index}
     PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)  # validate early
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                  stationary_observable=stationary_observable.value, unit="units of 1/gdot_w")
+    channel_length_of(channel_length, cell)  # refused in one line before anything runs
     coarse_resolution_of(extrapolate, resolution, coarse_resolution)
     try:
         summary = run(out, capillary_number_wall, equivalent=equivalent, extrapolate=extrapolate,
@@ -323,7 +329,7 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
                       progress=not quiet, wall_clock=wall_clock,
                       stationary_tolerance=stationary_tolerance, stationary_observable=stationary_observable.value,
                       record_interval=record_interval, checkpoint_every=checkpoint_every, vtk_interval=vtk_interval,
-                      flow_options=flow_options, **cell_options)
+                      flow_options=flow_options, channel_length=channel_length, **cell_options)
     except FlowError as error:
         typer.echo(f"elastocell: pipe flow failed: {error}", err=True)
         raise typer.Exit(code=1) from None
@@ -333,6 +339,10 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
                    f"+- {summary['strain_radial_std']:.1e}, r/R_ch {summary['radial_position_initial']:.3f} -> "
                    f"{summary['radial_position']:.3f}, t = {summary['duration']:.2f}/gdot_w in "
                    f"{summary['wall_time_s']:.1f} s -> {out}")
+        if channel_length is not None:
+            values = summary["transit"]
+            typer.echo(f"state {summary['state']}: at L the deformation is {values['deformation']:.4f}, the "
+                       f"projected area {values['projected_area']:.4f} R^2 (t = {values['time']:.3g}/gdot_w)")
         _echo_extrapolation(summary, ("strain_axial_mean", "eps_x"), ("strain_radial_mean", "eps_r"),
                             ("deformation_mean", "deformation"), ("projected_area_mean", "projected area"))
 

@@ -23,7 +23,7 @@ from elastocell.cli.options import opt, takes
        opt("temperature", help="Temperature of the medium of a file that records none (a recorded one is kept).",
            shown="the file's"),
        opt("out", default=Path("fits")), opt("no_plots", help="Skip the figure rtdc_events.png."), "quiet")
-def fit_rtdc_command(files: list[Path], lut: list[str], medium: str | None, temperature: float | None, out: Path,
+def fit_rtdc_command(files: list[Path], lut: list[str], medium: str | None, temperature: str | None, out: Path,
                      no_plots: bool, quiet: bool):
     """Young's modulus of every event of RT-DC measurements through look-up tables (dclab's or one elastocell lut
     wrote): dclab scales each table to the file's channel width, flow rate and medium viscosity and corrects the

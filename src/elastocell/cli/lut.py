@@ -23,6 +23,9 @@ from elastocell.cli.options import opt, takes
        opt("medium", help="newtonian (with --viscosity) | 0.49%MC-PBS | 0.59%MC-PBS | 0.83%MC-PBS (RT-DC buffers: "
                           "power laws of Buyukurganci et al. 2022 at --temperature, as dclab)."),
        opt("temperature", help="Temperature of an MC-PBS medium, within its fit (22-37 degC)."), "flow_index",
+       opt("channel_length", help="Length L of the channel (RT-DC chips: about 300um, measured near the outlet): each "
+           "point is read when its cell, started undeformed at the inlet, has travelled L, instead of at its "
+           "stationary shape; --duration is then the cap and --stationary-tolerance is refused."),
        opt("out", help="LUT file to write (dclab text format); the isoelastics go to <stem>_isoelastics.txt and the "
                        "runs to <stem>_runs/."),
        "radii", "moduli", opt("quick", help="2 x 2 grid at R/dx 4 for one unit of time (tests; not converged)."),
@@ -37,14 +40,14 @@ from elastocell.cli.options import opt, takes
                                "and extrapolate its area and deformation to dx -> 0 (Richardson, order 2)."),
        "coarse_resolution",
        opt("duration", annotation=float | None, default=None, help="Longest run per point.", units="1/gdot_w",
-           shown="20; --quick: 1"),
+           shown="20; --quick: 1; with --channel-length 1.5 times the transit at the mean flow speed"),
        opt("stationary_tolerance", help="Stop a point once its deformation is stationary to this fraction.",
-           shown="1e-3; --quick: off"),
+           shown="1e-3; --quick and --channel-length: off"),
        "identifier", opt("scheduler", help="Dask scheduler address."),
        opt("workers", help="Local Dask workers."), "quiet")
 def lut(channel_radius: str | None, channel_width: str | None, channel_shape, channel_height: str | None,
-        flow_rate: str, viscosity: str | None, medium: str, temperature: float | None, flow_index: float | None,
-        out: Path,
+        flow_rate: str, viscosity: str | None, medium: str, temperature: str | None, flow_index: float | None,
+        channel_length: str | None, out: Path,
         radii: str | None, moduli: str | None, quick: bool, stiffness_ratio: float | None,
         size_ratio: float | None, poisson_ratio: float, material: str,
         resolution: float | None, extrapolate: bool, coarse_resolution: float | None, duration: float | None,
@@ -64,7 +67,7 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
                          channel_shape=None if channel_shape is None else channel_shape.value,
                          channel_height=channel_height, medium=medium, temperature=temperature,
                          flow_index=flow_index, extrapolate=extrapolate, coarse_resolution=coarse_resolution,
-                         stiffness_ratio=stiffness_ratio, size_ratio=size_ratio)
+                         stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, channel_length=channel_length)
     if not quiet:
         settings = result["settings"]
         typer.echo(f"{settings.get('cell_description', 'homogeneous cell')}, "
@@ -73,9 +76,9 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
                    f"gdot_w = {settings['wall_shear_rate_1_s']:.4g} 1/s; {len(result['records'])} of {len(result['records']) + len(result['failures'])} points "
                    f"in {result['wall_time_s']:.1f} s")
         if result["not_stationary"]:
-            typer.echo(f"warning: {len(result['not_stationary'])} point(s) reached the duration cap before a "
-                       "stationary shape (listed in the metadata, elastocell.not_stationary): raise --duration",
-                       err=True)
+            typer.echo(f"warning: {len(result['not_stationary'])} point(s) reached the duration cap before "
+                       f"their state ({settings['state']}; listed in the metadata, elastocell.not_stationary): "
+                       "raise --duration", err=True)
         for failure in result["failures"]:
             typer.echo(f"failed {failure['key']}: {failure['error']}", err=True)
         if result["records"]:

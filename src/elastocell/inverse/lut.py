@@ -66,7 +66,7 @@ from pathlib import Path
 
 import numpy as np
 
-from elastocell.api.pipe import pipe
+from elastocell.api.pipe import pipe, run_state, transit_values
 from elastocell.api.resolved import resolved_parameters
 from elastocell.body.cell import Cell
 from elastocell.files import parameter_hash, replace_atomically, write_json
@@ -81,7 +81,7 @@ from elastocell.parameters.medium import (
     canonical_name,
     medium,
 )
-from elastocell.parameters.units import ParameterError, parse_quantity
+from elastocell.parameters.units import ParameterError, parse_quantity, parse_temperature
 from elastocell.scenarios.pipe import (
     PipeFlowParameters,
     duct_flow_rate,
@@ -299,6 +299,7 @@ def lut_medium(name=None, temperature=None, flow_index=None, viscosity=None) -> 
     temperature or flow index; an MC-PBS preset takes ``temperature`` (degC, within its fit, default 23) and no
     viscosity; the bare "power-law" is refused (its consistency K sets the physical flow and is no option)."""
     key = canonical_name("newtonian" if name is None else name)
+    parse_temperature(temperature)  # a temperature that is none is refused as such, whatever the medium
     if key == "power-law":
         raise ParameterError("medium", "a table needs the medium's consistency K as well as n: use an MC-PBS preset "
                              f"({', '.join(MC_PBS)}) or newtonian with --viscosity")
@@ -315,8 +316,9 @@ def lut_medium(name=None, temperature=None, flow_index=None, viscosity=None) -> 
     if viscosity is not None:
         raise ParameterError("viscosity", f"the {key} medium sets its own shear-rate dependent viscosity: give "
                              "--temperature, not --viscosity")
+    temperature = parse_temperature(temperature)
     if temperature is not None:
-        t = float(temperature)
+        t = temperature
         lo, hi = MC_PBS_TEMPERATURES
         if not (math.isfinite(t) and lo <= t <= hi):
             raise ParameterError("temperature", f"must be within the MC-PBS fit, {lo:g}-{hi:g} degC, got "
@@ -329,14 +331,16 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
          duration: float | None = None, stationary_tolerance: float | None = None,
          channel_width=None, channel_shape=None, channel_height=None, medium=None, temperature=None,
          flow_index=None, extrapolate: bool = True, coarse_resolution: float | None = None,
-         stiffness_ratio: float | None = None, size_ratio: float | None = None) -> tuple[list[dict], dict]:
+         stiffness_ratio: float | None = None, size_ratio: float | None = None,
+         channel_length=None) -> tuple[list[dict], dict]:
     """Check every input and return (grid points, settings); raises ParameterError (named option) on an
     impossible one, before anything runs. Each point holds its key and the keyword arguments of ``pipe``.
     ``channel_width`` (a square channel's W) replaces ``channel_radius`` (give None for it); ``channel_shape``
     "square" runs the duct itself; ``medium`` an MC-PBS preset at ``temperature`` replaces ``viscosity``;
     ``extrapolate``/``coarse_resolution`` as ``pipe`` (each point two runs, R/dx 6 and ``resolution``, whose final
     shapes are Richardson-extrapolated; a point at R/dx <= 6 is one run); ``stiffness_ratio``, ``size_ratio``:
-    the nucleated cell model (:func:`cell_model`; the moduli are then the cytoplasm's E_c)."""
+    the nucleated cell model (:func:`cell_model`; the moduli are then the cytoplasm's E_c); ``channel_length``: the
+    shape at the end of a channel of that length (:func:`transit_length`) instead of the stationary shape."""
     from pydantic import ValidationError
 
 
@@ -354,6 +358,7 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
         raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {poisson_ratio}")
     resolution = defaults["resolution"] if resolution is None else float(resolution)
     flow_cell(None, {**cell, "material": material, "poisson_ratio": float(poisson_ratio)}, resolution)  # refusals
+    duration_given = duration
     duration = defaults["duration"] if duration is None else float(duration)
     if not (math.isfinite(duration) and duration > 0):
         raise ParameterError("duration", f"must be > 0 (units of 1/gdot_w), got {duration}")
@@ -364,6 +369,12 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
     if too_large:
         raise ParameterError("radii", f"a cell of radius {too_large[0] * 1e6:g} um does not fit in a channel of "
                              f"radius {r_ch * 1e6:g} um (need R < R_ch)")
+    length = transit_length(channel_length, max(radii_m))
+    if length is not None:
+        if stationary_tolerance is not None:
+            raise ParameterError("stationary_tolerance", "stops at a stationary shape; a table for a finite channel "
+                                 "(--channel-length) reads each cell at the end of the channel")
+        tolerance = None
     # the pipe options that differ from its defaults (a cylinder in a Newtonian medium adds none: its keys stay)
     flow = {} if shape == "cylinder" else {"channel_shape": shape}
     if not fluid.is_newtonian:
@@ -375,6 +386,13 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
     elif coarse_resolution is not None:
         extrapolation["coarse_resolution"] = coarse
     driving = channel_driving(shape, r_ch, q, fluid, eta)
+    transit = {}
+    if length is not None:  # the cap: the transit at the channel's mean speed, 1.5 times (a centred cell is faster)
+        area = math.pi * r_ch**2 if shape == "cylinder" else 4.0 * r_ch**2
+        cap = TRANSIT_CAP * length * driving["wall_shear_rate"] * area / q
+        transit = {"channel_length": length * 1e6}
+        if duration_given is None:
+            duration = cap
     points = []
     for radius in radii_m:
         ratio = r_ch / radius
@@ -400,6 +418,8 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
                        "resolution": resolution, "duration": duration, "stationary_tolerance": tolerance,
                        "stationary_observable": "deformation", **cell, "material": material,
                        "poisson_ratio": float(poisson_ratio), **flow, **extrapolation, **single}
+            if transit:  # the transit needs the cell's physical radius (L/R)
+                options.update(transit, radius=f"{radius * 1e6:g}um")
             points.append({"key": point_key(radius * 1e6, modulus * 1e-3, options), "radius_um": radius * 1e6,
                            "emodulus_kpa": modulus * 1e-3, "options": options})
     width = 2.0 * r_ch if shape == "square" else 2.0 * r_ch / SQUARE_CHANNEL_RADIUS_FACTOR
@@ -410,8 +430,28 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
                 "wall_shear_stress_pa": driving["wall_shear_stress"],
                 "wall_shear_rate_1_s": driving["wall_shear_rate"], "poisson_ratio": float(poisson_ratio),
                 "material": material, "resolution": resolution, "coarse_resolution": coarse, "duration": duration,
-                "stationary_tolerance": tolerance, "quick": bool(quick), **cell_settings(cell, poisson_ratio)}
+                "stationary_tolerance": tolerance, "quick": bool(quick), **cell_settings(cell, poisson_ratio),
+                "state": "stationary" if length is None else f"transit {length * 1e6:g} um"}
+    if length is not None:
+        settings["channel_length_um"] = length * 1e6
     return points, settings
+
+
+TRANSIT_CAP = 1.5
+"""The duration cap of a transit run, in units of the transit time at the channel's mean speed Q/A: a centred cell
+moves faster than the mean flow (about 1.6 times it at R/R_ch 0.5 in the cylinder: 0.81 u_max, u_max = 2 Q/A)."""
+
+
+def transit_length(channel_length, largest_radius: float) -> float | None:
+    """The channel length L (m) of a transit table (None: the stationary state), a quantity or a bare number in um;
+    refused in one line when not > 0 or shorter than the largest cell's diameter."""
+    if channel_length is None:
+        return None
+    length = _positive(channel_length, "m", "channel_length")
+    if length < 2.0 * largest_radius:
+        raise ParameterError("channel_length", f"L = {length * 1e6:g} um is shorter than the diameter of the "
+                             f"largest cell, {2e6 * largest_radius:g} um")
+    return length
 
 
 def _fits(ratio: float, resolution: float, flow: dict) -> bool:
@@ -477,37 +517,53 @@ summary's means over the second half would mix in the approach to the steady sha
 E = 2 kPa, 20 um channel, 0.04 uL/s: deformation 0.0365 over the second half against 0.039 at the end)."""
 
 
-def final_shape(timeseries: Path) -> dict:
+def final_shape(timeseries: Path, channel_length: float | None = None) -> dict:
     """Means of ``deformation`` and ``projected_area`` (and the deformation's standard deviation) over the last
-    :data:`FINAL_WINDOW` of a pipe run's time series."""
+    :data:`FINAL_WINDOW` of a pipe run's time series; with ``channel_length`` (units of R) their values where the
+    cell had travelled that far (``api.pipe.transit_values``; the standard deviation is then 0)."""
     import pandas as pd
 
     table = pd.read_csv(timeseries)
+    if channel_length is not None:
+        values = transit_values({c: table[c].to_numpy() for c in table.columns}, channel_length)
+        return {"deformation": values["deformation"], "deformation_std": 0.0,
+                "projected_area": values["projected_area"]}
     last = table[table["time"] > table["time"].iloc[-1] - FINAL_WINDOW]
     return {"deformation": float(last["deformation"].mean()), "deformation_std": float(last["deformation"].std(ddof=0)),
             "projected_area": float(last["projected_area"].mean())}
 
 
-def point_shape(directory: Path, summary: dict) -> tuple[dict, bool]:
-    """(final shape, stationary) of a point's pipe run in ``directory``: :func:`final_shape` of its time series
-    and whether it stopped on the stationarity criterion; for an extrapolated run (``summary["extrapolation"]``)
-    the final shapes of both resolutions' runs extrapolated to dx -> 0 (Richardson, order 2:
-    ``extrapolation`` holds each value at both resolutions and the correction), stationary when both runs are."""
+def point_shape(directory: Path, summary: dict) -> tuple[dict, str]:
+    """(final shape, state) of a point's pipe run in ``directory``: :func:`final_shape` of its time series (at the
+    end of the channel for a transit run) and its state (``api.pipe.run_state``: "stationary", "transit L um", or
+    "cap" when the duration ran out first); for an extrapolated run (``summary["extrapolation"]``) the final shapes
+    of both resolutions' runs extrapolated to dx -> 0 (Richardson, order 2: ``extrapolation`` holds each value at
+    both resolutions and the correction), "cap" unless both runs reached the state."""
+    length = summary.get("channel_length_r")
     if "extrapolation" not in summary:
-        return final_shape(directory / "timeseries.csv"), summary.get("stop_reason") == "stationary"
+        return (final_shape(directory / "timeseries.csv", length),
+                run_state(summary.get("stop_reason"), summary.get("channel_length_um")))
     fine_r = summary["extrapolation"]["fine_resolution"]
     coarse_r = summary["extrapolation"]["coarse_resolution"]
-    shapes, stationary = {}, True
+    shapes, states = {}, set()
     for r in (fine_r, coarse_r):
         part = part_directory(directory, r)
-        shapes[r] = final_shape(part / "timeseries.csv")
-        stationary &= json.loads((part / "summary.json").read_text()).get("stop_reason") == "stationary"
+        shapes[r] = final_shape(part / "timeseries.csv", length)
+        states.add(run_state(json.loads((part / "summary.json").read_text()).get("stop_reason"),
+                             summary.get("channel_length_um")))
+    state = states.pop() if len(states) == 1 else "cap"
     values = extrapolate_values({k: shapes[fine_r][k] for k in ("deformation", "projected_area")}, shapes[coarse_r],
                                 fine_r, coarse_r)
     final = {k: v["value"] for k, v in values.items()}
     final["deformation_std"] = shapes[fine_r]["deformation_std"]
     final["extrapolation"] = {"fine_resolution": fine_r, "coarse_resolution": coarse_r, "values": values}
-    return final, stationary
+    return final, state
+
+
+def point_state(record: dict) -> str:
+    """A finished point's state ("stationary", "transit L um" or "cap"; a point.json without one: from its
+    ``stationary`` flag)."""
+    return record.get("state") or ("stationary" if record.get("stationary") else "cap")
 
 
 def run_point(task: tuple[dict, str]) -> dict:
@@ -525,7 +581,7 @@ def run_point(task: tuple[dict, str]) -> dict:
         options.pop("stationary_observable", None)  # read only by the stationarity stop, which is off
     summary = resume_or_restart(pipe, directory, progress=False, vtk_interval=None, **options)
     radius = point["radius_um"]
-    final, stationary = point_shape(directory, summary)
+    final, state = point_shape(directory, summary)
     record = {
         "key": point["key"], "radius_um": radius, "emodulus_kpa": point["emodulus_kpa"],
         "area_um": final["projected_area"] * radius**2,
@@ -538,7 +594,7 @@ def run_point(task: tuple[dict, str]) -> dict:
         "deformation_initial": summary.get("deformation_initial"),
         "strain_axial_mean": summary.get("strain_axial_mean"), "strain_radial_mean": summary.get("strain_radial_mean"),
         "volume_change_max_abs": summary.get("volume_change_max_abs"),
-        "stop_reason": summary.get("stop_reason"), "stationary": stationary,
+        "stop_reason": summary.get("stop_reason"), "stationary": state == "stationary", "state": state,
         "window_stationary": summary.get("stationary"),
         "duration": summary.get("duration"),
         "steps": summary.get("steps"), "options": point["options"],
@@ -594,7 +650,7 @@ def lut_metadata(settings: dict, identifier: str) -> dict:
         "software": f"elastocell {__version__}",
         "authors": "elastocell",
         "summary": (
-            f"Stationary shape of {channel}. {fluid}. Driving: the pressure gradient G that carries flow_rate, "
+            f"{shape_read(settings)} of {channel}. {fluid}. Driving: the pressure gradient G that carries flow_rate, "
             "wall shear stress tau_w = G A/P (cylinder G R_ch/2, square G W/4), Ca_w = tau_w/mu. "
             "area_um and deform are the convex hull of the mesh nodes seen from the side (deform = 1 - "
             "circularity)."),
@@ -607,6 +663,14 @@ def lut_metadata(settings: dict, identifier: str) -> dict:
                          "fluid_flow_behaviour_index_unit": "", "fluid_temperature": settings["temperature_c"],
                          "fluid_temperature_unit": "degC", "medium": settings["medium"]})
     return metadata
+
+
+def shape_read(settings: dict) -> str:
+    """What the table's shape is: "Stationary shape", or the shape at the end of a finite channel."""
+    if settings.get("channel_length_um") is None:
+        return "Stationary shape"
+    return (f"Shape at the end of a channel {settings['channel_length_um']:g} um long (the cell started undeformed on "
+            "the axis at the inlet; RT-DC's measurement region near the outlet)")
 
 
 def _header(metadata: dict, comment: str) -> str:
@@ -691,7 +755,7 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                 client=None, channel_width=None, security=None, channel_shape=None, channel_height=None,
                 medium=None, temperature=None, flow_index=None, extrapolate: bool = True,
                 coarse_resolution: float | None = None, stiffness_ratio: float | None = None,
-                size_ratio: float | None = None) -> dict:
+                size_ratio: float | None = None, channel_length=None) -> dict:
     """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``. ``security``:
     a ``distributed.Security`` for a TLS scheduler (docs/usage/cluster.md).
 
@@ -707,7 +771,12 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     (kept in the table, listed in the metadata under ``elastocell.not_stationary``: their shape is a transient
     mean, not a steady shape). ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
     0.5): a table for the cell with a centred spherical nucleus (the metadata's ``elastocell.cell_model``; its
-    ``emodulus`` column is the cytoplasm's E_c); without them the cell is homogeneous."""
+    ``emodulus`` column is the cytoplasm's E_c); without them the cell is homogeneous. ``channel_length`` (a
+    quantity, bare number in um): each point is read at the end of a channel of that length, the cell started
+    undeformed at its inlet (``pipe``'s transit; no stationarity stop; ``duration`` is then the cap, by default
+    :data:`TRANSIT_CAP` times the transit at the mean flow speed); the metadata's ``elastocell.state`` says
+    "transit L um" ("stationary" without it) and ``elastocell.point_states`` each point's ("cap": the duration ran
+    out first, also listed under ``not_stationary``)."""
 
     check_execution(scheduler, workers)
     out = Path(out)
@@ -718,7 +787,7 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                             channel_shape=channel_shape, channel_height=channel_height, medium=medium,
                             temperature=temperature, flow_index=flow_index, extrapolate=extrapolate,
                             coarse_resolution=coarse_resolution, stiffness_ratio=stiffness_ratio,
-                            size_ratio=size_ratio)
+                            size_ratio=size_ratio, channel_length=channel_length)
     lattice = check_lattice(points)
     identifier = identifier or f"elastocell-{out.stem}"
     runs = runs_directory(out)
@@ -736,12 +805,13 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                 records.append(outcome)
         records.sort(key=lambda r: (r["emodulus_kpa"], r["radius_um"]))
         metadata = lut_metadata(settings, identifier)
-        not_stationary = [r["key"] for r in records if not r.get("stationary")]
+        not_stationary = [r["key"] for r in records if point_state(r) == "cap"]
         single = [p["key"] for p in points if settings["coarse_resolution"] is not None
                   and p["options"].get("extrapolate") is False]
         metadata["elastocell"] = {**settings, "points": len(points), "finished": len(records),
                                   "failed": [f["key"] for f in failures], "not_stationary": not_stationary,
-                                  "not_extrapolated": single}
+                                  "not_extrapolated": single,
+                                  "point_states": {r["key"]: point_state(r) for r in records}}
         result = {"lut": str(out), "isoelastics": str(isoelastics_path(out)), "runs": str(runs),
                   "records": records, "failures": failures, "wall_time_s": time.perf_counter() - start,
                   "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary}

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from elastocell.files import replace_atomically, save_figure, software_versions, write_json
-from elastocell.parameters.units import ParameterError
+from elastocell.parameters.units import ParameterError, parse_temperature
 
 DCLAB_TABLES = ("LE-2D-FEM-19", "HE-2D-FEM-22", "HE-3D-FEM-22")
 """The look-up tables dclab ships: linear elastic axisymmetric (Mokbel et al. 2017), neo-Hookean axisymmetric
@@ -191,8 +191,9 @@ def expand_files(files: list[Path]) -> list[Path]:
 
 
 def fit_rtdc(files: list[Path], tables: list[str], out: Path, medium: str | None = None,
-             temperature: float | None = None, plots: bool = True) -> dict:
-    """Young's modulus of every event of every file through every table.
+             temperature: float | str | None = None, plots: bool = True) -> dict:
+    """Young's modulus of every event of every file through every table. ``medium`` and ``temperature`` (a
+    quantity such as "23degC", "23°C" or "296.15K"; a bare number in degC) stand in where a file records none.
 
     Writes ``out/rtdc_fits.csv`` (one row per event and table: ``file, event, area_um, deform, lut,
     youngs_modulus`` in Pa, NaN outside the table, ``flag``: empty when converted, else why not, and ``path``: the
@@ -205,6 +206,7 @@ def fit_rtdc(files: list[Path], tables: list[str], out: Path, medium: str | None
     import pandas as pd
 
     tables = check_tables(list(tables))
+    temperature = parse_temperature(temperature)
     files = expand_files(files)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

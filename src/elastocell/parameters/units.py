@@ -2,7 +2,8 @@
 and :class:`ParameterError`, the one-line error every impossible input raises.
 
 One rule for bare numbers: a bare number is in its quantity's documented unit, :data:`BARE_UNITS` (a length in
-um, a viscosity in mPa*s, a flow rate in uL/s, a modulus or stress in Pa, a rate in 1/s, an angle in degrees, ...).
+um, a viscosity in mPa*s, a flow rate in uL/s, a modulus or stress in Pa, a rate in 1/s, an angle in degrees, a
+temperature in degC, ...).
 The one
 exception is a dimensionless scale: ``parse_quantity(..., scale="units of R")`` returns a bare number as it is
 (the cell radius and Young's modulus of a simulation, whose default 1 gives results in units of R and E_c).
@@ -10,7 +11,9 @@ exception is a dimensionless scale: ``parse_quantity(..., scale="units of R")`` 
 A string is checked by a small tokeniser before anything reaches pint: a number (decimal or scientific, finite)
 optionally followed by a unit expression of at most :data:`MAX_LENGTH` characters made of known unit names
 (:func:`unit_names`), ``*``, ``.`` or a space (product), ``/``, ``^n`` or ``**n`` with ``|n| <= 4``, and one
-level of parentheses. Anything else is refused with one line naming the parameter and the expected unit, so
+level of parentheses; a temperature is a number and one of degC, °C, celsius, K, kelvin (:func:`parse_temperature`:
+``"23degC"``, ``"23°C"``, ``"296.15K"`` and ``23`` are the same). Anything else is refused with one line naming the
+parameter and the expected unit, so
 every string is answered in microseconds (pint itself evaluates integer powers exactly: ``9**9**9`` would
 never return).
 """
@@ -59,28 +62,33 @@ BARE_UNITS: dict[str, Quantity] = {q.si: q for q in (
     Quantity("N/m", "a spring constant", "0.05N/m", "N/m"),
     Quantity("m/V", "a sensitivity", "50nm/V", "nm/V"),
     Quantity("deg", "an angle", "20deg", "deg"),
+    Quantity("degC", "a temperature", "23degC", "degC"),
 )}
 
 _PREFIXES = ("", "p", "n", "u", "m", "c", "d", "k", "M", "G")
 _SYMBOLS = ("m", "s", "Pa", "N", "V", "L", "l", "g", "Hz", "rad", "P")
 _WORD_PREFIXES = ("", "pico", "nano", "micro", "milli", "centi", "deci", "kilo", "mega", "giga")
 _WORDS = ("meter", "metre", "second", "pascal", "newton", "volt", "liter", "litre", "gram", "radian", "poise")
+_TEMPERATURES = {"degC": "degC", "\u00b0C": "degC", "celsius": "degC", "K": "kelvin",
+                 "kelvin": "kelvin"}
+"""Temperature units (no prefixes) and pint's spelling of each."""
 
 
 @lru_cache(maxsize=1)
 def unit_names() -> frozenset[str]:
     """Every unit name a quantity may use: SI prefixes p n u (or µ) m c d k M G on m s Pa N V L l g Hz rad P
     (poise), the same spelled out (micrometre(s), millipascal, ...), hertz, min, minute(s), h, hour(s), deg,
-    degree(s)."""
+    degree(s), and the temperatures degC, °C, celsius, K, kelvin."""
     names = {p + s for p in _PREFIXES for s in _SYMBOLS}
     names |= {p + w + plural for p in _WORD_PREFIXES for w in _WORDS for plural in ("", "s")}
     names |= {p + "hertz" for p in _WORD_PREFIXES}
     names |= {"min", "minute", "minutes", "h", "hour", "hours", "deg", "degree", "degrees"}
+    names |= set(_TEMPERATURES)
     return frozenset(names)
 
 
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
-_TOKEN = re.compile(r"\s*(?:(?P<name>[A-Za-z\u00b5\u03bc]+)|(?P<power>(?:\^|\*\*)\s*(?P<exponent>[+-]?[0-9]+))"
+_TOKEN = re.compile(r"\s*(?:(?P<name>[A-Za-z\u00b5\u03bc\u00b0]+)|(?P<power>(?:\^|\*\*)\s*(?P<exponent>[+-]?[0-9]+))"
                     r"|(?P<op>[*/.])|(?P<open>\()|(?P<close>\)))")
 
 
@@ -105,6 +113,7 @@ def _unit_expression(text: str) -> str:
             name = match["name"].replace("\u00b5", "u").replace("\u03bc", "u")
             if name not in unit_names():
                 raise _Refused(f"unknown unit {match['name']!r}")
+            name = _TEMPERATURES.get(name, name)
             out.append(("*" if operand else "") + name)
             operand, powered = True, False
         elif match["power"] is not None:
@@ -235,3 +244,15 @@ def parse_quantity(value: float | str, unit: str, parameter: str, scale: str | N
     if not math.isfinite(magnitude):
         raise refuse(f"not finite in {unit}")
     return magnitude, True
+
+
+def parse_temperature(value, parameter: str = "temperature") -> float | None:
+    """A temperature in degC (None stays None): ``"23degC"``, ``"23°C"``, ``"296.15K"`` or a bare number, which is in
+    degC (:data:`BARE_UNITS`); refused in one line naming ``parameter`` below absolute zero or when not a
+    temperature."""
+    if value is None:
+        return None
+    celsius, _ = parse_quantity(value, "degC", parameter)
+    if celsius < -273.15:
+        raise ParameterError(parameter, f"must be above absolute zero (-273.15 degC, 0 K), got {_shown(value)}")
+    return celsius

@@ -183,6 +183,11 @@ class StopCriteria:
         mean = last.mean()
         return abs(mean - before.mean()) <= self.stationary_tolerance * abs(mean)
 
+    def reached(self, series: dict) -> str:
+        """A scenario's own end of the run (a subclass: e.g. the pipe's transit of a finite channel), named as the
+        stop reason; "" to go on."""
+        return ""
+
 
 class FlowRun:
     """A cell in a flow, advanced record by record (see the module docstring); base of the scenarios.
@@ -347,6 +352,9 @@ class FlowRun:
                     self.save(checkpoint)
                 if stop_signal.received:
                     raise KeyboardInterrupt(f"signal {stop_signal.received} at {self.time_column} {self.time:g}")
+                if stop.reached(self.series):
+                    reason = stop.reached(self.series)
+                    break
                 if stop.is_stationary(self.series, self.time_column):
                     reason = "stationary"
                     break
