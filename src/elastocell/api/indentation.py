@@ -41,11 +41,19 @@ from elastocell.scenarios.axisymmetric import (
     AxisymmetricResult,
     hertz_half_space_force,
     hertz_sphere_indentation_force,
+    sneddon_cone_force,
 )
 from elastocell.scenarios.indentation import (
+    CONE_AXISYMMETRIC,
+    INDENTERS,
     check_depth,
+    cone_body,
+    cone_geometry,
+    cone_half_angle,
+    cone_tip_radius,
     indent_body,
     indentation_cell_3d,
+    check_axisymmetric,
     indentation_geometry,
     indentation_solver,
 )
@@ -72,7 +80,7 @@ def _length(value, name: str, cell: CellParameters) -> float | None:
 
 def indent(
     out: str | Path,
-    indenter_radius: str | float,
+    indenter_radius: str | float | None = None,
     cell: CellParameters | None = None,
     cell_shape: str = "sphere",
     cap_height: str | float | None = None,
@@ -84,9 +92,12 @@ def indent(
     linear_solver: str = "auto",
     resume: bool = False,
     progress: bool = True,
+    indenter: str = "sphere",
+    half_angle: str | float | None = None,
     **cell_options,
 ) -> dict:
-    """Press a rigid frictionless sphere of radius ``indenter_radius`` into a cell on a rigid dish and write
+    """Press a rigid frictionless sphere of radius ``indenter_radius`` (``indenter="cone"`` or ``"pyramid"``: a
+    cone of ``half_angle``, see :func:`_indent_cone`) into a cell on a rigid dish and write
     ``out/indentation.csv`` (``depth,force,force_per_Ec_R2,force_per_Eeff_R2``), ``metadata.json``,
     ``indentation.png`` and VTK, one file per row (``out/vtk/indentation_NNNN.vtu``: the meridian section, or the
     3D cell with ``out/vtk/indentation.pvd``).
@@ -112,6 +123,13 @@ def indent(
     if cell is not None and cell_options:
         raise ParameterError("cell", f"give either cell= or cell options, not both ({', '.join(cell_options)})")
     cell = cell or cell_parameters(**cell_options)
+    if indenter != "sphere":
+        return _indent_cone(out, cell, indenter, indenter_radius, half_angle, cell_shape, cap_height,
+                            layer_thickness, depth_max, steps, vtk, solver, linear_solver, resume, progress)
+    if half_angle is not None:
+        raise ParameterError("half_angle", "applies to --indenter cone or pyramid only (a bead has --indenter-radius)")
+    if indenter_radius is None:
+        raise ParameterError("indenter_radius", "is required with --indenter sphere (the default)")
     if cell_shape == "layer" and not cell.radius_is_physical:  # the layer's unit is R_b: --radius is not needed
         magnitude, physical = parse_quantity(indenter_radius, "m", "indenter_radius", scale=RADIUS_SCALE)
         if physical:
@@ -173,6 +191,67 @@ def indent(
         checkpoint.unlink(missing_ok=True)  # the curve is on disk in full
     if failure is not None:
         raise AxisymmetricError(f"{failure} (rows up to depth={result.load[-1]:.4f} R written to {out})", None)
+    return summary
+
+
+def _indent_cone(out, cell: CellParameters, indenter: str, indenter_radius, half_angle, cell_shape: str,
+                 cap_height, layer_thickness, depth_max: float, steps: int, vtk: bool, solver: str, linear_solver: str,
+                 resume: bool, progress: bool) -> dict:
+    """:func:`indent` with a cone (``indenter="cone"``, ``half_angle`` between the axis and the flank, a quantity
+    like ``"20deg"``; a bare number is in degrees) or a four-sided pyramid (``"pyramid"``, ``half_angle`` the face
+    half-angle; the cone of the same cross-section area) on the axisymmetric solver
+    (:func:`elastocell.scenarios.indentation.cone_curve`). ``depth_max`` is in units of R (the layer: of its
+    thickness h, the outputs' length unit; a physical ``layer_thickness`` makes them physical)."""
+    if indenter not in INDENTERS:
+        raise ParameterError("indenter", f"must be one of {', '.join(INDENTERS)}, got {indenter!r}")
+    if indenter_radius is not None:
+        raise ParameterError("indenter_radius", f"is the bead's radius; --indenter {indenter} has --half-angle")
+    angle_given = None if half_angle is None else parse_quantity(half_angle, "deg", "half_angle")[0]
+    angle = cone_half_angle(indenter, angle_given)
+    if resume:
+        raise ParameterError("resume", "continues a curve of the 3D solver only (a cone runs the axisymmetric "
+                                       "solver: run it again)")
+    indentation_solver(solver, cell, MeridianGeometry(), indenter)  # refuses --solver 3d
+    if cell_shape == "layer" and not cell.radius_is_physical and layer_thickness is not None:
+        magnitude, physical = parse_quantity(layer_thickness, "m", "layer_thickness", scale=RADIUS_SCALE)
+        if physical:  # the layer's unit is h: --radius is not needed
+            cell = cell.model_copy(update={"radius": magnitude, "radius_is_physical": True})
+    cap = _length(cap_height, "cap_height", cell)
+    layer = _length(layer_thickness, "layer_thickness", cell)
+    unit = layer if cell_shape == "layer" and layer is not None else 1.0  # the outputs' length unit
+    depth = depth_max * unit
+    geometry, mesh_unit = cone_geometry(cell_shape, angle, depth, cap, layer)
+    check_depth(geometry, mesh_unit, depth, steps)
+    check_axisymmetric(cell, geometry, CONE_AXISYMMETRIC)
+    rho = cone_tip_radius(angle, depth)
+    tip = {"indenter": indenter, "half_angle_deg": float(angle_given), "equivalent_cone_half_angle_deg": angle,
+           "tip_radius_per_R": rho, "tip": "apex rounded by a sphere of radius tip_radius (CONE_TIP_RADIUS x "
+                                             "depth_max tan(alpha)); depth from the tip's first contact"}
+    with output_directory(out) as out, interruptible():
+        clock = Stopwatch()
+        body, geometry, mesh_unit = cone_body(cell, cell_shape, angle, depth, cap, layer)
+        label = f"{describe_cell(cell)}, {cell_shape}, {indenter} {angle_given:g} deg"
+        with progress_bar(progress, "depth {task.completed:.3f}", label=None) as bar:
+            callback = None
+            if bar is not None:
+                task = bar.add_task(f"indent {label}", total=depth)
+                callback = lambda rows: bar.update(task, completed=float(rows.load[-1]) * mesh_unit)  # noqa: E731
+            try:
+                result = indent_body(body, geometry, mesh_unit, rho, depth, steps, solver=linear_solver,
+                                     on_row=callback, half_angle=angle)
+                failure = None
+            except AxisymmetricInterrupted as error:
+                _write(out, error.partial, body, cell, geometry, unit, 0.0, cap, layer, depth, steps, label, clock,
+                       vtk, failure=error, interrupted=True, solver=solver, tip=tip)
+                raise AxisymmetricInterrupted(f"{error}; the converged rows are in {out}", error.partial) from None
+            except AxisymmetricError as error:
+                if error.partial is None or len(error.partial.load) < 2:
+                    raise
+                result, failure = error.partial, error
+        summary = _write(out, result, body, cell, geometry, unit, 0.0, cap, layer, depth, steps, label, clock, vtk,
+                         failure=failure, solver=solver, tip=tip)
+    if failure is not None:
+        raise AxisymmetricError(f"{failure} (rows up to depth={result.load[-1] / unit:.4f} written to {out})", None)
     return summary
 
 
@@ -252,7 +331,9 @@ def _table(result: AxisymmetricResult, body: AxisymmetricCell | Cell, cell: Cell
 def _write(out: Path, result: AxisymmetricResult, body: AxisymmetricCell | Cell, cell: CellParameters,
            geometry: MeridianGeometry, unit: float, bead: float, cap: float | None, layer: float | None, depth: float,
            steps: int, label: str, clock: Stopwatch, vtk: bool, failure: Exception | None = None,
-           interrupted: bool = False, solver: str = "auto", fingerprint: str | None = None) -> dict:
+           interrupted: bool = False, solver: str = "auto", fingerprint: str | None = None,
+           tip: dict | None = None) -> dict:
+    """Write the outputs; ``tip``: the cone's description (None: the bead of radius ``bead``)."""
     out.mkdir(parents=True, exist_ok=True)
     three_d = isinstance(body, Cell)
     table, gamma_eff = _table(result, body, cell, unit)
@@ -260,7 +341,7 @@ def _write(out: Path, result: AxisymmetricResult, body: AxisymmetricCell | Cell,
     outputs.write(out / "indentation.csv", write_table, table)
     if not interrupted:
         outputs.write(out / "indentation.png", plot_indentation, result, cell, geometry, unit, bead, label,
-                      "3D" if three_d else "axisymmetric")
+                      "3D" if three_d else "axisymmetric", tip)
         if vtk and vtk_enabled() and three_d:
             outputs.write(out / "vtk", write_cell_vtk, body, result, cell)
         elif vtk and vtk_enabled():
@@ -270,17 +351,22 @@ def _write(out: Path, result: AxisymmetricResult, body: AxisymmetricCell | Cell,
         "label": label,
         "cell": cell.model_dump(mode="json"),
         "indentation": {
-            "cell_shape": geometry.shape, "indenter_radius_per_R": bead, "cap_height_per_R": cap,
+            "indenter": ({"indenter": "sphere", "indenter_radius_per_R": bead} if tip is None else tip),
+            "cell_shape": geometry.shape, "indenter_radius_per_R": bead if tip is None else None, "cap_height_per_R": cap,
             "layer_thickness_per_R": layer, "layer_thickness_per_indenter_radius": (
-                geometry.height if geometry.shape == "layer" else None),
-            "layer_width_per_indenter_radius": geometry.layer_extent if geometry.shape == "layer" else None,
+                geometry.height if geometry.shape == "layer" and tip is None else None),
+            "layer_width_per_indenter_radius": (geometry.layer_extent if geometry.shape == "layer" and tip is None
+                                                else None),
+            **({"layer_width_per_thickness": geometry.layer_extent / geometry.height}
+               if geometry.shape == "layer" and tip is not None else {}),
             "depth_max": depth / unit, "steps": steps,
             "nucleus_placement": ("centred on the axis at half the apex height plus the offset along z"
                                   if geometry.shape == "cap" else "as in the suspended cell (centre + offset along z)"
                                   if geometry.shape == "sphere" else None),
             "support": "frictionless dish" if geometry.shape == "sphere" else "base bonded to the dish",
         },
-        "length_unit": LENGTH_UNIT[geometry.shape],
+        "length_unit": (LENGTH_UNIT[geometry.shape] if tip is None or geometry.shape != "layer"
+                        else "h, the layer thickness (--layer-thickness)"),
         "effective_stiffness_ratio": gamma_eff,
         "units": {
             "depth": "m" if cell.radius_is_physical else "R",
@@ -319,9 +405,10 @@ def _write(out: Path, result: AxisymmetricResult, body: AxisymmetricCell | Cell,
 
 
 def plot_indentation(path: Path, result: AxisymmetricResult, cell: CellParameters, geometry: MeridianGeometry,
-                     unit: float, bead: float, label: str, solver: str = "axisymmetric") -> None:
+                     unit: float, bead: float, label: str, solver: str = "axisymmetric", tip: dict | None = None) -> None:
     """F/(E_c R^2) against depth/R with the small-depth Hertz limit of the shape (two contacts in series for
-    the suspended sphere; the half-space for a cap or a layer, an upper bound at depth for thin ones)."""
+    the suspended sphere; the half-space for a cap or a layer, an upper bound at depth for thin ones); under a
+    cone (``tip``), Sneddon's half-space cone, the layer in units of its thickness h."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -332,12 +419,16 @@ def plot_indentation(path: Path, result: AxisymmetricResult, cell: CellParameter
     figure, axis = plt.subplots(figsize=(5.5, 4.2), constrained_layout=True)
     axis.plot(depth, force, "o-", ms=3, label=f"elastocell ({solver})")
     fine = np.linspace(0, depth[-1], 60)
-    if geometry.shape == "sphere":
+    length = "R" if geometry.shape != "layer" else "R_b" if tip is None else "h"
+    if tip is not None:
+        axis.plot(fine, sneddon_cone_force(fine, np.radians(tip["equivalent_cone_half_angle_deg"]), nu), "k:",
+                  label="Sneddon, cone on a half-space")
+    elif geometry.shape == "sphere":
         axis.plot(fine, hertz_sphere_indentation_force(fine, bead, nu), "k:", label="Hertz, bead and dish in series")
     else:
         axis.plot(fine, hertz_half_space_force(fine, bead / unit, nu), "k:", label="Hertz, half-space")
-    axis.set_xlabel("depth / R" if geometry.shape != "layer" else "depth / R_b")
-    axis.set_ylabel(r"$F/(E_\mathrm{c} R^2)$" if geometry.shape != "layer" else r"$F/(E R_b^2)$")
+    axis.set_xlabel(f"depth / {length}")
+    axis.set_ylabel(r"$F/(E_\mathrm{c} R^2)$" if length == "R" else rf"$F/(E {length}^2)$")
     axis.set_xlim(0, None)
     axis.set_ylim(0, None)
     axis.grid(alpha=0.3)

@@ -17,13 +17,15 @@ INDENT_CELL = CELL.but(opt("pole_size", help="3D solver: element size at the bea
 
 
 @user_errors
-@takes("out", "indenter_radius", "cell_shape", "cap_height", "layer_thickness", "depth_max",
+@takes("out", "indenter", opt("indenter_radius", annotation=str | None, default=None,
+                               shown="required with --indenter sphere"), "half_angle", "cell_shape", "cap_height", "layer_thickness", "depth_max",
        opt("steps", default=20, help="Load steps (output rows after depth = 0)."), "solver", INDENT_CELL,
        opt("resume", help="Continue an interrupted curve of the 3D solver from DIR/checkpoint.npz (same options)."),
        "quiet", "as_json")
-def indent(out: Path, indenter_radius: str, cell_shape: str, cap_height: str | None, layer_thickness: str | None,
+def indent(out: Path, indenter: str, indenter_radius: str | None, half_angle: str | None, cell_shape: str, cap_height: str | None, layer_thickness: str | None,
            depth_max: float, steps: int, solver: str, cell: dict, resume: bool, quiet: bool, as_json: bool):
-    """A rigid frictionless sphere of radius --indenter-radius pressed quasistatically into a cell on a rigid dish.
+    """A rigid frictionless sphere of radius --indenter-radius (or, --indenter cone|pyramid, a sharp tip of
+    --half-angle) pressed quasistatically into a cell on a rigid dish.
     A cell symmetric about the dish normal z runs the axisymmetric solver (its own meridian mesh: the mesh options
     do not apply); any other suspended sphere (--random, an offset nucleus, a tilted ellipsoid) the 3D tetrahedral
     cell of compress (--solver forces one; a cap or a layer must be axisymmetric). Writes indentation.csv (depth,
@@ -42,7 +44,7 @@ def indent(out: Path, indenter_radius: str, cell_shape: str, cap_height: str | N
 
     parameters = cell_parameters(**{name: plain(value) for name, value in cell.items()})
     try:
-        summary = run(out, indenter_radius, cell=parameters, cell_shape=plain(cell_shape), cap_height=cap_height,
+        summary = run(out, indenter_radius, cell=parameters, indenter=plain(indenter), half_angle=half_angle, cell_shape=plain(cell_shape), cap_height=cap_height,
                       layer_thickness=layer_thickness, depth_max=depth_max, steps=steps,
                       solver=plain(solver), resume=resume, progress=not (quiet or as_json))
     except AxisymmetricInterrupted as error:

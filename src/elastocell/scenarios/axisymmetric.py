@@ -71,15 +71,30 @@ class AxisymmetricInterrupted(AxisymmetricError):
 class Obstacle:
     """A rigid frictionless obstacle in the meridian plane.
 
-    kind: ``lower`` (the body stays above z = level), ``upper`` (below z = level) or ``sphere`` (outside the
-    ball of ``radius`` centred at (0, level)).
-    velocity: d level / d load parameter (the upper plate -2 per unit delta, the sphere -1 per unit depth).
+    kind: ``lower`` (the body stays above z = level), ``upper`` (below z = level), ``sphere`` (outside the
+    ball of ``radius`` centred at (0, level)) or ``cone`` (outside a cone of half-angle ``half_angle`` (radians,
+    between the axis and the flank) opening upwards, its apex rounded by a sphere of ``radius`` centred at
+    (0, level): the points within ``radius`` of the sharp cone with its apex at (0, level); the flanks are the
+    sharp cone's offset by ``radius``, tangent to that sphere).
+    velocity: d level / d load parameter (the upper plate -2 per unit delta, the sphere and cone -1 per unit depth).
     """
 
     kind: str
     level: float
     velocity: float = 0.0
     radius: float = 0.0
+    half_angle: float = 0.0
+
+    def _cone(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(signed distance to the sharp cone, unit normal out of it, True where the nearest point is the apex) of
+        points ``x`` (n, 2), r >= 0: below the apex's normal plane of the flank the apex is nearest, elsewhere the
+        flank (a point inside has a negative distance to it)."""
+        offset = x - np.array([0.0, self.level])
+        sin, cos = np.sin(self.half_angle), np.cos(self.half_angle)
+        apex = offset @ np.array([sin, cos]) <= 0
+        distance = np.where(apex, np.linalg.norm(offset, axis=1), offset @ np.array([cos, -sin]))
+        normal = np.where(apex[:, None], offset / np.maximum(distance, 1e-300)[:, None], np.array([cos, -sin]))
+        return distance, normal, apex
 
     def gaps_and_normals(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(gap, unit normal pointing from the obstacle into the body) of points ``x`` (n, 2)."""
@@ -87,24 +102,44 @@ class Obstacle:
             return x[:, 1] - self.level, np.broadcast_to([0.0, 1.0], x.shape)
         if self.kind == "upper":
             return self.level - x[:, 1], np.broadcast_to([0.0, -1.0], x.shape)
+        if self.kind == "cone":
+            distance, normal, _ = self._cone(x)
+            return distance - self.radius, normal
         offset = x - np.array([0.0, self.level])
         distance = np.linalg.norm(offset, axis=1)
         return distance - self.radius, offset / np.maximum(distance, 1e-300)[:, None]
 
+    def curvature_distance(self, x: np.ndarray) -> np.ndarray:
+        """The radius of curvature of the obstacle's meridian at the nearest point of each of ``x`` (its distance
+        to the centre of curvature), inf on a flat flank: the Hessian of the Lagrangian subtracts lambda / it."""
+        if self.kind == "sphere":
+            return np.linalg.norm(x - np.array([0.0, self.level]), axis=1)
+        if self.kind == "cone":
+            distance, _, apex = self._cone(x)
+            return np.where(apex, distance, np.inf)
+        return np.full(len(x), np.inf)
+
     def project(self, x: np.ndarray) -> np.ndarray:
-        """The nearest point outside the obstacle (clip to a plate; radial projection out of the ball)."""
+        """The nearest point outside the obstacle (clip to a plate; radial projection out of the ball; out of the
+        cone along its normal, a point on the axis along the axis to the apex)."""
         if self.kind == "lower":
             return np.column_stack([x[:, 0], np.maximum(x[:, 1], self.level)])
         if self.kind == "upper":
             return np.column_stack([x[:, 0], np.minimum(x[:, 1], self.level)])
         gap, normal = self.gaps_and_normals(x)
         inside = gap < 0
+        axis = inside & (x[:, 0] == 0)
         x = x.copy()
+        if self.kind == "cone":
+            x[inside] -= gap[inside, None] * normal[inside]
+            x[axis] = np.array([0.0, self.level - self.radius])
+            return x
         x[inside] = np.array([0.0, self.level]) + self.radius * normal[inside]
         return x
 
     def vertical_force(self, multipliers: np.ndarray, normals: np.ndarray) -> float:
-        """The force on the obstacle along -z for the upper plate and the sphere, +z for the lower plate."""
+        """The force on the obstacle along -z for the upper plate, the sphere and the cone, +z for the lower
+        plate."""
         if self.kind == "lower":
             return float(multipliers.sum())
         return float(np.sum(multipliers * -normals[:, 1]))
@@ -227,11 +262,11 @@ class _Problem:
         matrices = np.einsum("eaic,eaibj,ebjd->eacbd", q, matrices, q, optimize=True)
         upper = self.pattern.assemble_upper(matrices.reshape(len(elements), 12, 12))
         for k, obstacle in enumerate(self.obstacles):
-            if obstacle.kind != "sphere":
+            if obstacle.kind not in ("sphere", "cone"):
                 continue
             on = contact.active & (contact.obstacle == k) & ~self.on_axis[self.candidates]
             nodes = self.candidates[on]
-            distance = np.linalg.norm(x[nodes] - np.array([0.0, obstacle.level]), axis=1)
+            distance = obstacle.curvature_distance(x[nodes])
             upper.data[self.pattern.upper_diagonal[2 * nodes + 1]] -= contact.multipliers[on] / distance
         return upper
 
@@ -363,17 +398,26 @@ def _predictor(problem: _Problem, x: np.ndarray, increment: float) -> np.ndarray
 
 
 def _dent(x: np.ndarray, indenter: Obstacle, depth: float, bottom: float, height: float) -> np.ndarray:
-    """The first step's guess under a sphere on a bonded body: Hertz's surface deflection w(rho) of a half-space
-    under a sphere taken as a function of the distance rho from the apex (0, bottom + height), times
-    (z - bottom) / height so that the base stays put. On the surface it follows the sphere inside the contact
-    (w = depth - r^2 / (2 R_b) for r < a = sqrt(R_b depth)), so that the projection onto the sphere moves no
-    node across its neighbours; an affine squeeze of a body much thicker than the contact strains all of it and
-    its Newton iteration cycles between active sets."""
-    contact_radius = np.sqrt(indenter.radius * depth)
+    """The first step's guess under a sphere or a cone on a bonded body: the half-space's surface deflection w(rho)
+    (Hertz's under a sphere, Sneddon's under a cone) taken as a function of the distance rho from the apex
+    (0, bottom + height), times (z - bottom) / height so that the base stays put. On the surface it follows the
+    indenter inside the contact (the sphere: w = depth - r^2 / (2 R_b) for r < a = sqrt(R_b depth); the cone:
+    w = depth - r cot(alpha) for r < a = 2 depth tan(alpha) / pi; a sharper cone than 57.5 degrees takes the
+    profile of that angle, below its flanks), so that the projection onto the indenter moves no node across its
+    neighbours; an affine squeeze of a body much thicker than the contact strains all of it
+    and its Newton iteration cycles between active sets."""
+    if indenter.kind == "cone":  # the profile of a cone at least 57.5 degrees: a sharper one's inverts the axis
+        contact_radius = max(2 * np.tan(indenter.half_angle) / np.pi, 1.0) * depth  # (dz/dZ = 1 - cot(alpha))
+    else:
+        contact_radius = np.sqrt(indenter.radius * depth)
     s = np.hypot(x[:, 0], x[:, 1] - bottom - height) / contact_radius
     outside = np.maximum(s, 1.0)
-    deflection = np.where(s <= 1, (2 - s**2) / 2, ((2 - outside**2) * np.arcsin(1 / outside)
-                                                  + np.sqrt(outside**2 - 1)) / np.pi)
+    if indenter.kind == "cone":
+        deflection = np.where(s <= 1, 1 - 2 * s / np.pi, 2 / np.pi * (np.arcsin(1 / outside) - outside
+                                                                      + np.sqrt(outside**2 - 1)))
+    else:
+        deflection = np.where(s <= 1, (2 - s**2) / 2, ((2 - outside**2) * np.arcsin(1 / outside)
+                                                      + np.sqrt(outside**2 - 1)) / np.pi)
     guess = x.copy()
     guess[:, 1] -= depth * deflection * (x[:, 1] - bottom) / height
     return guess
@@ -513,10 +557,13 @@ def indent_axisymmetric(cell_parameters: CellParameters | AxisymmetricCell, inde
                         depth_max: float, steps: int = 20, mesh: MeridianMeshParameters | None = None,
                         tolerance: float = DEFAULT_TOLERANCE, max_newton_iterations: int = 40,
                         solver: str = "auto", precision: str = "double", geometry: MeridianGeometry | None = None,
-                        on_row: Callable[[AxisymmetricResult], None] | None = None) -> AxisymmetricResult:
+                        on_row: Callable[[AxisymmetricResult], None] | None = None,
+                        half_angle: float | None = None) -> AxisymmetricResult:
     """F(depth) of a rigid frictionless sphere of radius ``indenter_radius`` pressed on the axis into the body
     ``geometry`` (None: the sphere), starting in touch with its apex; depth is the sphere's displacement after
     first contact, the force F/(E_c L^2) on the sphere, L the geometry's length unit (R; a layer's R_b).
+    With ``half_angle`` (radians) the indenter is a cone of that half-angle whose apex is rounded by a sphere of
+    radius ``indenter_radius`` (:class:`Obstacle`), its tip touching the apex at depth 0.
 
     The sphere rests on a rigid frictionless dish at z = -1 (depth below 1 R); a cap or a layer is bonded to the
     dish at z = 0 (its base nodes held in r and z; depth below its height). ``on_row(result)`` after every
@@ -529,7 +576,10 @@ def indent_axisymmetric(cell_parameters: CellParameters | AxisymmetricCell, inde
         raise ParameterError("depth_max", f"must be in (0, {reach:g}) (the {geometry.shape}'s height), got "
                                           f"{depth_max:g}")
     cell = _cell(cell_parameters, mesh, geometry)
-    indenter = Obstacle("sphere", geometry.top + indenter_radius, velocity=-1.0, radius=indenter_radius)
+    if half_angle is not None and not 0 < half_angle < np.pi / 2:
+        raise ParameterError("half_angle", f"must be in (0, 90) degrees, got {np.degrees(half_angle):g}")
+    indenter = Obstacle("sphere" if half_angle is None else "cone", geometry.top + indenter_radius, velocity=-1.0,
+                        radius=indenter_radius, half_angle=half_angle or 0.0)
     if geometry.shape == "sphere":
         obstacles = [Obstacle("lower", -1.0), indenter]
     else:
@@ -542,6 +592,12 @@ def hertz_half_space_force(depth, indenter_radius: float, poisson_ratio: float =
     """Hertz's force of a rigid sphere (radius R_b) pressed to ``depth`` into an elastic half-space of modulus
     E = 1: F = 4/3 E/(1 - nu^2) sqrt(R_b) depth^(3/2)."""
     return 4 / (3 * (1 - poisson_ratio**2)) * np.sqrt(indenter_radius) * np.asarray(depth) ** 1.5
+
+
+def sneddon_cone_force(depth, half_angle: float, poisson_ratio: float = 0.48):
+    """Sneddon's force of a rigid cone of half-angle ``half_angle`` (radians) pressed to ``depth`` into an
+    elastic half-space of modulus E = 1: F = 2/pi E/(1 - nu^2) tan(alpha) depth^2."""
+    return 2 / (np.pi * (1 - poisson_ratio**2)) * np.tan(half_angle) * np.asarray(depth) ** 2
 
 
 def hertz_sphere_indentation_depth(force, indenter_radius: float, poisson_ratio: float = 0.48, radius: float = 1.0):

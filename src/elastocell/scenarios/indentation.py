@@ -1,5 +1,6 @@
-"""A rigid sphere (a bead of radius R_b) pressed quasistatically into a cell on a rigid flat dish: the body and
-its support for each cell shape, on the axisymmetric solver (:mod:`elastocell.scenarios.axisymmetric`).
+"""A rigid sphere (a bead of radius R_b) or a cone (a sharp tip) pressed quasistatically into a cell on a rigid
+flat dish: the body and its support for each cell shape, on the axisymmetric solver
+(:mod:`elastocell.scenarios.axisymmetric`).
 
 Shapes (``cell_shape``):
 
@@ -14,12 +15,22 @@ master surface is made of, without writing files. A cell that is not axisymmetri
 offset along x or y, an ellipsoid not aligned with z) is refused before any computing by the axisymmetric
 solver; :func:`indentation_solver` chooses, for the suspended sphere, the 3D solver
 (:mod:`elastocell.scenarios.indentation_3d`) for such a cell.
+
+Cone (``indenter="cone"``, half-angle alpha between the axis and the flank; ``"pyramid"``: a four-sided pyramid
+of face half-angle alpha as the cone of the same cross-section area, tan(alpha_c) = 2/sqrt(pi) tan(alpha)): its
+contact radius a = 2 depth tan(alpha)/pi has no length of its own, so the mesh is sized on the contact scale
+s = depth_max max(tan(alpha), 1) (:func:`cone_mesh`): a layer is meshed in units of s (as the sphere's layer in units of
+R_b), a sphere or cap keeps units of R with its pole size s/100 (the layer's, at most the bead's 0.01 R). The apex
+is rounded by a sphere of radius :data:`CONE_TIP_RADIUS` s (the contact's projection needs a normal on the
+axis); the layer's outputs are in units of its thickness h.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
+
+import numpy as np
 
 from elastocell.body.axisymmetric import (
     CELL_SHAPES,
@@ -42,6 +53,14 @@ AXISYMMETRIC_ONLY = "indent runs the axisymmetric solver here; --solver 3d runs 
 SOLVERS = ("auto", "3d", "axisymmetric")
 """``solver`` of an indentation: ``auto`` (the axisymmetric solver for a cell symmetric about z, the 3D one for
 any other suspended sphere), ``3d`` (the suspended sphere only) or ``axisymmetric``."""
+INDENTERS = ("sphere", "cone", "pyramid")
+"""``indenter`` of an indentation: a bead (``indenter_radius``), a cone or a four-sided pyramid (``half_angle``)."""
+HALF_ANGLE_RANGE = (10.0, 85.0)
+"""The half-angles (degrees) a cone or a pyramid may have."""
+CONE_TIP_RADIUS = 1e-4
+"""Radius of the cone's rounded apex in units of the contact scale s = depth_max max(tan(alpha), 1). Its effect on F
+(measured in validation/indentation_cone.py by doubling it) is ~ 2 rho (1/sin(alpha) - 1)/depth: the flanks
+are the sharp cone's offset by rho."""
 MESH_OPTIONS = ("element", "mesh_size", "pole_size", "interface_size", "quadrature_degree")
 """The 3D mesh's options, which the axisymmetric solver (its own meridian mesh) does not take."""
 
@@ -70,22 +89,76 @@ def indentation_geometry(cell_shape: str, indenter_radius: float, cap_height: fl
     return MeridianGeometry(shape="layer", height=layer_thickness / indenter_radius), indenter_radius
 
 
-def check_axisymmetric(cell: CellParameters, geometry: MeridianGeometry) -> None:
+def cone_scale(half_angle: float, depth_max: float) -> float:
+    """The contact scale s = depth_max max(tan(alpha), 1) of a cone of ``half_angle`` degrees: its contact radius
+    at ``depth_max`` is 2 s/pi up to 45 degrees; a sharper cone is meshed on the depth itself (its layer in units
+    of the contact radius was so deep that the far field's Newton iteration stalled)."""
+    return float(depth_max * max(np.tan(np.radians(half_angle)), 1.0))
+
+
+def cone_half_angle(indenter: str, half_angle: float | None) -> float:
+    """The half-angle (degrees) of the cone that represents ``indenter`` of ``half_angle`` degrees (a pyramid's
+    face half-angle: the cone of the same cross-section area); refused in one line outside
+    :data:`HALF_ANGLE_RANGE`."""
+    if indenter not in INDENTERS[1:]:
+        raise ParameterError("indenter", f"must be one of {', '.join(INDENTERS)}, got {indenter!r}")
+    if half_angle is None:
+        raise ParameterError("half_angle", f"is required with --indenter {indenter}")
+    low, high = HALF_ANGLE_RANGE
+    if not low <= half_angle <= high:
+        raise ParameterError("half_angle", f"must be in [{low:g}, {high:g}] degrees, got {half_angle:g}")
+    if indenter == "pyramid":
+        return float(np.degrees(np.arctan(2 / np.sqrt(np.pi) * np.tan(np.radians(half_angle)))))
+    return float(half_angle)
+
+
+def cone_geometry(cell_shape: str, half_angle: float, depth_max: float, cap_height: float | None = None,
+                  layer_thickness: float | None = None) -> tuple[MeridianGeometry, float]:
+    """(the body's meridian geometry, its mesh unit in units of R) under a cone of ``half_angle`` (degrees,
+    the equivalent cone's) pressed to ``depth_max``: R for the sphere and the cap, the contact scale
+    s = depth_max max(tan(alpha), 1) for the layer. Lengths in units of R."""
+    if not depth_max > 0:
+        raise ParameterError("depth_max", f"must be > 0, got {depth_max:g}")
+    scale = cone_scale(half_angle, depth_max)
+    geometry, _ = indentation_geometry(cell_shape, scale, cap_height, layer_thickness)
+    return geometry, (scale if cell_shape == "layer" else 1.0)
+
+
+def cone_mesh(cell_shape: str, half_angle: float, depth_max: float,
+              mesh: MeridianMeshParameters | None = None) -> MeridianMeshParameters:
+    """The meridian mesh under a cone (:func:`cone_geometry`'s unit): the default (or ``mesh``) in a layer; in a
+    sphere or a cap its pole size min(0.01 s, pole size) (s = depth_max max(tan(alpha), 1) in units of R, at least
+    0.0005 R), the size the layer has at its apex."""
+    mesh = mesh or MeridianMeshParameters()
+    if cell_shape == "layer":
+        return mesh
+    scale = cone_scale(half_angle, depth_max)
+    return mesh.model_copy(update={"pole_size": float(max(min(0.01 * scale, mesh.pole_size), 0.0005))})
+
+
+CONE_AXISYMMETRIC = "a cone or a pyramid runs the axisymmetric solver only"
+
+
+def check_axisymmetric(cell: CellParameters, geometry: MeridianGeometry, why: str = AXISYMMETRIC_ONLY) -> None:
     """Refuse, in one line naming the option, a cell the axisymmetric solver cannot represent."""
     try:
         meridian_nucleus(cell, geometry)
     except ParameterError as error:
         message = str(error).split(": ", 1)[1]
-        raise ParameterError(error.parameter, f"{message} ({AXISYMMETRIC_ONLY})") from None
+        raise ParameterError(error.parameter, f"{message} ({why})") from None
 
 
-def indentation_solver(solver: str, cell: CellParameters, geometry: MeridianGeometry) -> str:
+def indentation_solver(solver: str, cell: CellParameters, geometry: MeridianGeometry, indenter: str = "sphere") -> str:
     """``3d`` or ``axisymmetric``: the solver an indentation of ``cell`` with ``geometry`` runs for the option
     ``solver`` (:data:`SOLVERS`); a combination no solver can run is refused in one line naming the option (the
     3D solver is built for the suspended sphere: a cap or a layer must be axisymmetric; the 3D mesh options
-    apply to the 3D solver only)."""
+    apply to the 3D solver only; a cone or a pyramid runs the axisymmetric solver only)."""
     if solver not in SOLVERS:
         raise ParameterError("solver", f"must be one of {', '.join(SOLVERS)}, got {solver!r}")
+    if indenter != "sphere" and solver == "3d":
+        raise ParameterError("solver", f"3d presses a bead only; --indenter {indenter} runs the axisymmetric solver")
+    if indenter != "sphere":
+        solver = "axisymmetric"
     if solver == "3d" and geometry.shape != "sphere":
         raise ParameterError("solver", f"3d runs --cell-shape sphere only (a {geometry.shape} runs the axisymmetric "
                                        "solver)")
@@ -96,7 +169,7 @@ def indentation_solver(solver: str, cell: CellParameters, geometry: MeridianGeom
             return "3d"
     if solver == "3d":
         return "3d"
-    check_axisymmetric(cell, geometry)
+    check_axisymmetric(cell, geometry, AXISYMMETRIC_ONLY if indenter == "sphere" else CONE_AXISYMMETRIC)
     default = cell_parameters().mesh
     for name in MESH_OPTIONS:
         if getattr(cell.mesh, name) != getattr(default, name):
@@ -146,15 +219,18 @@ def indentation_body(cell: CellParameters, cell_shape: str = "sphere", indenter_
 def indent_body(body: AxisymmetricCell, geometry: MeridianGeometry, unit: float, indenter_radius: float,
                 depth_max: float, steps: int = 20, tolerance: float = DEFAULT_TOLERANCE,
                 max_newton_iterations: int = 40, solver: str = "auto",
-                on_row: Callable[[AxisymmetricResult], None] | None = None) -> AxisymmetricResult:
+                on_row: Callable[[AxisymmetricResult], None] | None = None,
+                half_angle: float | None = None) -> AxisymmetricResult:
     """The force curve of :func:`indentation_body`'s body, lengths in units of R, force F/(E_c R^2) (``on_row``
-    receives the rows so far in the body's unit). An interruption raises
+    receives the rows so far in the body's unit). With ``half_angle`` (degrees) a cone whose apex is rounded by
+    ``indenter_radius``. An interruption raises
     :class:`~elastocell.scenarios.axisymmetric.AxisymmetricInterrupted` with the converged rows in units of R."""
     check_depth(geometry, unit, depth_max, steps)
     try:
         result = indent_axisymmetric(body, indenter_radius / unit, depth_max / unit, steps=steps,
                                      tolerance=tolerance, max_newton_iterations=max_newton_iterations, solver=solver,
-                                     geometry=geometry, on_row=on_row)
+                                     geometry=geometry, on_row=on_row,
+                                     half_angle=None if half_angle is None else float(np.radians(half_angle)))
     except AxisymmetricError as error:
         error.partial = None if error.partial is None else scaled_result(error.partial, unit)
         raise
@@ -174,15 +250,58 @@ def indentation_curve(cell_parameters: CellParameters, cell_shape: str = "sphere
                       cap_height: float | None = None, layer_thickness: float | None = None,
                       depth_max: float = 0.3, steps: int = 20, mesh: MeridianMeshParameters | None = None,
                       tolerance: float = DEFAULT_TOLERANCE, max_newton_iterations: int = 40,
-                      solver: str = "auto") -> AxisymmetricResult:
+                      solver: str = "auto", indenter: str = "sphere",
+                      half_angle: float | None = None) -> AxisymmetricResult:
     """F(depth) of a rigid frictionless sphere of radius ``indenter_radius`` pressed into a cell of shape
     ``cell_shape`` on a rigid dish, lengths in units of R (the cell radius; the cap's base radius), the force
     F/(E_c R^2) (``result.load`` is the depth, ``result.force`` the force on the sphere, ``result.force_support``
     the dish's). ``cap_height`` H (cap; None: a hemisphere), ``layer_thickness`` h (layer; required); ``mesh``
-    sizes in units of R (the layer: of R_b, the unit it is meshed in). Nothing is written."""
+    sizes in units of R (the layer: of R_b, the unit it is meshed in). Nothing is written.
+
+    ``indenter="cone"`` or ``"pyramid"`` with ``half_angle`` (degrees) presses a cone instead
+    (:func:`cone_curve`; ``indenter_radius`` is not used)."""
+    if indenter != "sphere":
+        return cone_curve(cell_parameters, cell_shape, indenter, half_angle, cap_height, layer_thickness, depth_max,
+                          steps, mesh, tolerance, max_newton_iterations)
     geometry, unit = indentation_geometry(cell_shape, indenter_radius, cap_height, layer_thickness)
     check_depth(geometry, unit, depth_max, steps)
     body, geometry, unit = indentation_body(cell_parameters, cell_shape, indenter_radius, cap_height,
                                             layer_thickness, mesh)
     return indent_body(body, geometry, unit, indenter_radius, depth_max, steps, tolerance, max_newton_iterations,
                        solver)
+
+
+def cone_body(cell: CellParameters, cell_shape: str, half_angle: float, depth_max: float,
+              cap_height: float | None = None, layer_thickness: float | None = None,
+              mesh: MeridianMeshParameters | None = None) -> tuple[AxisymmetricCell, MeridianGeometry, float]:
+    """(the meshed body, its geometry, its mesh unit in units of R) under a cone of ``half_angle`` degrees (the
+    equivalent cone's) pressed to ``depth_max`` (units of R); ``mesh`` in the mesh unit, None: :func:`cone_mesh`."""
+    geometry, unit = cone_geometry(cell_shape, half_angle, depth_max, cap_height, layer_thickness)
+    check_axisymmetric(cell, geometry, CONE_AXISYMMETRIC)
+    mesh = cone_mesh(cell_shape, half_angle, depth_max, mesh)
+    return AxisymmetricCell.from_parameters(cell, mesh, geometry=geometry), geometry, unit
+
+
+def cone_tip_radius(half_angle: float, depth_max: float) -> float:
+    """The rounded apex's radius (units of R): :data:`CONE_TIP_RADIUS` times s = depth_max max(tan(alpha), 1)."""
+    return CONE_TIP_RADIUS * cone_scale(half_angle, depth_max)
+
+
+def cone_curve(cell_parameters: CellParameters, cell_shape: str = "layer", indenter: str = "cone",
+               half_angle: float | None = 20.0, cap_height: float | None = None,
+               layer_thickness: float | None = None, depth_max: float = 0.3, steps: int = 20,
+               mesh: MeridianMeshParameters | None = None, tolerance: float = DEFAULT_TOLERANCE,
+               max_newton_iterations: int = 40, tip_radius: float | None = None) -> AxisymmetricResult:
+    """F(depth) of a rigid frictionless cone (``indenter="pyramid"``: the four-sided pyramid's equivalent cone)
+    of ``half_angle`` degrees pressed into a cell of shape ``cell_shape`` on a rigid dish, lengths in units of R,
+    force F/(E_c R^2) (a layer: give R = h, ``layer_thickness=1``, for F/(E h^2) over depth/h). ``tip_radius``:
+    the rounded apex's radius in units of R (None: :func:`cone_tip_radius`); ``mesh`` in the mesh unit
+    (:func:`cone_geometry`; None: :func:`cone_mesh`). Nothing is written."""
+    angle = cone_half_angle(indenter, half_angle)
+    geometry, unit = cone_geometry(cell_shape, angle, depth_max, cap_height, layer_thickness)
+    check_depth(geometry, unit, depth_max, steps)
+    body, geometry, unit = cone_body(cell_parameters, cell_shape, angle, depth_max, cap_height, layer_thickness,
+                                     mesh)
+    rho = cone_tip_radius(angle, depth_max) if tip_radius is None else tip_radius
+    return indent_body(body, geometry, unit, rho, depth_max, steps, tolerance, max_newton_iterations,
+                       half_angle=angle)
