@@ -60,6 +60,10 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "indentation_cap.py": ("The adherent cap: refinement, Hertz, interpolation and round trip of its master "
                                "surface", "nice python validation/indentation_cap.py"),
     }),
+    "indentation_cone": ("A cone or pyramid indenting a cell on a dish", {
+        "indentation_cone.py": ("Sneddon's cone, refinement, the rounded apex and nanite's cone model",
+                                "nice python validation/indentation_cone.py"),
+    }),
     "startup": ("Start-up of a command in a new process", {
         "startup.py": ("Import, cell and first converged row, empty and warm caches",
                        "python validation/startup.py --code-path /tmp/baseline/src"),
@@ -99,6 +103,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                           "nice python validation/pipe_dclab.py"),
         "pipe_contour.py": ("Error sources: the measured outline and the staircase wall",
                             "nice python validation/pipe_contour.py"),
+        "pipe_sphere.py": ("Error sources: a rigid sphere's hydrodynamic radius in the pipe",
+                           "nice python validation/pipe_sphere.py --page"),
     }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",

@@ -49,7 +49,7 @@ except ImportError:  # a source checkout without installing
 
 from page import Page
 
-from elastocell.inverse.lut import plan, run_point
+from elastocell.inverse.lut import plan, point_key, run_point
 from elastocell.scenarios.pipe import PipeFlowParameters
 from elastocell.scenarios.shear import compile_kernels
 from elastocell.simulation.distributed import TaskFailure, run_tasks
@@ -120,16 +120,24 @@ def parse_points(text: str) -> list[tuple[float, float]]:
     return out
 
 
-def grid_points(points, resolution: float, coarse_resolution: float | None, duration: float) -> list[dict]:
+def grid_points(points, resolution: float, coarse_resolution: float | None, duration: float,
+                correction: float = 0.0) -> list[dict]:
     """``lut.plan``'s point (options and run key) for every (R, E): one extrapolated point each (R/dx
-    ``resolution`` and ``coarse_resolution``, lut's and pipe's default coarse one when None)."""
+    ``resolution`` and ``coarse_resolution``, lut's and pipe's default coarse one when None; a single run at R/dx
+    <= 6); ``correction`` > 0: the markers at R - correction dx (the pipe scenario's
+    ``hydrodynamic_radius_correction``, passed as a flow option, which changes the run key)."""
     out = []
     for radius, modulus in points:
         extra = {} if coarse_resolution is None else {"coarse_resolution": coarse_resolution}
         planned, _ = plan(None, f"{FLOW_RATE_UL_S}uL/s", f"{VISCOSITY_MPA_S}mPa*s", radii=[f"{radius}um"],
                           moduli=[f"{modulus}kPa"], resolution=resolution, duration=duration,
                           channel_width=f"{CHANNEL_WIDTH_UM}um", **extra)
-        out.append({**planned[0], "resolution": float(resolution), "radius_um": radius, "emodulus_kpa": modulus})
+        point = planned[0]
+        if correction:
+            options = {**point["options"], "flow_options": {"hydrodynamic_radius_correction": float(correction)}}
+            point = {**point, "options": options, "key": point_key(radius, modulus, options)}
+        out.append({**point, "resolution": float(resolution), "radius_um": radius, "emodulus_kpa": modulus,
+                    "correction": float(correction)})
     return out
 
 
@@ -137,7 +145,8 @@ def case(record: dict) -> tuple:
     """What identifies a run here: cell radius, modulus, resolution and duration cap (not lut's run key, which
     hashes every option of the pipe run and changes when the pipe scenario gains one)."""
     return (round(float(record["radius_um"]), 6), round(float(record["emodulus_kpa"]), 6),
-            float(record["resolution"]), float(record["options"]["duration"]))
+            float(record["resolution"]), float(record["options"]["duration"]),
+            float(record["options"].get("flow_options", {}).get("hydrodynamic_radius_correction", 0.0)))
 
 
 def read_cache(path: Path) -> dict:
@@ -145,19 +154,23 @@ def read_cache(path: Path) -> dict:
     if not path.exists():
         return {}
     records = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-    return {case(r): r for r in records if r.get("extrapolation")}
+    return {case(r): r for r in records if r.get("extrapolation") or r.get("single")}
 
 
 def parts_of(directory: Path, record: dict) -> dict:
     """Stop reason, time reached and steps of each resolution's run of an extrapolated point (its
     ``resolution-<R/dx>/summary.json``)."""
     parts = {}
-    for key in ("fine_resolution", "coarse_resolution"):
-        r = record["extrapolation"][key]
-        summary = json.loads((part_directory(directory, r) / "summary.json").read_text())
+    if not record.get("extrapolation"):  # a single run in the point's own directory
+        resolutions = [(float(record["options"]["resolution"]), directory)]
+    else:
+        resolutions = [(record["extrapolation"][key], part_directory(directory, record["extrapolation"][key]))
+                       for key in ("fine_resolution", "coarse_resolution")]
+    for r, path in resolutions:
+        summary = json.loads((path / "summary.json").read_text())
         parts[f"{r:g}"] = {k: summary.get(k) for k in ("stop_reason", "duration", "steps")}
         parts[f"{r:g}"]["wall_time_s"] = summary.get("wall_time_cumulative_s", summary.get("wall_time_s"))
-        parts[f"{r:g}"].update(drifts(part_directory(directory, r) / "timeseries.csv"))
+        parts[f"{r:g}"].update(drifts(path / "timeseries.csv"))
     return parts
 
 
@@ -189,7 +202,8 @@ def complete_cache(out: Path) -> None:
     changed = False
     for record in records:
         directory = out / "runs" / record["key"]
-        if record.get("extrapolation") and "cumulative" not in str(record.get("parts_source")) and directory.exists():
+        if ((record.get("extrapolation") or record.get("single")) and "cumulative" not in str(record.get("parts_source"))
+                and directory.exists()):
             record["parts"] = parts_of(directory, record)
             record["parts_source"] = "run directories, wall time cumulative over resumed sessions"
             changed = True
@@ -215,10 +229,11 @@ def run_missing(points: list[dict], out: Path, workers: int) -> list[dict]:
             failures.append({"key": point["key"], "error": str(outcome)})
             print(f"failed {point['key']}: {outcome}", flush=True)
             continue
-        if not outcome.get("extrapolation"):
+        if not outcome.get("extrapolation") and point["resolution"] > 6:
             failures.append({"key": point["key"], "error": "lut ran a single resolution, not an extrapolated point"})
             continue
-        record = {**outcome, "resolution": point["resolution"], "radius_um": point["radius_um"],
+        record = {**outcome, "single": not outcome.get("extrapolation"), "resolution": point["resolution"],
+                  "radius_um": point["radius_um"],
                   "emodulus_kpa": point["emodulus_kpa"], "parts": parts_of(out / "runs" / point["key"], outcome),
                   "parts_source": "run directories, wall time cumulative over resumed sessions"}
         with cache_path.open("a") as handle:
@@ -244,14 +259,21 @@ def rows_for(record: dict) -> list[dict]:
     e_table = 3.0 * modulus / (2.0 * (1.0 + nu))
     ca = record["options"]["capillary_number_wall"]
     ext = record["extrapolation"]
-    deform, area = ext["values"]["deformation"], ext["values"]["projected_area"]
-    fine_r, coarse_r = ext["fine_resolution"], ext["coarse_resolution"]
     parts = record["parts"]
-    coarse_part, fine_part = parts[f"{coarse_r:g}"], parts[f"{fine_r:g}"]
-    variants = [(f"R/dx {coarse_r:g}", area["coarse"], deform["coarse"], _stationary(coarse_part), coarse_part),
-                (f"R/dx {fine_r:g}", area["fine"], deform["fine"], _stationary(fine_part), fine_part),
-                (f"extrapolated {fine_r:g}/{coarse_r:g}", area["value"], deform["value"],
-                 "yes" if record["stationary"] else "no (a run hit the cap)", {})]
+    correction = float(record["options"].get("flow_options", {}).get("hydrodynamic_radius_correction", 0.0))
+    tag = f", c {correction:g}" if correction else ""
+    if not ext:  # one resolution only
+        (r, part), = parts.items()
+        variants = [(f"R/dx {r}{tag}", record["area_um"] / radius**2, record["deform"], _stationary(part), part)]
+    else:
+        deform, area = ext["values"]["deformation"], ext["values"]["projected_area"]
+        fine_r, coarse_r = ext["fine_resolution"], ext["coarse_resolution"]
+        coarse_part, fine_part = parts[f"{coarse_r:g}"], parts[f"{fine_r:g}"]
+        variants = [(f"R/dx {coarse_r:g}{tag}", area["coarse"], deform["coarse"], _stationary(coarse_part),
+                     coarse_part),
+                    (f"R/dx {fine_r:g}{tag}", area["fine"], deform["fine"], _stationary(fine_part), fine_part),
+                    (f"extrapolated {fine_r:g}/{coarse_r:g}{tag}", area["value"], deform["value"],
+                     "yes" if record["stationary"] else "no (a run hit the cap)", {})]
     rows = []
     readings = table_readings([(v[1] * radius**2, v[2], e_table) for v in variants])
     for variant, (deform_t, area_t, e_dclab) in zip(variants, readings, strict=True):
@@ -299,6 +321,8 @@ def main(argv=None) -> None:
     parser.add_argument("--cached-only", action="store_true", help="write the page from --out/runs.jsonl alone")
     parser.add_argument("--before", type=Path, default=None,
                         help="another --out whose records of the same points are listed too, as the state before")
+    parser.add_argument("--radius-correction", type=float, default=0.0,
+                        help="the pipe scenario's hydrodynamic_radius_correction c: markers at R - c dx (default 0)")
     args = parser.parse_args(argv)
     coarse_label = "the default coarse resolution (6)" if args.coarse_resolution is None else \
         f"{args.coarse_resolution:g}"
@@ -324,12 +348,12 @@ def main(argv=None) -> None:
         "`A drift` are the relative changes of its deformation and area per unit of 1/gdot_w over its last 2 units "
         "(0 at a stationary shape), `dV/V end` its volume change at the end."),
         versions=("dclab", "numba"))
-    points = grid_points(cells, args.resolution, args.coarse_resolution, args.duration)
+    points = grid_points(cells, args.resolution, args.coarse_resolution, args.duration, args.radius_correction)
     args.out.mkdir(parents=True, exist_ok=True)
     failures = [] if args.cached_only else run_missing(points, args.out, args.workers)
     complete_cache(args.out)  # the runs' stop reasons and drifts, where their directories are at hand
     cache = read_cache(args.out / "runs.jsonl")
-    rows, missing, records = [], [], []
+    rows, missing, records, groups = [], [], [], []
     for point in points:
         record = cache.get(case(point))
         if record is None:
@@ -337,6 +361,8 @@ def main(argv=None) -> None:
             continue
         records.append(record)
         rows.extend(rows_for(record))
+        if record.get("extrapolation"):
+            groups.append(rows[-3:])
     page.table(rows, f"Deformation and area against {TABLE}: each resolution alone, then extrapolated",
                formats=FORMATS)
     if args.before is not None:
@@ -347,7 +373,7 @@ def main(argv=None) -> None:
     page.print("Apparent order of the deformation error against the table, ln(err_coarse/err_fine)/ln(ratio of "
                "spacings) with err = D - D_t (the order the Richardson step assumes is "
                f"{CONVERGENCE_ORDER:g}; a larger one makes it overshoot):\n" + "\n".join(
-                   apparent_order(rows[i:i + 3]) for i in range(0, len(rows), 3)))
+                   apparent_order(group) for group in groups))
     if args.before is not None and before_rows:
         page.print("The same, before:\n" + "\n".join(apparent_order(before_rows[i:i + 3])
                                                       for i in range(0, len(before_rows), 3)))

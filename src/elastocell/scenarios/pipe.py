@@ -53,7 +53,7 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from pydantic import model_validator
+from pydantic import model_serializer, model_validator
 
 from elastocell.body.observables import moments, smooth_outline
 from elastocell.coupling import ibm
@@ -400,6 +400,12 @@ class PipeFlowParameters(FlowLatticeParameters):
         (the largest shear rate in the channel; Stokes regime).
     velocity_limit: upper limit of the centre-line speed u_max = gdot_w R_ch/2 (dx/dt).
     kernel: immersed-boundary kernel ("trilinear" or "peskin4").
+    hydrodynamic_radius_correction: c in dx, as :class:`~elastocell.scenarios.shear.ShearFlowParameters`: the
+        markers lie on a sphere of radius R - c dx, so that the body the fluid sees (larger than the marker surface
+        by about 0.3 dx with the trilinear kernel and edges of 2 dx; docs/validation/flow_accuracy.md) has radius R
+        and the confinement is R/R_ch. The shape observables (strains, side-view outline) are those of that body:
+        the markers' shape in units of their own radius R - c dx. Default 0: markers at R (and the field is left
+        out of the parameters' dump, so that run keys and records stay as they were).
     lattice_wall_shear_rate: impose gdot_w (1/dt) instead of the largest allowed one; refused if it breaks
         a limit.
     max_steps_per_time: refuse a run needing more LB steps per unit time 1/gdot_w.
@@ -420,6 +426,7 @@ class PipeFlowParameters(FlowLatticeParameters):
     capillary_number_wall: float
     channel_radius_ratio: float = DEFAULT_CHANNEL_RADIUS_RATIO
     start_offset: float = 0.0
+    hydrodynamic_radius_correction: float = 0.0
     lattice_wall_shear_rate: float | None = None
     max_steps_per_time: float = 1.0e6
     channel_shape: Literal["cylinder", "square", "rectangle"] = "cylinder"
@@ -449,12 +456,23 @@ class PipeFlowParameters(FlowLatticeParameters):
         require(self.channel_shape != "cylinder" or aspect == 1.0, "channel_aspect_ratio",
                 f"a cylinder has no aspect ratio (got {aspect}): use channel_shape rectangle")
         pipe_medium(self)  # refuses an unknown medium or an impossible temperature / flow index
+        require(math.isfinite(self.hydrodynamic_radius_correction)
+                and 0 <= self.hydrodynamic_radius_correction < 0.5 * self.resolution,
+                "hydrodynamic_radius_correction", f"must be in [0, R/2) = [0, {0.5 * self.resolution:g}) dx, "
+                f"got {self.hydrodynamic_radius_correction}")
         check_channel_fit(self.resolution, ratio, offset, self.kernel,
                           aspect if self.channel_shape != "cylinder" else 1.0)
         if self.lattice_wall_shear_rate is not None:
             rate = self.lattice_wall_shear_rate
             require(math.isfinite(rate) and rate > 0, "lattice_wall_shear_rate", f"must be > 0 (1/dt), got {rate}")
         return self
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler):
+        data = handler(self)
+        if self.hydrodynamic_radius_correction == 0.0:
+            data.pop("hydrodynamic_radius_correction", None)
+        return data
 
 
 def pipe_medium(params) -> Medium:
@@ -651,7 +669,8 @@ def pipe_setup(cell, params: PipeFlowParameters, units: PipeUnits | None = None)
     else:  # the lattice's own steady empty channel
         velocity[0] = channel_profile(shape, units.channel, a, b, units.body_force, units.relaxation_time,
                                       units.rheology)[None]
-    return immersed_cell(params.backend, lattice_params, velocity, cell, units, params.kernel)
+    return immersed_cell(params.backend, lattice_params, velocity, cell, units, params.kernel,
+                         params.hydrodynamic_radius_correction)
 
 
 # =========================================================================== observables
@@ -732,9 +751,10 @@ class PipeRun(FlowRun):
         centre = m.centre * units.radius  # dx
         cy, cz = (centre[1] - ay) / units.channel_radius, (centre[2] - az) / units.channel_radius
         r_c = math.hypot(cy, cz)
-        extent = (x.max(axis=0) - x.min(axis=0)) / units.radius / self.reference_extent
+        size = self.system.radius  # the markers' radius R - c dx: the shape of the body of hydrodynamic radius R
+        extent = (x.max(axis=0) - x.min(axis=0)) / size / self.reference_extent
         surface = self.cell.mesh.surface_nodes
-        area, perimeter = smooth_outline(x[surface] / units.radius, m.centre)
+        area, perimeter = smooth_outline(x[surface] / size, m.centre * units.radius / size)
         circularity = 2.0 * math.sqrt(math.pi * area) / perimeter
         if self._nucleus_mask is not None:
             nc = moments(x / units.radius, elements, self._nucleus_mask).centre * units.radius
@@ -748,7 +768,7 @@ class PipeRun(FlowRun):
             "local_capillary_number": self.params.capillary_number_wall * r_c,
             "strain_axial": extent[0], "strain_radial": extent[1], "strain_transverse": extent[2],
             "projected_area": area, "deformation": 1.0 - circularity,
-            "volume_change": m.volume / self.volume0 - 1.0,
+            "volume_change": m.volume * (units.radius / size) ** 3 / self.volume0 - 1.0,  # volume0 in marker radii
             "axial_position": (centre[0] - self._x0) / units.radius, "centre_y": cy, "centre_z": cz,
             "nucleus_radial_position": nucleus_r, "nucleus_axial_offset": nucleus_dx, "max_speed": max_speed,
         }  # fmt: skip
