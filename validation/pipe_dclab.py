@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import warnings
 from pathlib import Path
@@ -121,14 +122,16 @@ def parse_points(text: str) -> list[tuple[float, float]]:
 
 
 def grid_points(points, resolution: float, coarse_resolution: float | None, duration: float,
-                correction: float = 0.0) -> list[dict]:
+                correction: float = 0.0, single: bool = False) -> list[dict]:
     """``lut.plan``'s point (options and run key) for every (R, E): one extrapolated point each (R/dx
     ``resolution`` and ``coarse_resolution``, lut's and pipe's default coarse one when None; a single run at R/dx
-    <= 6); ``correction`` > 0: the markers at R - correction dx (the pipe scenario's
+    <= 6, or with ``single``); ``correction`` > 0: the markers at R - correction dx (the pipe scenario's
     ``hydrodynamic_radius_correction``, passed as a flow option, which changes the run key)."""
     out = []
     for radius, modulus in points:
         extra = {} if coarse_resolution is None else {"coarse_resolution": coarse_resolution}
+        if single:
+            extra = {"extrapolate": False}
         planned, _ = plan(None, f"{FLOW_RATE_UL_S}uL/s", f"{VISCOSITY_MPA_S}mPa*s", radii=[f"{radius}um"],
                           moduli=[f"{modulus}kPa"], resolution=resolution, duration=duration,
                           channel_width=f"{CHANNEL_WIDTH_UM}um", **extra)
@@ -229,7 +232,7 @@ def run_missing(points: list[dict], out: Path, workers: int) -> list[dict]:
             failures.append({"key": point["key"], "error": str(outcome)})
             print(f"failed {point['key']}: {outcome}", flush=True)
             continue
-        if not outcome.get("extrapolation") and point["resolution"] > 6:
+        if not outcome.get("extrapolation") and point["options"].get("extrapolate", True) and point["resolution"] > 6:
             failures.append({"key": point["key"], "error": "lut ran a single resolution, not an extrapolated point"})
             continue
         record = {**outcome, "single": not outcome.get("extrapolation"), "resolution": point["resolution"],
@@ -308,6 +311,81 @@ FORMATS = {"R [um]": "g", "R/R_ch": ".3f", "E [kPa]": "g", "E_t [kPa]": ".3f", "
            "A drift %/t": "+.2f", "dV/V end": "+.4f"}
 
 
+SPHERE_CACHE = Path(__file__).resolve().parents[1] / "results" / "pipe_sphere.jsonl"
+DEFORMATION_EXPONENT = 4.4  # d ln D / d ln(R/R_ch) along LE-2D-FEM-19's isoelastics near these points
+
+
+def sphere_excess(resolution: float, correction: float) -> float | None:
+    """(a_h - R)/dx of the sphere held on the pipe's axis at lambda 0.55 (validation/pipe_sphere.py's cache)."""
+    if not SPHERE_CACHE.exists():
+        return None
+    found = None
+    for line in SPHERE_CACHE.read_text().splitlines():
+        row = json.loads(line) if line.strip() else {}
+        if (row.get("problem"), row.get("lambda"), row.get("R/dx"), row.get("c_dx")) == \
+                ("held", 0.55, resolution, correction):
+            found = row["(a_h-R)/dx"]
+    return found
+
+
+def diagnosis(rows: list[dict], cells: list[tuple[float, float]]) -> list[dict]:
+    """One row per error source, one column per cell: what each source measurably does to the deformation (%)."""
+    from elastocell.scenarios.pipe import poiseuille_error
+
+    table = {(r["R [um]"], r["E [kPa]"], r["run"]): r for r in rows}
+    names = [f"{radius:g}:{modulus:g}" for radius, modulus in cells]
+
+    def row(source, measure, value):
+        out = {"source": source, "measured": measure}
+        for name, (radius, modulus) in zip(names, cells, strict=True):
+            v = value(radius, modulus)
+            out[name] = "-" if v is None or not np.isfinite(v) else f"{v:+.1f}"
+        return out
+
+    def get(radius, modulus, label, column="deform"):
+        r = table.get((radius, modulus, label))
+        return None if r is None else r[column]
+
+    out = []
+    for res in (6.0, 8.0):
+        for c in (0.0, 0.3):
+            tag = f", c {c:g}" if c else ""
+            out.append(row(f"all of them, R/dx {res:g}{tag}", "D err % against the table",
+                           lambda R, E, res=res, tag=tag: get(R, E, f"R/dx {res:g}{tag}", "D err %")))
+    for c in (0.0, 0.3):
+        tag = f", c {c:g}" if c else ""
+        out.append(row(f"all of them, extrapolated 8/6{tag}", "D err % against the table",
+                       lambda R, E, tag=tag: get(R, E, f"extrapolated 8/6{tag}", "D err %")))
+    for res in (6.0, 8.0):
+        held = [sphere_excess(res, c) for c in (0.0, 0.3)]
+        if None in held:
+            continue
+        out.append(row(f"rigid sphere's hydrodynamic radius, R/dx {res:g}", f"held sphere (lambda 0.55): a_h - R = "
+                       f"{held[0]:+.3f} dx at c 0, {held[1]:+.3f} dx at c 0.3; D shift % the shift of a_h by c "
+                       f"predicts, {DEFORMATION_EXPONENT:g} ln((R + {held[1]:.3f})/(R + {held[0]:.3f}))",
+                       lambda R, E, res=res, held=held: 100 * DEFORMATION_EXPONENT * math.log(
+                           (res + held[1]) / (res + held[0]))))
+        out.append(row(f"the same, on the cell, R/dx {res:g}", "D(c 0.3)/D(c 0) - 1 (%), measured",
+                       lambda R, E, res=res: None if get(R, E, f"R/dx {res:g}, c 0.3") is None or
+                       get(R, E, f"R/dx {res:g}") is None else
+                       100 * (get(R, E, f"R/dx {res:g}, c 0.3") / get(R, E, f"R/dx {res:g}") - 1)))
+    walls = {}
+    for res in (6.0, 8.0):
+        for radius, _ in cells:
+            r_ch = res * 1.094 * CHANNEL_WIDTH_UM / 2 / radius
+            if (radius, res) not in walls:
+                walls[(radius, res)] = poiseuille_error(r_ch, length=2)["flow_rate_error"]
+        out.append(row(f"staircase wall, R/dx {res:g}", f"empty channel's flow rate error e at the runs' R_ch; D shift % "
+                       f"-{DEFORMATION_EXPONENT / 4:g} ln(1 + e) (hydraulic radius R_ch (1 + e)^(1/4))",
+                       lambda R, E, res=res: -100 * DEFORMATION_EXPONENT / 4 * math.log(1 + walls[(R, res)])))
+    for res in (6.0, 8.0):
+        out.append(row(f"volume drift, R/dx {res:g}", "dV/V (%) at the end of the run (c 0): the area grows by 2/3 of "
+                       "it, and D_t, read at that area, by about 1.5 x 2/3 of it",
+                       lambda R, E, res=res: None if get(R, E, f"R/dx {res:g}", "dV/V end") is None else
+                       100 * get(R, E, f"R/dx {res:g}", "dV/V end")))
+    return out
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--points", default="6:3,7.66:3,6:2,7.66:4.5",
@@ -321,6 +399,10 @@ def main(argv=None) -> None:
     parser.add_argument("--cached-only", action="store_true", help="write the page from --out/runs.jsonl alone")
     parser.add_argument("--before", type=Path, default=None,
                         help="another --out whose records of the same points are listed too, as the state before")
+    parser.add_argument("--single", action="store_true", help="one run at --resolution per point, no extrapolation")
+    parser.add_argument("--with", dest="others", type=Path, nargs="*", default=[],
+                        help="other --out folders (e.g. runs with --radius-correction) whose records of the same "
+                             "points (any resolution and correction) join the table and the diagnosis")
     parser.add_argument("--radius-correction", type=float, default=0.0,
                         help="the pipe scenario's hydrodynamic_radius_correction c: markers at R - c dx (default 0)")
     args = parser.parse_args(argv)
@@ -348,7 +430,8 @@ def main(argv=None) -> None:
         "`A drift` are the relative changes of its deformation and area per unit of 1/gdot_w over its last 2 units "
         "(0 at a stationary shape), `dV/V end` its volume change at the end."),
         versions=("dclab", "numba"))
-    points = grid_points(cells, args.resolution, args.coarse_resolution, args.duration, args.radius_correction)
+    points = grid_points(cells, args.resolution, args.coarse_resolution, args.duration, args.radius_correction,
+                         args.single)
     args.out.mkdir(parents=True, exist_ok=True)
     failures = [] if args.cached_only else run_missing(points, args.out, args.workers)
     complete_cache(args.out)  # the runs' stop reasons and drifts, where their directories are at hand
@@ -363,8 +446,19 @@ def main(argv=None) -> None:
         rows.extend(rows_for(record))
         if record.get("extrapolation"):
             groups.append(rows[-3:])
+    for other in args.others:
+        for record in read_cache(other / "runs.jsonl").values():
+            if (record["radius_um"], record["emodulus_kpa"]) in cells and \
+                    record["options"]["duration"] == args.duration:
+                rows.extend(rows_for(record))
+                if record.get("extrapolation"):
+                    groups.append(rows[-3:])
+    rows = list({(r["R [um]"], r["E [kPa]"], r["run"]): r for r in rows}.values())  # a run listed once
+    rows.sort(key=lambda r: (cells.index((r["R [um]"], r["E [kPa]"])), "c " in r["run"], r["run"]))
     page.table(rows, f"Deformation and area against {TABLE}: each resolution alone, then extrapolated",
                formats=FORMATS)
+    page.table(diagnosis(rows, cells), f"Error sources of the pipe runs: source -> measured effect on D at each "
+               "point (R um : E kPa)")
     if args.before is not None:
         before = read_cache(args.before / "runs.jsonl")
         before_rows = [row for point in points if case(point) in before for row in rows_for(before[case(point)])]

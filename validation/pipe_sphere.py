@@ -177,7 +177,27 @@ def page_rows(rows: list[dict]) -> None:
                            ("free", "Force-free sphere on the axis: speed against Haberman & Sayre")):
         page.table([{k: v for k, v in r.items() if k != "problem"} for r in ordered if r["problem"] == problem],
                    title, formats=FORMATS)
+    page.table(split_excess(ordered), "The excess split into a part constant in dx and a part proportional to R: "
+               "(a_h - R)/dx = b + k R/dx, least squares over the resolutions (b: the immersed boundary's, first order "
+               "in dx/R; k: what refinement keeps, the closed form's own error at that lambda or a physical effect)",
+               formats={"lambda": "g", "c_dx": "g", "b [dx]": "+.3f", "k [%]": "+.2f", "max residual [dx]": ".3f"})
     page.write()
+
+
+def split_excess(rows: list[dict]) -> list[dict]:
+    """Per (problem, lambda, c) with two resolutions or more: the least-squares (b, k) of (a_h - R)/dx = b + k R/dx."""
+    out = []
+    for key in sorted({(r["problem"], r["lambda"], r["c_dx"]) for r in rows}):
+        group = [r for r in rows if (r["problem"], r["lambda"], r["c_dx"]) == key]
+        if len(group) < 2:
+            continue
+        res = np.array([r["R/dx"] for r in group])
+        excess = np.array([r["(a_h-R)/dx"] for r in group])
+        k, b = np.polyfit(res, excess, 1)
+        out.append({"problem": key[0], "lambda": key[1], "c_dx": key[2],
+                    "resolutions": " ".join(f"{v:g}" for v in res), "b [dx]": b, "k [%]": 100 * k,
+                    "max residual [dx]": float(np.abs(excess - (b + k * res)).max())})
+    return out
 
 
 def main(argv=None) -> None:
