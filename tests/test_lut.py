@@ -61,10 +61,12 @@ def test_plan_units_and_grid():
     assert other[0]["key"] != points[0]["key"]
     full, settings = plan("10um", "0.04uL/s", "15mPa*s")
     assert len(full) == 42 and settings["resolution"] == 8 and settings["coarse_resolution"] == 6
-    # R = 8 um in R_ch = 10 um keeps the kernel's reach from the wall at R/dx 8, not at the coarse R/dx 6: its
-    # points run at one resolution; the others are extrapolated (pipe's default, no option added)
-    assert all(p["options"].get("extrapolate") is False for p in full if p["radius_um"] == 8)
-    assert all("extrapolate" not in p["options"] for p in full if p["radius_um"] < 8)
+    # a cell above R_ch/(1 + 2/6) = 7.5 um in R_ch = 10 um keeps the kernel's reach + 1 dx from the wall at R/dx 8,
+    # not at the coarse R/dx 6: its points run at one resolution; the others are extrapolated (pipe's default, no
+    # option added); the default grid's largest cell is the largest R/dx 8 takes (R_ch/R >= 1.25)
+    assert max(p["radius_um"] for p in full) > 7.5
+    assert all(p["options"].get("extrapolate") is False for p in full if p["radius_um"] > 7.5)
+    assert all("extrapolate" not in p["options"] for p in full if p["radius_um"] < 7.5)
     # a square channel of width W stands for the cylinder R_ch = 1.094 W/2 (Mietke et al. 2015; dclab LE-2D-FEM-19)
     square, settings = plan(None, 0.04, 15, radii=[5], moduli=[1000], quick=True, channel_width="20um")
     assert settings["channel_radius_um"] == pytest.approx(10.94)

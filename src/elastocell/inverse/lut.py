@@ -100,11 +100,15 @@ POINT_FILE = "point.json"
 
 LUT_COLUMNS = ("area_um [um^2]", "deform", "emodulus [kPa]")
 
-FULL_RADII_UM = (3.0, 4.0, 5.0, 6.0, 7.0, 8.0)
-FULL_MODULI_KPA = (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0)
 FULL = {"resolution": 8.0, "duration": 20.0, "stationary_tolerance": 1e-3}
-"""The full grid: 6 radii x 7 moduli = 42 runs at R/dx 8, at most 20 units of 1/gdot_w each (stopping earlier
-once the mean deformation over a unit of time is stationary to 1e-3)."""
+"""The full grid's runs: R/dx 8, at most 20 units of 1/gdot_w each (stopping earlier once the mean deformation
+over a unit of time is stationary to 1e-3); its radii and moduli are :func:`default_grid`'s."""
+
+GRID_REFERENCE = {"cylinder": "LE-2D-FEM-19", "square": "HE-3D-FEM-22"}
+"""dclab's table whose (area, deformation) region the default grid of a channel shape spans."""
+
+DEFAULT_GRID_SIZE = (6, 7)
+"""Radii x moduli of the default grid (42 runs, as many as a hand-made 6 x 7 grid)."""
 
 SQUARE_CHANNEL_RADIUS_FACTOR = 1.094
 """R_ch/(W/2) of the cylinder that stands for a square channel of width W (Mietke et al. 2015, supplement S3;
@@ -350,13 +354,19 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
     q = _positive(flow_rate, "m^3/s", "flow_rate")
     fluid, eta = lut_medium(medium, temperature, flow_index, viscosity)
     defaults = QUICK if quick else FULL
-    radii_m = _list(radii if radii is not None else
-                    [f"{r}um" for r in (QUICK_RADII_UM if quick else FULL_RADII_UM)], "m", "radii")
-    moduli_pa = _list(moduli if moduli is not None else
-                      [f"{e}kPa" for e in (QUICK_MODULI_KPA if quick else FULL_MODULI_KPA)], "Pa", "moduli")
     if not (math.isfinite(poisson_ratio) and -1 < poisson_ratio < 0.5):
         raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {poisson_ratio}")
     resolution = defaults["resolution"] if resolution is None else float(resolution)
+    width = 2.0 * r_ch if shape == "square" else 2.0 * r_ch / SQUARE_CHANNEL_RADIUS_FACTOR
+    viscosity_mpa_s = 1e3 * (eta if eta is not None else dclab_viscosity(fluid, q, width))
+    grid = None
+    if not quick and (radii is None or moduli is None):
+        grid = default_grid(shape, width * 1e6, r_ch * 1e6, q * 1e9, viscosity_mpa_s, resolution,
+                            {} if shape == "cylinder" else {"channel_shape": shape})
+    radii_m = _list(radii if radii is not None else
+                    [f"{r}um" for r in (QUICK_RADII_UM if quick else grid["radii_um"])], "m", "radii")
+    moduli_pa = _list(moduli if moduli is not None else
+                      [f"{e}kPa" for e in (QUICK_MODULI_KPA if quick else grid["moduli_kpa"])], "Pa", "moduli")
     flow_cell(None, {**cell, "material": material, "poisson_ratio": float(poisson_ratio)}, resolution)  # refusals
     duration_given = duration
     duration = defaults["duration"] if duration is None else float(duration)
@@ -422,8 +432,6 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
                 options.update(transit, radius=f"{radius * 1e6:g}um")
             points.append({"key": point_key(radius * 1e6, modulus * 1e-3, options), "radius_um": radius * 1e6,
                            "emodulus_kpa": modulus * 1e-3, "options": options})
-    width = 2.0 * r_ch if shape == "square" else 2.0 * r_ch / SQUARE_CHANNEL_RADIUS_FACTOR
-    viscosity_mpa_s = 1e3 * (eta if eta is not None else dclab_viscosity(fluid, q, width))
     settings = {"channel_shape": shape, "channel_radius_um": r_ch * 1e6, "channel_width_um": width * 1e6,
                 "flow_rate_ul_s": q * 1e9, "viscosity_mpa_s": viscosity_mpa_s, **fluid.as_dict(),
                 "pressure_gradient_pa_m": driving["pressure_gradient"],
@@ -432,6 +440,8 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
                 "material": material, "resolution": resolution, "coarse_resolution": coarse, "duration": duration,
                 "stationary_tolerance": tolerance, "quick": bool(quick), **cell_settings(cell, poisson_ratio),
                 "state": "stationary" if length is None else f"transit {length * 1e6:g} um"}
+    if grid is not None:
+        settings["default_grid"] = {k: v for k, v in grid.items() if k != "table"}
     if length is not None:
         settings["channel_length_um"] = length * 1e6
     return points, settings
@@ -452,6 +462,130 @@ def transit_length(channel_length, largest_radius: float) -> float | None:
         raise ParameterError("channel_length", f"L = {length * 1e6:g} um is shorter than the diameter of the "
                              f"largest cell, {2e6 * largest_radius:g} um")
     return length
+
+
+def reference_table(shape: str, channel_width_um: float, flow_rate_ul_s: float, viscosity_mpa_s: float) -> np.ndarray:
+    """dclab's table :data:`GRID_REFERENCE` of the channel shape (area_um, deform, emodulus in kPa), scaled to the
+    channel width, flow rate and viscosity as dclab scales it (``scale_linear``: area ~ W^2, deformation unchanged,
+    E ~ W^-3 Q eta)."""
+    from dclab.features.emodulus import load, scale_linear  # lazy: dclab only where a default grid is made
+
+    table, meta = load.load_lut(GRID_REFERENCE[shape])
+    out = np.array(table, dtype=float)
+    out[:, 0] = scale_linear.scale_area_um(out[:, 0], meta["channel_width"], channel_width_um)
+    out[:, 2] = scale_linear.scale_emodulus(out[:, 2], meta["channel_width"], channel_width_um, meta["flow_rate"],
+                                            flow_rate_ul_s, meta["fluid_viscosity"], viscosity_mpa_s)
+    return out
+
+
+def table_deformation(table: np.ndarray):
+    """D(area_um, E) of a table (linear interpolation in log E; NaN outside its hull)."""
+    from scipy.interpolate import LinearNDInterpolator  # lazy: the grid only
+
+    scale = np.array([table[:, 0].max(), 1.0])
+    points = np.column_stack([table[:, 0], np.log(table[:, 2])]) / scale
+    interpolate = LinearNDInterpolator(points, table[:, 1])
+    return lambda area, modulus: interpolate(np.column_stack(np.broadcast_arrays(
+        np.asarray(area, dtype=float), np.log(np.asarray(modulus, dtype=float)))) / scale)
+
+
+def default_grid(shape: str, channel_width_um: float, channel_radius_um: float, flow_rate_ul_s: float,
+                 viscosity_mpa_s: float, resolution: float, flow: dict, size: tuple[int, int] = DEFAULT_GRID_SIZE) -> dict:
+    """The default (radii, moduli) of a table: the region of dclab's table for the channel shape
+    (:func:`reference_table`, scaled to the channel, flow rate and viscosity), where RT-DC events of that channel
+    lie. Radii: from the smallest cell of that table, sqrt(area_min/pi), to the largest one the pipe scenario takes
+    in the channel at ``resolution`` (or the table's largest), evenly spaced in area (0.1 um). Moduli: the
+    deformation of the middle radius (a cell of area pi R^2 in the table) falls from its largest to its smallest
+    value over the table's moduli; the moduli are placed at equal steps of its logarithm (2 significant digits).
+    E ~ 1/D roughly, so linear interpolation of E in D errs by the relative step in D: equal steps in log D give one
+    interpolation error everywhere, with moduli sparse where the deformation changes slowly with E.
+    Returns radii_um, moduli_kpa, the reference table's name and the deformation of each modulus at the middle
+    radius."""
+    n_radii, n_moduli = size
+    table = reference_table(shape, channel_width_um, flow_rate_ul_s, viscosity_mpa_s)
+    r_min = math.sqrt(table[:, 0].min() / math.pi)
+    r_max = math.sqrt(table[:, 0].max() / math.pi)
+    while r_max > r_min and not _fits(channel_radius_um / r_max, resolution, flow):
+        r_max -= 0.01  # the largest cell the channel takes with the kernel's reach to the wall
+    radii = np.sqrt(np.linspace(r_min**2, r_max**2, n_radii))
+    radii = np.round(np.clip(radii, math.ceil(r_min * 10) / 10, math.floor(r_max * 10) / 10), 1)
+    deformation = table_deformation(table)
+    middle = math.pi * float(np.median(radii)) ** 2
+    moduli = np.geomspace(table[:, 2].min(), table[:, 2].max(), 400)
+    d = deformation(middle, moduli)
+    keep = np.isfinite(d)
+    moduli, d = moduli[keep], np.minimum.accumulate(d[keep])  # monotone in E (the table's own noise removed)
+    targets = np.geomspace(d[0], d[-1], n_moduli)
+    chosen = np.interp(-targets, -d, moduli)
+    chosen = np.array([float(f"{e:.2g}") for e in chosen])
+    return {"radii_um": [float(r) for r in dict.fromkeys(radii)], "moduli_kpa": sorted(set(chosen.tolist())),
+            "reference": GRID_REFERENCE[shape], "middle_radius_um": float(np.median(radii)),
+            "deformation_at_middle_radius": [float(v) for v in deformation(middle, sorted(set(chosen.tolist())))]}
+
+
+def predicted_table(grid: dict, shape: str, channel_width_um: float, flow_rate_ul_s: float,
+                    viscosity_mpa_s: float) -> np.ndarray:
+    """Where a grid's points would lie if the cells deformed as in the reference table (rows area_um, deform,
+    emodulus in kPa): each (R, E) at area pi R^2 (the undeformed cell's; the runs read a few % more) with the
+    deformation :func:`table_deformation` gives there; points outside that table are left out. For checking a
+    grid's coverage without running it (validation/lut_grid.py, tests)."""
+    table = reference_table(shape, channel_width_um, flow_rate_ul_s, viscosity_mpa_s)
+    radii, moduli = np.meshgrid(grid["radii_um"], grid["moduli_kpa"], indexing="ij")
+    area = np.pi * radii.ravel() ** 2
+    deform = table_deformation(table)(area, moduli.ravel())
+    rows = np.column_stack([area, deform, moduli.ravel()])
+    return rows[np.isfinite(deform)]
+
+
+def read_events(paths) -> list[dict]:
+    """The events of RT-DC measurements (``.rtdc`` files, read by dclab) as :func:`grid_coverage` takes them: one
+    dict per file (name, area_um, deform, channel_width in um, flow_rate in uL/s, px_um)."""
+    import warnings
+
+    import dclab  # lazy: dclab only for this check
+
+    events = []
+    for path in paths:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            data = dclab.new_dataset(str(path))
+            events.append({"name": Path(path).name, "area_um": np.asarray(data["area_um"]),
+                           "deform": np.asarray(data["deform"]),
+                           "channel_width": float(data.config["setup"]["channel width"]),
+                           "flow_rate": float(data.config["setup"]["flow rate"]),
+                           "px_um": float(data.config["imaging"]["pixel size"])})
+    return events
+
+
+def grid_coverage(table: np.ndarray, events: list[dict], reference: str = "LE-2D-FEM-19") -> dict:
+    """Which RT-DC events a table (rows area_um, deform, emodulus; made for 20 um, 0.04 uL/s, 15 mPa s, such as
+    :func:`predicted_table` of the default grid there) covers, against dclab's table ``reference``, both through
+    dclab's ``get_emodulus`` (scaled to each file's channel width and flow rate, deformation corrected for the
+    pixel size, no extrapolation; one Newtonian viscosity for both, which changes E, not coverage). ``events``: one
+    dict per file (name, area_um, deform, channel_width, flow_rate, px_um). Returns per file and in all the events,
+    those the reference covers, those both cover, and the ratio E_table/E_reference on them."""
+    import warnings
+
+    from dclab.features.emodulus import get_emodulus  # lazy: dclab only for this check
+
+    meta = {"channel_width": 20.0, "flow_rate": 0.04, "fluid_viscosity": 15.0,
+            "column features": ["area_um", "deform", "emodulus"]}
+    rows, ratios = [], []
+    for e in events:
+        conditions = {"area_um": e["area_um"], "deform": e["deform"], "medium": 15.0, "temperature": None,
+                      "channel_width": e["channel_width"], "flow_rate": e["flow_rate"], "px_um": e["px_um"]}
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            theirs = get_emodulus(lut_data=reference, **conditions)
+            ours = get_emodulus(lut_data=(table, meta), **conditions)
+        covered, both = np.isfinite(theirs), np.isfinite(theirs) & np.isfinite(ours)
+        ratios += list(ours[both] / theirs[both])
+        rows.append({"file": e["name"], "channel_um": e["channel_width"], "flow_uL_s": e["flow_rate"],
+                     "events": len(theirs), "reference": int(covered.sum()), "both": int(both.sum())})
+    covered = sum(r["reference"] for r in rows)
+    both = sum(r["both"] for r in rows)
+    return {"files": rows, "events": sum(r["events"] for r in rows), "reference": covered, "both": both,
+            "fraction": both / covered if covered else float("nan"), "ratios": np.asarray(ratios)}
 
 
 def _fits(ratio: float, resolution: float, flow: dict) -> bool:
@@ -764,8 +898,9 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     R_ch = 1.094 W/2 stands for it; ``channel_shape="square"`` runs the square duct). ``medium``: "newtonian"
     (with ``viscosity``) or an MC-PBS preset at ``temperature`` degC (``viscosity=None``). ``extrapolate``,
     ``coarse_resolution``: as ``pipe`` (default: each point at R/dx above 6 also runs R/dx 6 and its area and
-    deformation are extrapolated to dx -> 0). radii, moduli: comma-separated lists or sequences (bare numbers in um and Pa); default the full grid
-    (:data:`FULL_RADII_UM` x :data:`FULL_MODULI_KPA`) or, with ``quick``, the 2 x 2 test grid. Returns a
+    deformation are extrapolated to dx -> 0). radii, moduli: comma-separated lists or sequences (bare numbers in um
+    and Pa); default the region of dclab's table for the channel (:func:`default_grid`, 6 x 7) or, with ``quick``,
+    the 2 x 2 test grid. Returns a
     summary: paths, the finished records, the failed points (key and one-line error; left out of the table and
     rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion
     (kept in the table, listed in the metadata under ``elastocell.not_stationary``: their shape is a transient
