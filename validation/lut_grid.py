@@ -14,31 +14,18 @@ grid's points carry LE-2D-FEM-19's own deformation). The section is in docs/vali
 
 from __future__ import annotations
 
-import sys
 import tempfile
 import time
-import zipfile
 from pathlib import Path
 
 import numpy as np
 from page import Page
 
-# validation/compression.py would shadow the standard library's `compression` package that JAX tries first
-sys.path.remove(str(Path(__file__).resolve().parent))
+# importing it removes validation/ from the path (validation/compression.py would shadow the standard library's
+# `compression` package that JAX tries first)
+from rtdc_coverage import unpack
 
 from elastocell.inverse.lut import grid_coverage, plan, predicted_table, read_events  # noqa: E402
-
-DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "rtdc"
-
-
-def rtdc_events(directory: Path) -> list[dict]:
-    """The events of the test measurements, unpacked into ``directory``: one dict per file."""
-    paths = []
-    for archive in sorted(DATA.glob("*.zip")):
-        with zipfile.ZipFile(archive) as z:
-            z.extractall(directory / archive.stem)
-        paths += sorted((directory / archive.stem).rglob("*.rtdc"))
-    return read_events(paths)
 
 
 def main() -> None:
@@ -64,7 +51,7 @@ def main() -> None:
             cylinder = grid
     page.table(rows, "the default grids (D at R_mid: the reference table's deformation of the middle radius at "
                      "each modulus, equal steps in log D)")
-    events = rtdc_events(Path(tempfile.mkdtemp(prefix="lut-grid-")))
+    events = read_events(unpack(Path(tempfile.mkdtemp(prefix="lut-grid-"))))
     table = predicted_table(cylinder, "cylinder", 20.0, 0.04, 15.0)
     coverage = grid_coverage(table, events)
     page.table(coverage["files"], "events per file: inside LE-2D-FEM-19 (reference) and inside both it and the "
