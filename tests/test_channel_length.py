@@ -146,3 +146,37 @@ def test_the_run_stops_at_the_length_and_a_longer_channel_approaches_the_station
 def _column(directory, name: str) -> int:
     header = (directory / "timeseries.csv").read_text().splitlines()[0].split(",")
     return header.index(name)
+
+
+class _Client:
+    """Stands in for a Dask client: runs the task in this process."""
+
+    def submit(self, function, *args, pure=False):
+        from concurrent.futures import Future
+
+        future = Future()
+        future.set_result(function(*args))
+        return future
+
+
+@pytest.mark.slow
+def test_a_transit_table_reads_each_point_at_the_end_of_the_channel(tmp_path, monkeypatch):
+    # one point (R = 5 um, E = 2 kPa, R/dx 4) in a channel 12 um long: about 3 units of 1/gdot_w (13 s on 2 shared cores)
+    import distributed
+
+    from elastocell.inverse.lut import compute_lut, read_lut
+
+    monkeypatch.setattr(distributed, "as_completed", lambda futures: list(futures))
+    out = tmp_path / "lut.txt"
+    result = compute_lut(out, "10um", "0.04uL/s", "15mPa*s", radii="5", moduli="2kPa", quick=True,
+                         channel_length="12um", client=_Client())
+    assert not result["failures"], result["failures"]
+    data, meta, _ = read_lut(out)
+    (record,) = result["records"]
+    assert meta["elastocell"]["state"] == "transit 12 um" and meta["elastocell"]["not_stationary"] == []
+    assert meta["elastocell"]["point_states"] == {record["key"]: "transit 12 um"}
+    summary = json.loads((tmp_path / "lut_runs" / record["key"] / "summary.json").read_text())
+    assert summary["stop_reason"] == "transit" and summary["channel_length_r"] == pytest.approx(2.4)
+    # the table's row is the shape where the cell had travelled L, not a mean over the run's end
+    assert data[0, 1] == pytest.approx(summary["transit"]["deformation"], rel=1e-6)
+    assert data[0, 0] == pytest.approx(summary["transit"]["projected_area"] * 25, rel=1e-6)
