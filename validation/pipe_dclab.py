@@ -298,7 +298,7 @@ def rows_for(record: dict) -> list[dict]:
 def apparent_order(rows: list[dict]) -> str:
     """One cell's apparent order of the deformation error (its R/dx coarse, fine and extrapolated rows)."""
     coarse, fine = rows[0], rows[1]
-    ratio = float(fine["run"].split()[-1]) / float(coarse["run"].split()[-1])
+    ratio = float(fine["run"].split()[1].rstrip(",")) / float(coarse["run"].split()[1].rstrip(","))  # "R/dx 8[, c ..]"
     err_c, err_f = coarse["deform"] - coarse["D_t"], fine["deform"] - fine["D_t"]
     order = np.log(err_c / err_f) / np.log(ratio) if err_c * err_f > 0 else float("nan")
     return (f"R = {fine['R [um]']:g} um, E = {fine['E [kPa]']:g} kPa: err {err_c:+.4f} at {coarse['run']}, "
@@ -352,6 +352,8 @@ def diagnosis(rows: list[dict], cells: list[tuple[float, float]]) -> list[dict]:
             tag = f", c {c:g}" if c else ""
             out.append(row(f"all of them, R/dx {res:g}{tag}", "D err % against the table",
                            lambda R, E, res=res, tag=tag: get(R, E, f"R/dx {res:g}{tag}", "D err %")))
+    out.append(row("all of them, R/dx 10", "D err % against the table",
+                   lambda R, E: get(R, E, "R/dx 10", "D err %")))
     for c in (0.0, 0.3):
         tag = f", c {c:g}" if c else ""
         out.append(row(f"all of them, extrapolated 8/6{tag}", "D err % against the table",
@@ -384,6 +386,49 @@ def diagnosis(rows: list[dict], cells: list[tuple[float, float]]) -> list[dict]:
                        lambda R, E, res=res: None if get(R, E, f"R/dx {res:g}", "dV/V end") is None else
                        100 * get(R, E, f"R/dx {res:g}", "dV/V end")))
     return out
+
+
+def confinement_exponents(rows: list[dict], small=(6.0, 3.0), large=(7.66, 3.0)) -> list[str]:
+    """For each run label present at both cells: ln(D_large/D_small)/ln(lambda ratio), elastocell's and the table's."""
+    table = {(r["R [um]"], r["E [kPa]"], r["run"]): r for r in rows}
+    lines = []
+    for label in sorted({r["run"] for r in rows}):
+        a, b = table.get((*small, label)), table.get((*large, label))
+        if a is None or b is None:
+            continue
+        span = math.log(b["R/R_ch"] / a["R/R_ch"])
+        lines.append(f"{label}: elastocell {math.log(b['deform'] / a['deform']) / span:.2f}, "
+                     f"table {math.log(b['D_t'] / a['D_t']) / span:.2f}")
+    return lines
+
+
+def three_resolutions(rows: list[dict], cells) -> list[str]:
+    """For each cell with runs at R/dx 6, 8 and 10 (c 0): the observed order and the extrapolations (lines)."""
+    import scipy.optimize
+
+    table = {(r["R [um]"], r["E [kPa]"], r["run"]): r for r in rows}
+    lines = []
+    for radius, modulus in cells:
+        runs = [table.get((radius, modulus, f"R/dx {res}")) for res in (6, 8, 10)]
+        if None in runs:
+            continue
+        d6, d8, d10 = (r["deform"] for r in runs)
+        ratio = (d6 - d8) / (d8 - d10) if d8 != d10 else float("nan")
+
+        def gap(p):
+            return (6.0**-p - 8.0**-p) / (8.0**-p - 10.0**-p) - ratio
+
+        order = float(scipy.optimize.brentq(gap, 0.05, 12.0)) if np.isfinite(ratio) and gap(0.05) * gap(12.0) < 0 \
+            else float("nan")
+        d_t = runs[2]["D_t"]
+        parts = [f"R = {radius:g} um, E = {modulus:g} kPa: D = {d6:.4f}, {d8:.4f}, {d10:.4f} at R/dx 6, 8, 10 "
+                 f"(table {d_t:.4f} at the R/dx 10 area): observed order {order:.2f}"]
+        for p in (1.0, 2.0, order):
+            if np.isfinite(p):
+                value = d10 + (d10 - d8) / ((10.0 / 8.0) ** p - 1.0)
+                parts.append(f"order {p:.2f} from 8/10: {value:.4f} ({percent(value, d_t):+.1f} %)")
+        lines.append("; ".join(parts))
+    return lines
 
 
 def main(argv=None) -> None:
@@ -428,7 +473,18 @@ def main(argv=None) -> None:
         f"`target met`: deformation and area both within {100 * TARGET:g} % (issue 24). A run "
         "that reached the duration cap before the stationarity criterion is marked `no (cap ...)`; `D drift` and "
         "`A drift` are the relative changes of its deformation and area per unit of 1/gdot_w over its last 2 units "
-        "(0 at a stationary shape), `dV/V end` its volume change at the end."),
+        "(0 at a stationary shape), `dV/V end` its volume change at the end. Rows labelled `c 0.3` are runs with "
+        "the markers at R - 0.3 dx (the pipe scenario's `hydrodynamic_radius_correction`; their shape is measured in "
+        "units of the markers' radius, i.e. it is the outline of the body of hydrodynamic radius R, which at rest is "
+        "the circle of radius R: deformation is unchanged by that scaling, area is the nominal cell's); rows at one "
+        "resolution without a pair are single runs.\n\n"
+        "The error-source table sets what each source measurably does to D beside the total error: the rigid "
+        "sphere's hydrodynamic radius (the held sphere on the pipe's axis, section 'a rigid sphere's hydrodynamic "
+        "radius' below) gives the deformation shift that moving the markers in by c should produce if D followed "
+        "the confinement a_h/R_ch like the table's isoelastics (D ~ (R/R_ch)^4.4), next to the shift the cell "
+        "shows; the staircase wall's hydraulic radius (the empty cylinder at each run's R_ch, "
+        "``elastocell.scenarios.pipe.poiseuille_error``) gives the shift of the confinement the cell feels; the "
+        "volume drift is the run's own dV/V at its end."),
         versions=("dclab", "numba"))
     points = grid_points(cells, args.resolution, args.coarse_resolution, args.duration, args.radius_correction,
                          args.single)
@@ -459,6 +515,13 @@ def main(argv=None) -> None:
                formats=FORMATS)
     page.table(diagnosis(rows, cells), f"Error sources of the pipe runs: source -> measured effect on D at each "
                "point (R um : E kPa)")
+    page.print("Confinement sensitivity at the same modulus and Ca_w, d ln D/d ln(R/R_ch) between R = 6 and 7.66 um "
+               "(E = 3 kPa), elastocell's against the table's (its D_t at each run's area):\n"
+               + "\n".join(confinement_exponents(rows)))
+    three = three_resolutions(rows, cells)
+    if three:
+        page.print("Three resolutions (c 0): the observed order p of D's convergence, solving (D_6 - D_8)/(D_8 - D_10) = "
+                   "(6^-p - 8^-p)/(8^-p - 10^-p), and the extrapolations from R/dx 8 and 10:\n" + "\n".join(three))
     if args.before is not None:
         before = read_cache(args.before / "runs.jsonl")
         before_rows = [row for point in points if case(point) in before for row in rows_for(before[case(point)])]
