@@ -402,10 +402,12 @@ class PipeFlowParameters(FlowLatticeParameters):
     kernel: immersed-boundary kernel ("trilinear" or "peskin4").
     hydrodynamic_radius_correction: c in dx, as :class:`~elastocell.scenarios.shear.ShearFlowParameters`: the
         markers lie on a sphere of radius R - c dx, so that the body the fluid sees (larger than the marker surface
-        by about 0.3 dx with the trilinear kernel and edges of 2 dx; docs/validation/flow_accuracy.md) has radius R
-        and the confinement is R/R_ch. The shape observables (strains, side-view outline) are those of that body:
-        the markers' shape in units of their own radius R - c dx. Default 0: markers at R (and the field is left
-        out of the parameters' dump, so that run keys and records stay as they were).
+        by a constant 0.35 dx with the trilinear kernel and edges of 2 dx: a sphere held on the pipe's axis at
+        R/dx 4-8, 0.05 dx with c = 0.3; docs/validation/pipe_dclab.md and flow_accuracy.md) has radius R and the
+        confinement is R/R_ch. The shape observables (strains, side-view outline) are those of that body: the
+        markers' shape in units of their own radius R - c dx. On the cell, c = 0.3 lowers D by 6-15 % at R/dx 6
+        and 8 at the pipe_dclab points (less than the rigid sphere's confinement predicts). Default 0: markers
+        at R (and the field is left out of the parameters' dump, so that run keys and records stay as they were).
     lattice_wall_shear_rate: impose gdot_w (1/dt) instead of the largest allowed one; refused if it breaks
         a limit.
     max_steps_per_time: refuse a run needing more LB steps per unit time 1/gdot_w.
