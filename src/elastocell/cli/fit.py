@@ -84,9 +84,11 @@ def mastercurve_compression(poisson_ratio: float, material: str, out: Path | Non
        *MASTERCURVE_OPTIONS[3:], opt("workers", annotation=int, default=1, help="Curves computed at a time."),
        opt("cell_shape", help="sphere (a suspended cell on the dish; R the cell radius) | cap (an adherent cell, "
            "a spherical cap bonded to the dish; R its base radius; apex heights H/R 0.3, 0.4, 0.5, 0.75, 1) | layer (a "
-           "layer bonded to the dish; R = h, its thickness)."))
+           "layer bonded to the dish; R = h, its thickness)."),
+       opt("indenter", help="sphere (a bead: F over depth and R_b/R) | cone (--cell-shape layer: F/(E h^2) over "
+           "depth/h and the half-angle, 20-75 deg)."))
 def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | None, no_cache: bool, quiet: bool,
-                            workers: int, cell_shape: str):
+                            workers: int, cell_shape: str, indenter: str):
     """F/(E R^2) over depth/R and R_b/R of a homogeneous suspended cell indented by a bead (sphere on a dish), of
     an adherent cap (at each tabulated apex height), or of a bonded layer (R = h): the shipped surface, the cached
     one, or a fresh computation with the axisymmetric solver (default mesh; a finer mesh at a few ratios for the
@@ -99,10 +101,12 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
         check_shape,
         compute_indentation_surface,
         shipped,
+        surface_shape,
     )
 
     check_inputs(poisson_ratio, material)
     check_shape(cell_shape)
+    cell_shape = surface_shape(cell_shape, indenter)
     progress = None if quiet else (
         lambda label, mesh, seconds: typer.echo(f"R_b/R = {label}, {mesh} mesh: {seconds:.0f} s", err=True))
     surface, source = shipped_cached_or_computed(
@@ -118,8 +122,10 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
         worst = float(np.nanmax(np.where(past, error, np.nan)))
         heights = (f" at H/R {', '.join(f'{height:g}' for height in surface.heights)}" if cell_shape == "cap"
                    else "")
-        typer.echo(f"nu={poisson_ratio:g} {material} ({source}): R_b/R {surface.ratio_range[0]:g}..."
-                   f"{surface.ratio_range[1]:g}{heights}; largest relative mesh error past a tenth of the depth range: "
+        span = (f"R_b/R {surface.ratio_range[0]:g}...{surface.ratio_range[1]:g}" if cell_shape != "cone-layer" else
+                f"half-angle {np.degrees(np.arctan(surface.ratio_range[0])):.3g}..."
+                f"{np.degrees(np.arctan(surface.ratio_range[1])):.3g} deg")
+        typer.echo(f"nu={poisson_ratio:g} {material} ({source}): {span}{heights}; largest relative mesh error past a tenth of the depth range: "
                    f"{100 * worst:.2f} %" + (f" -> {out}" if out else ""))
 
 
@@ -133,6 +139,8 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
            "bonded to the dish)."),
        opt("indenter_radius", annotation=str | None, default=None, scale=None, shown="required with sphere-indenter"),
        opt("cap_height", scale=None), opt("layer_thickness", scale=None),
+       opt("half_angle", help="--geometry cone: the cone's half-angle (axis to flank; a pyramid: its equivalent "
+           "cone's, tan(alpha_c) = 2/sqrt(pi) tan(face half-angle)).", shown="required with --geometry cone"),
        opt("depth_max", annotation=float | None, default=None, help="sphere-indenter: fit the data up to this bead "
            "depth after contact.", units="R, the cell radius (the layer: h, its thickness)",
            shown="the master surface's range: min(R_b, R/2) (the cap: about min(R_b, H/2))"),
@@ -150,7 +158,7 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
            shown="a plain loop, or one worker per core from 150 files on, 1200 with --no-plots"),
        "quiet")
 def fit_afm(files: list[Path], radius: str | None, geometry: str, cell_shape: str, indenter_radius: str | None,
-            cap_height: str | None, layer_thickness: str | None, depth_max: float | None,
+            cap_height: str | None, layer_thickness: str | None, half_angle: str | None, depth_max: float | None,
             spring_constant: str | None, sensitivity: str | None,
             poisson_ratio: float, material: str, model: str, delta_max: float, contact_point: str, bootstrap: int,
             seed: int, nucleus_size_ratio: float | None, stiffness_ratio: float | None, baseline_fraction: float,
@@ -172,7 +180,7 @@ def fit_afm(files: list[Path], radius: str | None, geometry: str, cell_shape: st
                            nucleus_size_ratio=nucleus_size_ratio, stiffness_ratio=stiffness_ratio,
                            spring_constant=spring_constant, sensitivity=sensitivity, indenter_radius=indenter_radius,
                            cell_shape=cell_shape, cap_height=cap_height, layer_thickness=layer_thickness,
-                           depth_max=depth_max)
+                           depth_max=depth_max, half_angle=half_angle)
     check_execution(scheduler, workers)
     for path in files:
         if not path.exists():

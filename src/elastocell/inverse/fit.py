@@ -9,7 +9,10 @@ two-contact law ``f = 4/(3(1-nu^2)) delta^(3/2)``. ``sphere-indenter``: a bead o
 (``indenter_radius``) pressed into a suspended cell on a dish; the displacement after contact is the bead's depth
 and ``F = E R^2 s(depth/R, R_b/R)`` with ``s`` the master surface (:mod:`elastocell.inverse.indentation_surface`),
 Hertz's sphere on a half-space ``F = 4/3 E/(1-nu^2) sqrt(R_b) d^(3/2)`` beside it (``youngs_modulus_hertz``, the
-formula of :func:`fit_hertz_sphere`); the same contact point, intervals and checks as the plates.
+formula of :func:`fit_hertz_sphere`); the same contact point, intervals and checks as the plates. ``cone``: a cone of
+half-angle alpha (``half_angle``) pressed into a layer of thickness h bonded to the dish, ``F = E h^2
+s(depth/h, tan(alpha))`` with the cone layer's master surface, Sneddon's cone on a half-space
+``F = 2/pi E/(1-nu^2) tan(alpha) d^2`` beside it (``youngs_modulus_hertz``).
 
 Reading (:func:`read_curves`): a ``.csv``/``.tsv``/``.txt`` whose header names the columns ``displacement`` (m)
 and ``force`` (N) is elastocell's plain CSV, read as it is (its displacement is the plate's own). Every other file
@@ -94,15 +97,20 @@ from elastocell.inverse.indentation_surface import (
     check_shape,
     depth_limit,
     load_indentation_surface,
+    surface_shape,
 )
 from elastocell.inverse.mastercurve import MasterCurve, load_master_curve
 from elastocell.inverse.mastercurve_shear import load_shear_master_curve
 from elastocell.parameters.units import ParameterError, parse_quantity
+from elastocell.scenarios.axisymmetric import sneddon_cone_force
 from elastocell.scenarios.compression import hertz_force
 from elastocell.simulation.distributed import TaskFailure, check_execution, default_workers, run_tasks
 
 PLAIN_SUFFIXES = (".csv", ".txt", ".tsv")
-GEOMETRIES = {"parallel-plates": "parallel-plates", "plates": "parallel-plates", "sphere-indenter": "sphere-indenter"}
+GEOMETRIES = {"parallel-plates": "parallel-plates", "plates": "parallel-plates", "sphere-indenter": "sphere-indenter",
+              "cone": "cone"}
+INDENTERS = ("sphere-indenter", "cone")
+"""The geometries whose x-axis is an indenter's depth (fitted to a master surface)."""
 """Accepted ``geometry`` names and what they mean (``plates`` is an alias)."""
 
 RISE_FRACTION = 0.05
@@ -188,6 +196,7 @@ class FitSettings:
     cap_height: float | str | None = None  # m after construction (recorded; cap)
     layer_thickness: float | str | None = None  # m after construction (recorded; layer)
     depth_max: float | None = None  # units of R (sphere-indenter); None = the master surface's range
+    half_angle: float | str | None = None  # degrees after construction (cone)
 
     def __post_init__(self):
         for name, unit, legacy in (("radius", "m", True), ("contact_point", "m", False),
@@ -195,7 +204,7 @@ class FitSettings:
                                    ("indenter_radius", "m", True), ("cap_height", "m", True),
                                    ("layer_thickness", "m", True)):
             object.__setattr__(self, name, _setting(getattr(self, name), unit, name, legacy))
-        layer = str(self.geometry).strip().lower() == "sphere-indenter" and self.cell_shape == "layer"
+        layer = GEOMETRIES.get(str(self.geometry).strip().lower()) in INDENTERS and self.cell_shape == "layer"
         if self.radius is None and not layer:
             raise ParameterError("radius", "required (the cell radius, e.g. 8um)")
         if self.radius is not None and not (math.isfinite(self.radius) and self.radius > 0):
@@ -204,9 +213,25 @@ class FitSettings:
             raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {self.poisson_ratio}")
         geometry = GEOMETRIES.get(str(self.geometry).strip().lower())
         if geometry is None:
-            raise ParameterError("geometry", f"must be parallel-plates (or plates) or sphere-indenter, got "
+            raise ParameterError("geometry", f"must be parallel-plates (or plates), sphere-indenter or cone, got "
                                              f"{self.geometry!r}")
         object.__setattr__(self, "geometry", geometry)
+        if self.half_angle is not None:
+            if geometry != "cone":
+                raise ParameterError("half_angle", "applies to --geometry cone only")
+            object.__setattr__(self, "half_angle", parse_quantity(self.half_angle, "deg", "half_angle")[0])
+        if geometry == "cone":
+            surface_shape(self.cell_shape, "cone")  # the layer's surface only: another shape refused
+            if self.indenter_radius is not None:
+                raise ParameterError("indenter_radius", "is the bead's radius; --geometry cone has --half-angle")
+            if self.half_angle is None:
+                raise ParameterError("half_angle", "required with --geometry cone (e.g. 20deg)")
+            if not 0 < self.half_angle < 90:
+                raise ParameterError("half_angle", f"must be in (0, 90) degrees, got {self.half_angle:g}")
+            if self.layer_thickness is None:
+                raise ParameterError("layer_thickness", "required with --geometry cone (e.g. 5um)")
+            if self.depth_max is not None and not 0 < self.depth_max <= 1:
+                raise ParameterError("depth_max", f"must be in (0, 1] (units of h), got {self.depth_max}")
         if geometry == "sphere-indenter":
             if self.indenter_radius is None:
                 raise ParameterError("indenter_radius", "required with --geometry sphere-indenter (e.g. 5um)")
@@ -245,8 +270,9 @@ class FitSettings:
 
     @property
     def length_unit(self) -> float:
-        """R of ``F = E R^2 f``: the cell radius, the layer's thickness h (sphere-indenter, ``cell_shape="layer"``)."""
-        if self.geometry == "sphere-indenter" and self.cell_shape == "layer":
+        """R of ``F = E R^2 f``: the cell radius, the layer's thickness h (sphere-indenter or cone,
+        ``cell_shape="layer"``)."""
+        if self.geometry in INDENTERS and self.cell_shape == "layer":
             return self.layer_thickness
         return self.radius
 
@@ -259,7 +285,9 @@ class FitSettings:
 
     @property
     def indenter_ratio(self) -> float:
-        """R_b/R of the sphere-indenter geometry (the layer: R_b/h)."""
+        """R_b/R of the sphere-indenter geometry (the layer: R_b/h); the cone's tan(alpha), its surface's key."""
+        if self.geometry == "cone":
+            return math.tan(math.radians(self.half_angle))
         return self.indenter_radius / self.length_unit
 
 
@@ -667,6 +695,9 @@ def _model_function(model: str, curve, settings: FitSettings):
     if model == "master":
         s = curve.curve(ratio)
         return (lambda u: s(2 * np.asarray(u, float))), depth_max / 2
+    if settings.geometry == "cone":
+        angle = math.atan(ratio)
+        return (lambda u: sneddon_cone_force(np.maximum(2 * np.asarray(u, float), 0.0), angle, nu)), depth_max / 2
     return (lambda u: hertz_sphere_force(2 * np.asarray(u, float), nu, ratio)), depth_max / 2
 
 
@@ -674,9 +705,9 @@ def load_model(settings: FitSettings):
     """The master curve (plates) or the master surface (sphere indenter) of ``settings``; None for Hertz alone."""
     if settings.model == "hertz":
         return None
-    if settings.geometry == "sphere-indenter":
-        surface = load_indentation_surface(settings.poisson_ratio, settings.material, settings.cell_shape,
-                                           settings.cap_ratio)
+    if settings.geometry in INDENTERS:
+        shape = "cone-layer" if settings.geometry == "cone" else settings.cell_shape
+        surface = load_indentation_surface(settings.poisson_ratio, settings.material, shape, settings.cap_ratio)
         surface.depth_max(settings.indenter_ratio)  # a ratio outside the surface: refused before any file is read
         return surface
     return load_master_curve(settings.poisson_ratio, settings.material)
@@ -899,9 +930,10 @@ def _geometry_columns(settings: FitSettings) -> dict:
     return {"radius": nan if settings.radius is None else settings.radius, "poisson_ratio": settings.poisson_ratio,
             "geometry": settings.geometry,
             "indenter_radius": nan if settings.indenter_radius is None else settings.indenter_radius,
-            "cell_shape": settings.cell_shape if settings.geometry == "sphere-indenter" else "",
+            "cell_shape": settings.cell_shape if settings.geometry in INDENTERS else "",
             "cap_height": nan if settings.cap_height is None else settings.cap_height,
-            "layer_thickness": nan if settings.layer_thickness is None else settings.layer_thickness}
+            "layer_thickness": nan if settings.layer_thickness is None else settings.layer_thickness,
+            **({"half_angle": settings.half_angle} if settings.geometry == "cone" else {})}
 
 
 def fit_curve(name: str, displacement, force, settings: FitSettings,
@@ -960,7 +992,7 @@ def fit_curve(name: str, displacement, force, settings: FitSettings,
     row["contact_region_low"] = region[0] if region else nan
     row["contact_region_high"] = region[1] if region else nan
     row["baseline_sigma"] = baseline.sigma
-    if settings.geometry == "sphere-indenter":  # the x-axis is the bead's depth: u = depth/(2R)
+    if settings.geometry in INDENTERS:  # the x-axis is the indenter's depth: u = depth/(2R)
         row["depth_max"] = row.pop("delta_max") * 2 * settings.length_unit
         row["delta_max"] = float("nan")
         if "master" in fits and curve is not None:
@@ -1052,8 +1084,8 @@ def plot_fit(path: Path, row: dict) -> None:
     micro = 1e6
     top.plot(data["displacement"] * micro, data["force"] * 1e9, ".", ms=2,
              color="#f4a582" if flagged else "0.5", label="data (baseline removed)")
-    styles = {"master": ("C0", "master surface" if row.get("geometry") == "sphere-indenter" else "master curve"),
-              "hertz": ("C2", "Hertz")}
+    styles = {"master": ("C0", "master surface" if row.get("geometry") in INDENTERS else "master curve"),
+              "hertz": ("C2", "Sneddon" if row.get("geometry") == "cone" else "Hertz")}
     for model, fit in data["fits"].items():
         d, y, predicted = fit["fitted_points"]
         color, label = styles[model]
@@ -1079,6 +1111,9 @@ def plot_fit(path: Path, row: dict) -> None:
     if row.get("geometry") == "sphere-indenter":
         size = f"h = {radius * micro:.3g} um" if row.get("cell_shape") == "layer" else f"R = {radius * micro:.3g} um"
         title = (f"{row['file']}: {size}, bead R_b = {row['indenter_radius'] * micro:.3g} um, "
+                 f"depth up to {row.get('depth_max', float('nan')) * micro:.3g} um")
+    if row.get("geometry") == "cone":
+        title = (f"{row['file']}: h = {radius * micro:.3g} um, cone {row.get('half_angle', float('nan')):.3g} deg, "
                  f"depth up to {row.get('depth_max', float('nan')) * micro:.3g} um")
     if flagged:
         title = f"{row['file']}: FLAGGED\n" + "\n".join(_wrap(row["flag"], 90))
@@ -1314,9 +1349,10 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
                          | ({"hertz_blend_below": curve.hertz_blend_below} if isinstance(curve, MasterCurve) else {})
                          ) if curve else None,
         "geometry": {"geometry": settings.geometry, "cell_shape": settings.cell_shape if
-                     settings.geometry == "sphere-indenter" else None, "indenter_radius": settings.indenter_radius,
+                     settings.geometry in INDENTERS else None, "indenter_radius": settings.indenter_radius,
                      "indenter_ratio": settings.indenter_ratio if settings.indenter_radius else None,
-                     "cap_ratio": settings.cap_ratio},
+                     "cap_ratio": settings.cap_ratio,
+                     **({"half_angle_deg": settings.half_angle} if settings.geometry == "cone" else {})},
         "delta_definition": "delta = (displacement - contact_point) / (2 R) = 1 - h/(2R); for an instrument file "
                             "displacement = -(tip position), tip position = height (measured) + force / k "
                             "(piezo height minus cantilever deflection)" if settings.geometry == "parallel-plates"

@@ -29,6 +29,12 @@ tabulated at a few heights H/R (:data:`CAP_HEIGHTS`), each like the sphere (R th
 it is interpolated in H (:class:`CapIndentationSurface`), outside them refused (``cap_height``). Its file adds a
 ``cap_height`` column.
 
+The cone on the bonded layer (``cell_shape="cone-layer"``, ``elastocell mastercurve indentation --indenter cone
+--cell-shape layer``; a rigid cone of half-angle alpha, :func:`elastocell.scenarios.indentation.cone_curve`) is
+tabulated the same way with ``indenter_ratio`` = tan(alpha) at the angles of :data:`CONE_LAYER`, h the length unit,
+to depth h/4, ``s`` stored as its ratio to Sneddon's cone on a half-space
+(:func:`elastocell.scenarios.axisymmetric.sneddon_cone_force`).
+
 File format: comment lines ``# {json}`` (metadata: the command, meshes, node counts, versions), then a CSV table
 ``indenter_ratio,depth,force_per_E_R2,error,held_out`` (units of R and E R^2; error NaN where the fine mesh was not
 run).
@@ -60,8 +66,9 @@ from elastocell.scenarios.axisymmetric import (
     hertz_half_space_force,
     hertz_sphere_indentation_force,
     indent_axisymmetric,
+    sneddon_cone_force,
 )
-from elastocell.scenarios.indentation import indentation_curve
+from elastocell.scenarios.indentation import cone_curve, indentation_curve
 from elastocell.version import __version__
 
 CELL_SHAPES = ("sphere", "cap", "layer")
@@ -126,9 +133,21 @@ height between the tabulated ones under a tabulated bead, and three caps on neit
 CAP_MESH_CHECK = ((0.3, 0.125), (0.3, 4.0), (1.0, 0.125))
 """(H/R, R_b/R) computed on the fine mesh too (the thinnest cap under the smallest and the largest bead, the
 hemisphere under the smallest); the cap's mesh error at a depth fraction is the largest of theirs."""
+CONE_ANGLES = (20.0, 30.0, 45.0, 60.0, 75.0)
+"""Half-angles (degrees) of the cone layer's surface: sharp tips (20-30) to blunt ones; 37.5 degrees (near a
+35 degree pyramid's equivalent cone, 38.3) held out; below 20 degrees the apex's elements fold before the depth
+h/4. The grid is as coarse as the curves' cost on a shared 2-core machine made it."""
+CONE_LAYER = SurfaceGrid(ratios=tuple(float(np.tan(np.radians(a))) for a in CONE_ANGLES),
+                         held_out=(float(np.tan(np.radians(37.5))),),
+                         mesh_check=(float(np.tan(np.radians(20.0))),),
+                         meshes={"default": MeridianMeshParameters(), "fine": MeridianMeshParameters().scaled(0.7)},
+                         depth_max=0.25, depth_per_ratio=1e9, steps=10)
+"""The cone on the layer: ``indenter_ratio`` = tan(alpha) at :data:`CONE_ANGLES` (30 degrees held out), to depth
+h/4, 10 load steps, the mesh (:func:`elastocell.scenarios.indentation.cone_mesh`, in units of
+s = h/4 max(tan(alpha), 1)) checked at every size x 0.7 at 20 degrees (the sharpest, the least resolved)."""
 GRIDS = {"sphere": SurfaceGrid(INDENTER_RATIOS, HELD_OUT_RATIOS, MESH_CHECK_RATIOS, MESHES, DEPTH_MAX,
                                DEPTH_PER_RATIO, STEPS),
-         "cap": CAP, "layer": LAYER}
+         "cap": CAP, "layer": LAYER, "cone-layer": CONE_LAYER}
 
 
 def depth_limit(indenter_ratio, cell_shape: str = "sphere", cap_height=None):
@@ -156,6 +175,8 @@ def small_depth_limit(depth, indenter_ratio, poisson_ratio: float = 0.48, cell_s
     R_eff = R_b R_c / (R_b + R_c) with R_c :func:`cap_sphere_radius`, on a half-space)."""
     if cell_shape == "layer":
         return hertz_half_space_force(depth, indenter_ratio, poisson_ratio)
+    if cell_shape == "cone-layer":  # indenter_ratio = tan(alpha)
+        return sneddon_cone_force(depth, np.arctan(indenter_ratio), poisson_ratio)
     if cell_shape == "cap":
         apex = cap_sphere_radius(cap_height)
         indenter_ratio = np.asarray(indenter_ratio, float)
@@ -279,6 +300,10 @@ class IndentationSurface(CurveFile):
     def _check_ratio(self, indenter_ratio: float) -> float:
         indenter_ratio = float(indenter_ratio)
         low, high = self.ratio_range
+        if not low * (1 - 1e-9) <= indenter_ratio <= high * (1 + 1e-9) and self.cell_shape == "cone-layer":
+            raise ParameterError("half_angle", f"{np.degrees(np.arctan(indenter_ratio)):.4g} deg is outside the cone "
+                                 f"layer's master surface's range [{np.degrees(np.arctan(low)):.3g}, "
+                                 f"{np.degrees(np.arctan(high)):.3g}] deg")
         if not low * (1 - 1e-9) <= indenter_ratio <= high * (1 + 1e-9):
             unit = "h" if self.cell_shape == "layer" else "R"
             raise ParameterError("indenter_radius", f"R_b/{unit} = {indenter_ratio:.4g} is outside the "
@@ -458,10 +483,26 @@ class CapIndentationSurface(CurveFile):
                    held_out=table.get("held_out"), metadata=metadata)
 
 
-SURFACE_CLASSES = {"sphere": IndentationSurface, "cap": CapIndentationSurface, "layer": IndentationSurface}
+SURFACE_CLASSES = {"sphere": IndentationSurface, "cap": CapIndentationSurface, "layer": IndentationSurface,
+                   "cone-layer": IndentationSurface}
+
+
+def surface_shape(cell_shape: str, indenter: str = "sphere") -> str:
+    """The surface's key of a cell shape under an indenter: the shape itself for a bead, ``cone-layer`` for a cone
+    on a layer (the one cone surface: another shape is refused)."""
+    if indenter == "sphere":
+        return check_shape(cell_shape)
+    if indenter != "cone":
+        raise ParameterError("indenter", f"must be sphere or cone, got {indenter!r}")
+    if cell_shape != "layer":
+        raise ParameterError("cell_shape", f"the cone's master surface is the layer's (--cell-shape layer), not "
+                                           f"{cell_shape}")
+    return "cone-layer"
 
 
 def check_shape(cell_shape: str) -> str:
+    if cell_shape == "cone-layer":
+        return cell_shape
     if cell_shape not in CELL_SHAPES:
         raise ParameterError("cell_shape", f"must be sphere, cap or layer, got {cell_shape!r}")
     return cell_shape
@@ -516,6 +557,7 @@ def load_indentation_surface(poisson_ratio: float = 0.48, material: str = "neo-h
     surface = shipped_or_cached(shipped(poisson_ratio, material, cell_shape),
                                 lambda: read_cached(poisson_ratio, material, cell_shape), "indentation",
                                 poisson_ratio, material, hint="" if cell_shape == "sphere" else
+                                "with --indenter cone --cell-shape layer" if cell_shape == "cone-layer" else
                                 f"with --cell-shape {cell_shape}", shipped_ratios=SHIPPED_POISSON_RATIOS)
     return surface.at_height(cap_height) if cell_shape == "cap" else surface
 
@@ -550,7 +592,10 @@ def surface_curve(task) -> tuple:
             return (cap_height, ratio, name) + cached
     start = time.perf_counter()
     limit = float(depth_limit(ratio, cell_shape, cap_height))
-    if cell_shape == "layer":  # R = h: the layer of thickness 1, meshed in its own unit R_b
+    if cell_shape == "cone-layer":  # R = h: the layer of thickness 1 under the cone of half-angle atan(ratio)
+        result = cone_curve(cell, "layer", "cone", float(np.degrees(np.arctan(ratio))), layer_thickness=1.0,
+                            depth_max=limit, steps=steps, mesh=mesh)
+    elif cell_shape == "layer":  # R = h: the layer of thickness 1, meshed in its own unit R_b
         result = indentation_curve(cell, "layer", ratio, layer_thickness=1.0, depth_max=limit, steps=steps,
                                    mesh=mesh)
     elif cell_shape == "cap":
@@ -591,7 +636,11 @@ QUANTITIES = {
            "to a rigid dish, indented on its axis by a rigid frictionless bead of radius R_b = indenter_ratio R",
     "layer": "F/(E h^2) (column force_per_E_R2, R = h) of a homogeneous layer of thickness h bonded to a rigid dish, "
              "2 h + 4 R_b wide, indented by a rigid frictionless bead of radius R_b = indenter_ratio h; meshes in "
-             "units of R_b"}
+             "units of R_b",
+    "cone-layer": "F/(E h^2) (column force_per_E_R2, R = h) of a homogeneous layer of thickness h bonded to a rigid "
+                  "dish, 2 h + 4 s wide, indented by a rigid frictionless cone of half-angle alpha, "
+                  "indenter_ratio = tan(alpha), its apex rounded by 1e-4 s; meshes in units of "
+                  "s = h/4 max(tan(alpha), 1)"}
 
 
 def surface_tasks(poisson_ratio: float, material: str = "neo-hookean", cell_shape: str = "sphere",
@@ -655,7 +704,9 @@ def compute_indentation_surface(poisson_ratio: float = 0.48, material: str = "ne
         held = ratio in grid.held_out or (height, ratio) in CAP_HELD_OUT
         columns["held_out"] += [float(held)] * len(depth)
     metadata = {"command": f"elastocell mastercurve indentation --poisson-ratio {poisson_ratio:g} "
-                           f"--material {material}" + ("" if cell_shape == "sphere" else f" --cell-shape {cell_shape}"),
+                           f"--material {material}" + ("" if cell_shape == "sphere" else " --indenter cone --cell-shape "
+                                                       "layer" if cell_shape == "cone-layer"
+                                                       else f" --cell-shape {cell_shape}"),
                 "quantity": QUANTITIES[cell_shape] + "; depth (units of R) = the bead's displacement after first "
                             "contact; default mesh; error = |fine - default mesh|",
                 "meshes": {name: mesh.model_dump() for name, mesh in grid.meshes.items()},
