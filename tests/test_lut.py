@@ -60,7 +60,7 @@ def test_plan_units_and_grid():
     other, _ = plan(10, 0.08, 15, radii=[5, 6], moduli=[1000, 2000], quick=True)
     assert other[0]["key"] != points[0]["key"]
     full, settings = plan("10um", "0.04uL/s", "15mPa*s")
-    assert len(full) == 42 and settings["resolution"] == 8 and settings["coarse_resolution"] == 6
+    assert len(full) == 48 and settings["resolution"] == 8 and settings["coarse_resolution"] == 6
     # a cell above R_ch/(1 + 2/6) = 7.5 um in R_ch = 10 um keeps the kernel's reach + 1 dx from the wall at R/dx 8,
     # not at the coarse R/dx 6: its points run at one resolution; the others are extrapolated (pipe's default, no
     # option added); the default grid's largest cell is the largest R/dx 8 takes (R_ch/R >= 1.25)

@@ -31,16 +31,20 @@ def _grid(width=20.0, flow=0.04, viscosity=15.0, shape="cylinder"):
 def test_the_default_grid_spans_the_reference_table():
     grid = _grid()
     table = reference_table("cylinder", 20.0, 0.04, 15.0)
-    assert grid["reference"] == "LE-2D-FEM-19" and len(grid["radii_um"]) == 6 and len(grid["moduli_kpa"]) == 7
+    assert grid["reference"] == "LE-2D-FEM-19" and len(grid["radii_um"]) == 6 and len(grid["moduli_kpa"]) == 8
     # the smallest cell is the table's smallest, the largest the one the channel takes at R/dx 8 (wall gap of the
     # kernel's reach + 1 dx: R_ch/R >= 1.25, R <= 8.75 um)
     assert grid["radii_um"][0] == pytest.approx(math.sqrt(table[:, 0].min() / math.pi), abs=0.1)
     assert 8.5 <= grid["radii_um"][-1] <= 8.75
     assert grid["moduli_kpa"][-1] == pytest.approx(table[:, 2].max(), rel=0.03)
-    # equal steps of log D at the middle radius: sparse moduli where D changes slowly (stiff cells)
-    steps = np.diff(np.log(grid["deformation_at_middle_radius"]))
+    # equal steps of log D at the middle radius: sparse moduli where D changes slowly (stiff cells); the softest
+    # modulus one step of E further, beyond the middle radius's part of the table
+    softest, *others = grid["deformation_at_middle_radius"]
+    assert softest is None
+    steps = np.diff(np.log(others))
     assert np.all(steps < 0) and np.ptp(steps) < 0.25 * abs(steps.mean())  # rounding E to 2 digits: measured 0.15
-    assert np.all(np.diff(np.log(grid["moduli_kpa"])) > 0)
+    e = grid["moduli_kpa"]
+    assert np.all(np.diff(np.log(e)) > 0) and e[0] == pytest.approx(e[1] ** 2 / e[2], rel=0.05)
 
 
 def test_the_grid_scales_with_the_channel_as_dclab_scales_a_table():
@@ -77,13 +81,13 @@ def _events(directory):
 @pytest.mark.slow
 def test_the_default_grid_covers_most_events_that_le_2d_fem_19_covers(tmp_path):
     # dclab's test measurements (79 events, 20 and 30 um channels) through dclab's get_emodulus. Measured:
-    # LE-2D-FEM-19 covers 50 events, the default grid's table 45 of them (90 %); the 5 others lie at areas above the
-    # largest cell the channel takes (2) or at small areas and large deformations (3).
+    # LE-2D-FEM-19 covers 50 events, the default grid's table 47 of them (94 %; 45 without the softest modulus); the
+    # 3 others lie at areas above the largest cell the channel takes (2) or at a small area and large deformation.
     events = _events(tmp_path)
     assert sum(len(e["area_um"]) for e in events) == 79
     coverage = grid_coverage(predicted_table(_grid(), "cylinder", 20.0, 0.04, 15.0), events)
     assert coverage["reference"] == 50
-    assert coverage["fraction"] >= 0.85
+    assert coverage["fraction"] >= 0.9
     # the grid's points carry LE-2D-FEM-19's own deformation: E differs only by interpolation of the spacing
-    # (measured: median 1.056, max 1.446)
-    assert 1.0 < np.median(coverage["ratios"]) < 1.1
+    # (measured: median 1.055, max 1.106)
+    assert 1.0 < np.median(coverage["ratios"]) < 1.1 and coverage["ratios"].max() < 1.15

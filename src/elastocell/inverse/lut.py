@@ -107,8 +107,10 @@ over a unit of time is stationary to 1e-3); its radii and moduli are :func:`defa
 GRID_REFERENCE = {"cylinder": "LE-2D-FEM-19", "square": "HE-3D-FEM-22"}
 """dclab's table whose (area, deformation) region the default grid of a channel shape spans."""
 
-DEFAULT_GRID_SIZE = (6, 7)
-"""Radii x moduli of the default grid (42 runs, as many as a hand-made 6 x 7 grid)."""
+DEFAULT_GRID_SIZE = (6, 8)
+"""Radii x moduli of the default grid (48 runs). Measured with validation/lut_grid.py on the 20 um channel: 7 moduli
+at log-D steps alone cover 45 of the 50 test events LE-2D-FEM-19 covers, E within 1.056 (median) and 1.446 (max) of
+LE-2D-FEM-19's; with the eighth, one step softer, 47 of 50, 1.055 and 1.106."""
 
 SQUARE_CHANNEL_RADIUS_FACTOR = 1.094
 """R_ch/(W/2) of the cylinder that stands for a square channel of width W (Mietke et al. 2015, supplement S3;
@@ -496,7 +498,9 @@ def default_grid(shape: str, channel_width_um: float, channel_radius_um: float, 
     lie. Radii: from the smallest cell of that table, sqrt(area_min/pi), to the largest one the pipe scenario takes
     in the channel at ``resolution`` (or the table's largest), evenly spaced in area (0.1 um). Moduli: the
     deformation of the middle radius (a cell of area pi R^2 in the table) falls from its largest to its smallest
-    value over the table's moduli; the moduli are placed at equal steps of its logarithm (2 significant digits).
+    value over the table's moduli; all moduli but the softest are placed at equal steps of its logarithm, and the
+    softest one step of E further (smaller cells reach that largest deformation only at lower moduli); 2
+    significant digits.
     E ~ 1/D roughly, so linear interpolation of E in D errs by the relative step in D: equal steps in log D give one
     interpolation error everywhere, with moduli sparse where the deformation changes slowly with E.
     Returns radii_um, moduli_kpa, the reference table's name and the deformation of each modulus at the middle
@@ -515,12 +519,15 @@ def default_grid(shape: str, channel_width_um: float, channel_radius_um: float, 
     d = deformation(middle, moduli)
     keep = np.isfinite(d)
     moduli, d = moduli[keep], np.minimum.accumulate(d[keep])  # monotone in E (the table's own noise removed)
-    targets = np.geomspace(d[0], d[-1], n_moduli)
+    targets = np.geomspace(d[0], d[-1], n_moduli - 1)
     chosen = np.interp(-targets, -d, moduli)
+    chosen = np.concatenate([[chosen[0] ** 2 / chosen[1]], chosen])  # one step softer: smaller cells reach the
+    # middle radius's largest deformation only at lower moduli
     chosen = np.array([float(f"{e:.2g}") for e in chosen])
     return {"radii_um": [float(r) for r in dict.fromkeys(radii)], "moduli_kpa": sorted(set(chosen.tolist())),
             "reference": GRID_REFERENCE[shape], "middle_radius_um": float(np.median(radii)),
-            "deformation_at_middle_radius": [float(v) for v in deformation(middle, sorted(set(chosen.tolist())))]}
+            "deformation_at_middle_radius": [float(v) if np.isfinite(v) else None  # None: beyond the table
+                                             for v in deformation(middle, sorted(set(chosen.tolist())))]}
 
 
 def predicted_table(grid: dict, shape: str, channel_width_um: float, flow_rate_ul_s: float,
@@ -557,9 +564,10 @@ def read_events(paths) -> list[dict]:
     return events
 
 
-def grid_coverage(table: np.ndarray, events: list[dict], reference: str = "LE-2D-FEM-19") -> dict:
-    """Which RT-DC events a table (rows area_um, deform, emodulus; made for 20 um, 0.04 uL/s, 15 mPa s, such as
-    :func:`predicted_table` of the default grid there) covers, against dclab's table ``reference``, both through
+def grid_coverage(table: np.ndarray, events: list[dict], reference: str = "LE-2D-FEM-19",
+                  viscosity_mpa_s: float = 15.0) -> dict:
+    """Which RT-DC events a table (rows area_um, deform, emodulus; made for 20 um, 0.04 uL/s and ``viscosity_mpa_s``,
+    such as :func:`predicted_table` of the default grid there) covers, against dclab's table ``reference``, both through
     dclab's ``get_emodulus`` (scaled to each file's channel width and flow rate, deformation corrected for the
     pixel size, no extrapolation; one Newtonian viscosity for both, which changes E, not coverage). ``events``: one
     dict per file (name, area_um, deform, channel_width, flow_rate, px_um). Returns per file and in all the events,
@@ -568,7 +576,7 @@ def grid_coverage(table: np.ndarray, events: list[dict], reference: str = "LE-2D
 
     from dclab.features.emodulus import get_emodulus  # lazy: dclab only for this check
 
-    meta = {"channel_width": 20.0, "flow_rate": 0.04, "fluid_viscosity": 15.0,
+    meta = {"channel_width": 20.0, "flow_rate": 0.04, "fluid_viscosity": float(viscosity_mpa_s),
             "column features": ["area_um", "deform", "emodulus"]}
     rows, ratios = [], []
     for e in events:
@@ -899,7 +907,7 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     (with ``viscosity``) or an MC-PBS preset at ``temperature`` degC (``viscosity=None``). ``extrapolate``,
     ``coarse_resolution``: as ``pipe`` (default: each point at R/dx above 6 also runs R/dx 6 and its area and
     deformation are extrapolated to dx -> 0). radii, moduli: comma-separated lists or sequences (bare numbers in um
-    and Pa); default the region of dclab's table for the channel (:func:`default_grid`, 6 x 7) or, with ``quick``,
+    and Pa); default the region of dclab's table for the channel (:func:`default_grid`, 6 x 8) or, with ``quick``,
     the 2 x 2 test grid. Returns a
     summary: paths, the finished records, the failed points (key and one-line error; left out of the table and
     rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion
