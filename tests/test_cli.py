@@ -163,14 +163,15 @@ EXPECTED_OPTIONS = {
     'compress': '--out! --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 --offset-axis=x '
                 '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None --mesh-size=None --pole-size=None '
                 '--interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 --material=neo-hookean '
-                '--element=p2 --quadrature-degree=None --delta-max=0.75 --steps=40 --equivalent=False '
+                '--element=p2 --quadrature-degree=None --volumetric=standard --delta-max=0.75 --steps=40 --equivalent=False '
                 '--compare=False --axisymmetric=False --resume=False --quiet=False',
     'equivalent': '--nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 --offset-axis=x '
                   '--semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None --mesh-size=None '
                   '--pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 '
-                  '--material=neo-hookean --element=p2 --json=False',
+                  '--material=neo-hookean --element=p2 --volumetric=standard --json=False',
     'fit afm': 'files! --radius=None --geometry=parallel-plates --cell-shape=sphere --indenter-radius=None '
-               '--cap-height=None --layer-thickness=None --depth-max=None --spring-constant=None --sensitivity=None '
+               '--cap-height=None --layer-thickness=None --half-angle=None --depth-max=None --spring-constant=None '
+               '--sensitivity=None '
                '--poisson-ratio=0.48 --material=neo-hookean '
                '--model=both --delta-max=0.75 --contact-point=auto --bootstrap=0 --seed=0 '
                '--nucleus-size-ratio=None --stiffness-ratio=None --baseline-fraction=0.2 --threshold=5.0 '
@@ -181,11 +182,12 @@ EXPECTED_OPTIONS = {
                  '--quiet=False',
     'fit rtdc': 'files! --lut=LE-2D-FEM-19 --medium=None --temperature=None --out=fits --no-plots=False '
                 '--quiet=False',
-    'indent': '--out! --indenter-radius! --cell-shape=sphere --cap-height=None --layer-thickness=None '
+    'indent': '--out! --indenter=sphere --indenter-radius=None --half-angle=None --cell-shape=sphere --cap-height=None --layer-thickness=None '
               '--depth-max=0.3 --steps=20 --solver=auto --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 '
               '--offset=0.0 --offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None '
               '--mesh-size=None --pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 '
-              '--radius=1 --material=neo-hookean --element=p2 --quadrature-degree=None --resume=False --quiet=False '
+              '--radius=1 --material=neo-hookean --element=p2 --quadrature-degree=None --volumetric=standard --resume=False '
+              '--quiet=False '
               '--json=False',
     'lut': '--channel-radius=None --channel-width=None --channel-shape=None --channel-height=None --flow-rate! '
            '--viscosity=None --medium=newtonian --temperature=None --flow-index=None --channel-length=None '
@@ -198,7 +200,7 @@ EXPECTED_OPTIONS = {
                                '--quiet=False',
     'mastercurve shear': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False --quiet=False',
     'mastercurve indentation': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False '
-                               '--quiet=False --workers=1 --cell-shape=sphere',
+                               '--quiet=False --workers=1 --cell-shape=sphere --indenter=sphere',
     'pipe': '--out! --capillary-number-wall=None --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 '
             '--offset=0.0 --offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None '
             '--mesh-size=None --pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 '
@@ -326,6 +328,16 @@ QUANTITY_OPTIONS = [
     *[("lut", option, ["lut", "--flow-rate", "0.04uL/s", "--viscosity", "15mPa*s", "--quick", "--out",
                        "{out}/lut.txt", *(["--channel-width", "20um"] if option == "--channel-height" else [])])
       for option in ("--channel-width", "--channel-height")],
+    *[(command, "--half-angle", arguments) for command, arguments in (
+        ("indent", ["indent", "--out", "{out}", "--indenter", "cone", "--cell-shape", "layer", "--layer-thickness",
+                    "10um", "--nucleus", "none"]),
+        ("fit afm", ["fit", "afm", "{out}/curve.csv", "--geometry", "cone", "--cell-shape", "layer",
+                     "--layer-thickness", "5um"]))],
+    *[(command, option, arguments) for option in ("--temperature", "--channel-length") for command, arguments in (
+        ("pipe", ["pipe", "--out", "{out}", "--radius", "8um", "--youngs-modulus", "1kPa", "--medium",
+                  "0.59%MC-PBS"]),
+        ("lut", [*LUT[:5], "--medium", "0.59%MC-PBS", "--quick", "--out", "{out}/lut.txt"]))],
+    ("fit rtdc", "--temperature", ["fit", "rtdc", "{out}/m.rtdc", "--out", "{out}/fits"]),
 ]
 
 
@@ -360,7 +372,8 @@ def test_a_hostile_quantity_is_one_line_exit_2_naming_the_option(tmp_path, parse
                                                                   text):
     if text == "wrong dimension":  # 1kPa where a length is expected, 8um anywhere else
         length = option in ("--radius", "--contact-point", "--channel-radius", "--channel-width", "--radii",
-                            "--indenter-radius", "--cap-height", "--layer-thickness", "--channel-height")
+                            "--indenter-radius", "--cap-height", "--layer-thickness", "--channel-height",
+                            "--channel-length")
         text = "1kPa" if length else "8um"
     out = tmp_path / "x"
     result = runner.invoke(app, [a.replace("{out}", str(out)) for a in arguments] + [option, text])
