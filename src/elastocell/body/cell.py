@@ -140,9 +140,38 @@ class Cell:
             # element matrices by stiffness_kernel.element_stiffness_matrices
             return material_tangent(energy_law, deformation_gradients(x), params) * weights
 
+        def projected_tangents(x):
+            """The element Hessian with a projected J in two parts. With W_hat(F, j) = W((j/det F)^(1/3) F) and
+            E_e = sum_q w_q W_hat(F_q, J_bar_q), J_bar = P_e det F:
+            d2E_e = sum_q B_q^T T_q B_q + sum_q [w_q B_q^T c_q G_q^T + transpose + w_q W_hat_jj,q G_q G_q^T], with
+            B_q: x_e -> F_q, T_q = w_q W_hat_FF,q + pi_q d2(det F_q) (pi_r = sum_q P_qr w_q W_hat_j,q), c_q =
+            W_hat_Fj,q and G_q = dJ_bar_q/dx_e. Returns T [i, j, k, l, e, q] for the compiled contraction (as the
+            standard tangents) and the remaining (n_elements, 3k, 3k) by whole-array products."""
+            f = deformation_gradients(x)
+            projected = jnp.einsum("eqr,er->eq", projections, determinant(f))
+
+            def hat(ff, jj):  # w_q W_hat(F_q, j_q) per point
+                return weights * energy_law(ff * (jj / determinant(ff)) ** (1.0 / 3.0), params)
+
+            def d_j(jj):
+                return jax.grad(lambda j: jnp.sum(hat(f, j)))(jj)
+
+            ones = jnp.ones_like(projected)
+            w_hat_j, w_hat_jj = jax.jvp(d_j, (projected,), (ones,))
+            pressure = jnp.einsum("eqr,eq->er", projections, w_hat_j)
+            point = material_tangent(lambda ff, _: hat(ff, projected) + pressure * determinant(ff), f, params)
+            w_hat_fj = jax.jvp(lambda jj: jax.grad(lambda ff: jnp.sum(hat(ff, jj)))(f), (projected,), (ones,))[1]
+            cofactor = jax.grad(lambda ff: jnp.sum(determinant(ff)))(f)
+            n = gradients.shape[2] * 3
+            dilatation = jnp.einsum("eqr,ijer,erkj->eqki", projections, cofactor, gradients).reshape(*projected.shape, n)
+            mixed = jnp.einsum("ijeq,eqkj->eqki", w_hat_fj, gradients).reshape(*projected.shape, n)
+            coupled = jnp.einsum("eqa,eqb->eab", mixed, dilatation)
+            return point, coupled + jnp.swapaxes(coupled, 1, 2) + jnp.einsum("eq,eqa,eqb->eab", w_hat_jj, dilatation,
+                                                                            dilatation)
+
         def element_hessians(x):
-            # with a projected J the points of an element are coupled: d2E_e/dx_e2 by forward-over-reverse
-            # autodiff of the element energies, one direction (node, component) at a time
+            # reference for projected_tangents (tests): d2E_e/dx_e2 by forward-over-reverse autodiff of the element
+            # energies, one direction (node, component) at a time
             x_elements = x[elements]
             gradient = jax.grad(lambda xe: jnp.sum(weights * energy_law(law_gradients(element_gradients(xe)), params)))
             n = x_elements.shape[1] * 3
@@ -163,6 +192,7 @@ class Cell:
             min_jacobian=jax.jit(lambda x: jnp.min(determinant(deformation_gradients(x)))),
             tangents=jax.jit(tangents),
             element_hessians=jax.jit(element_hessians),
+            projected_tangents=jax.jit(projected_tangents),
             stresses=jax.jit(stresses),
         )
         return self._kernels
@@ -190,13 +220,15 @@ class Cell:
         """Element Hessians d^2 E_e / dx_e^2, (n_elements, 3k, 3k), dof order (node, component): the material
         tangent at each quadrature point by JAX, contracted with the shape-function gradients by a compiled
         kernel (:func:`stiffness_kernel.element_stiffness_matrices`); with a projected J (the points of an element
-        coupled) the element energies' Hessian by JAX directly."""
-        if self.dilatation_projections is not None:
-            return np.asarray(self._compiled()["element_hessians"](jnp.asarray(x)))
+        coupled) the same contraction of a modified point tangent plus the coupling of the points through the
+        projected J (``projected_tangents``)."""
         from elastocell.solvers.stiffness_kernel import (
             element_stiffness_matrices,  # lazy: the Numba stiffness kernel compiles/loads only when a stiffness is needed
         )
 
+        if self.dilatation_projections is not None:
+            tangents, coupling = self._compiled()["projected_tangents"](jnp.asarray(x))
+            return element_stiffness_matrices(np.asarray(tangents), self._shape_gradients_points_last) + np.asarray(coupling)
         tangents = np.asarray(self._compiled()["tangents"](jnp.asarray(x)))
         return element_stiffness_matrices(tangents, self._shape_gradients_points_last)
 
