@@ -352,8 +352,9 @@ def diagnosis(rows: list[dict], cells: list[tuple[float, float]]) -> list[dict]:
             tag = f", c {c:g}" if c else ""
             out.append(row(f"all of them, R/dx {res:g}{tag}", "D err % against the table",
                            lambda R, E, res=res, tag=tag: get(R, E, f"R/dx {res:g}{tag}", "D err %")))
-    out.append(row("all of them, R/dx 10", "D err % against the table",
-                   lambda R, E: get(R, E, "R/dx 10", "D err %")))
+    for tag in ("", ", c 0.3"):
+        out.append(row(f"all of them, R/dx 10{tag}", "D err % against the table",
+                       lambda R, E, tag=tag: get(R, E, f"R/dx 10{tag}", "D err %")))
     for c in (0.0, 0.3):
         tag = f", c {c:g}" if c else ""
         out.append(row(f"all of them, extrapolated 8/6{tag}", "D err % against the table",
@@ -403,13 +404,13 @@ def confinement_exponents(rows: list[dict], small=(6.0, 3.0), large=(7.66, 3.0))
 
 
 def three_resolutions(rows: list[dict], cells) -> list[str]:
-    """For each cell with runs at R/dx 6, 8 and 10 (c 0): the observed order and the extrapolations (lines)."""
+    """For each cell and correction with runs at R/dx 6, 8 and 10: the observed order and the extrapolations."""
     import scipy.optimize
 
     table = {(r["R [um]"], r["E [kPa]"], r["run"]): r for r in rows}
     lines = []
-    for radius, modulus in cells:
-        runs = [table.get((radius, modulus, f"R/dx {res}")) for res in (6, 8, 10)]
+    for (radius, modulus), tag in ((cell, tag) for cell in cells for tag in ("", ", c 0.3")):
+        runs = [table.get((radius, modulus, f"R/dx {res}{tag}")) for res in (6, 8, 10)]
         if None in runs:
             continue
         d6, d8, d10 = (r["deform"] for r in runs)
@@ -421,7 +422,7 @@ def three_resolutions(rows: list[dict], cells) -> list[str]:
         order = float(scipy.optimize.brentq(gap, 0.05, 12.0)) if np.isfinite(ratio) and gap(0.05) * gap(12.0) < 0 \
             else float("nan")
         d_t = runs[2]["D_t"]
-        parts = [f"R = {radius:g} um, E = {modulus:g} kPa: D = {d6:.4f}, {d8:.4f}, {d10:.4f} at R/dx 6, 8, 10 "
+        parts = [f"R = {radius:g} um, E = {modulus:g} kPa{tag}: D = {d6:.4f}, {d8:.4f}, {d10:.4f} at R/dx 6, 8, 10 "
                  f"(table {d_t:.4f} at the R/dx 10 area): observed order {order:.2f}"]
         for p in (1.0, 2.0, order):
             if np.isfinite(p):
@@ -520,7 +521,7 @@ def main(argv=None) -> None:
                + "\n".join(confinement_exponents(rows)))
     three = three_resolutions(rows, cells)
     if three:
-        page.print("Three resolutions (c 0): the observed order p of D's convergence, solving (D_6 - D_8)/(D_8 - D_10) = "
+        page.print("Three resolutions: the observed order p of D's convergence, solving (D_6 - D_8)/(D_8 - D_10) = "
                    "(6^-p - 8^-p)/(8^-p - 10^-p), and the extrapolations from R/dx 8 and 10:\n" + "\n".join(three))
     if args.before is not None:
         before = read_cache(args.before / "runs.jsonl")
