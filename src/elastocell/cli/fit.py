@@ -107,8 +107,13 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
     check_inputs(poisson_ratio, material)
     check_shape(cell_shape)
     cell_shape = surface_shape(cell_shape, indenter)
+    def curve_name(label: str) -> str:  # the cone's ratio is tan(alpha): say the half-angle
+        if cell_shape != "cone-layer":
+            return f"R_b/R = {label}"
+        return f"half-angle {np.degrees(np.arctan(float(label))):.4g} deg"
+
     progress = None if quiet else (
-        lambda label, mesh, seconds: typer.echo(f"R_b/R = {label}, {mesh} mesh: {seconds:.0f} s", err=True))
+        lambda label, mesh, seconds: typer.echo(f"{curve_name(label)}, {mesh} mesh: {seconds:.0f} s", err=True))
     surface, source = shipped_cached_or_computed(
         no_cache, lambda: shipped(poisson_ratio, material, cell_shape),
         lambda: cache_path(poisson_ratio, material, cell_shape).exists(),

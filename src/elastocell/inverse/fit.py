@@ -1350,7 +1350,8 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
                          ) if curve else None,
         "geometry": {"geometry": settings.geometry, "cell_shape": settings.cell_shape if
                      settings.geometry in INDENTERS else None, "indenter_radius": settings.indenter_radius,
-                     "indenter_ratio": settings.indenter_ratio if settings.indenter_radius else None,
+                     "indenter_ratio": settings.indenter_ratio if settings.indenter_radius or settings.geometry ==
+                     "cone" else None,  # R_b/R, R_b/h, or the cone's tan(alpha)
                      "cap_ratio": settings.cap_ratio,
                      **({"half_angle_deg": settings.half_angle} if settings.geometry == "cone" else {})},
         "delta_definition": "delta = (displacement - contact_point) / (2 R) = 1 - h/(2R); for an instrument file "

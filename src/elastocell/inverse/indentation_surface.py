@@ -68,7 +68,7 @@ from elastocell.scenarios.axisymmetric import (
     indent_axisymmetric,
     sneddon_cone_force,
 )
-from elastocell.scenarios.indentation import cone_curve, indentation_curve
+from elastocell.scenarios.indentation import cone_curve, cone_mesh, indentation_curve
 from elastocell.version import __version__
 
 CELL_SHAPES = ("sphere", "cap", "layer")
@@ -136,15 +136,17 @@ hemisphere under the smallest); the cap's mesh error at a depth fraction is the 
 CONE_ANGLES = (20.0, 30.0, 45.0, 60.0, 75.0)
 """Half-angles (degrees) of the cone layer's surface: sharp tips (20-30) to blunt ones; 37.5 degrees (near a
 35 degree pyramid's equivalent cone, 38.3) held out; below 20 degrees the apex's elements fold before the depth
-h/4. The grid is as coarse as the curves' cost on a shared 2-core machine made it."""
+h/4."""
 CONE_LAYER = SurfaceGrid(ratios=tuple(float(np.tan(np.radians(a))) for a in CONE_ANGLES),
                          held_out=(float(np.tan(np.radians(37.5))),),
-                         mesh_check=(float(np.tan(np.radians(20.0))),),
-                         meshes={"default": MeridianMeshParameters(), "fine": MeridianMeshParameters().scaled(0.7)},
+                         mesh_check=(float(np.tan(np.radians(20.0))), float(np.tan(np.radians(45.0)))),
+                         meshes={"default": cone_mesh("layer", 37.5, 0.25),
+                                 "fine": cone_mesh("layer", 37.5, 0.25).scaled(0.7)},
                          depth_max=0.25, depth_per_ratio=1e9, steps=10)
-"""The cone on the layer: ``indenter_ratio`` = tan(alpha) at :data:`CONE_ANGLES` (30 degrees held out), to depth
-h/4, 10 load steps, the mesh (:func:`elastocell.scenarios.indentation.cone_mesh`, in units of
-s = h/4 max(tan(alpha), 1)) checked at every size x 0.7 at 20 degrees (the sharpest, the least resolved)."""
+"""The cone on the layer: ``indenter_ratio`` = tan(alpha) at :data:`CONE_ANGLES` (37.5 degrees held out), to
+depth h/4, 10 load steps, on the cone's default layer mesh (:func:`elastocell.scenarios.indentation.cone_mesh`, in
+units of s = h/4 max(tan(alpha), 1)), checked at every size x 0.7 at 20 degrees (the sharpest, the least resolved)
+and 45 degrees."""
 GRIDS = {"sphere": SurfaceGrid(INDENTER_RATIOS, HELD_OUT_RATIOS, MESH_CHECK_RATIOS, MESHES, DEPTH_MAX,
                                DEPTH_PER_RATIO, STEPS),
          "cap": CAP, "layer": LAYER, "cone-layer": CONE_LAYER}
