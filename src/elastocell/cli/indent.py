@@ -10,9 +10,9 @@ import typer
 from elastocell.cli.common import user_errors
 from elastocell.cli.options import CELL, opt, plain, takes
 
-# the 3D solver's poles (the bead's and the dish's contacts) are twice as fine as compress's by default
+# the 3D solver's poles (the bead's and the dish's contacts) are finer than compress's by default
 INDENT_CELL = CELL.but(opt("pole_size", help="3D solver: element size at the bead and dish contacts.",
-                           shown="half compress's default (scenarios.indentation.POLE_SIZE_FACTOR_3D)"))
+                           shown="0.35 x compress's default (scenarios.indentation.POLE_SIZE_FACTOR_3D)"))
 
 
 

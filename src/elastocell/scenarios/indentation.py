@@ -187,12 +187,13 @@ def indentation_solver(solver: str, cell: CellParameters, geometry: MeridianGeom
     return "axisymmetric"
 
 
-POLE_SIZE_FACTOR_3D = 0.5
+POLE_SIZE_FACTOR_3D = 0.35
 """The 3D indentation's element size at the poles (the bead's and the dish's contacts) over compression's default,
 where the pole size is left at that default. Measured (docs/validation/indentation.md, section indentation_3d.py;
-homogeneous cell, R_b = 0.5 R, against the axisymmetric solver): F too high by 3.4 % at depth 0.1 R and 1.2 % at
-0.3 R on compression's mesh (3,350 nodes), 1.3 % and 0.7 % with the poles halved (5,352 nodes, the same wall time
-within the shared machine's noise)."""
+R_b = 0.5 R, against the axisymmetric solver): the homogeneous cell's F too high by 3.4 % at depth 0.1 R and 1.2 %
+at 0.3 R on compression's mesh (3,350 nodes), 1.3 % and 0.7 % with the poles x 0.5 (5,352 nodes), 0.92 % and
+0.63 % with the poles x 0.35 (6,663 nodes, 29 s on an idle 2-core machine); a nucleus (gamma 5, lambda 0.5) keeps
+1.6 % at 0.1 R at x 0.35 (2.1 % at x 0.5): the nucleus's own discretisation error, as in compression."""
 
 
 def indentation_cell_3d(cell: CellParameters) -> CellParameters:
