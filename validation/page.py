@@ -50,6 +50,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                                    "nice python validation/felupe_axisymmetric.py"),
         "stiff_3d.py": ("The stiff nucleus in 3D: error budget and the polar layer",
                         "nice python validation/stiff_3d.py"),
+        "stiff_volumetric.py": ("The stiff nucleus in 3D: the crushed layer's volumetric treatment",
+                                "nice python validation/stiff_volumetric.py"),
     }),
     "indentation": ("A bead indenting a cell on a dish", {
         "indentation.py": ("Hertz limits and mesh refinement", "nice python validation/indentation.py"),
