@@ -308,9 +308,9 @@ QUANTITY_OPTIONS = [
     ("shear", "--viscosity", ["shear", "--out", "{out}", "--shear-rate", "100/s", "--youngs-modulus", "1kPa"]),
     ("shear", "--shear-rate", ["shear", "--out", "{out}", "--viscosity", "1mPa*s", "--youngs-modulus", "1kPa"]),
     ("pipe", "--pressure-gradient", ["pipe", "--out", "{out}", "--radius", "8um", "--youngs-modulus", "1kPa"]),
-    ("fit afm", "--radius", ["fit", "afm", "{out}/curve.csv"]),
-    ("fit afm", "--contact-point", ["fit", "afm", "{out}/curve.csv", "--radius", "8um"]),
-    *[("fit afm", option, ["fit", "afm", "{out}/curve.csv", "--radius", "8um"])
+    ("fit afm", "--radius", ["fit", "afm", "{out}/curve.csv", "--out", "{out}/fits"]),
+    ("fit afm", "--contact-point", ["fit", "afm", "{out}/curve.csv", "--radius", "8um", "--out", "{out}/fits"]),
+    *[("fit afm", option, ["fit", "afm", "{out}/curve.csv", "--radius", "8um", "--out", "{out}/fits"])
       for option in ("--spring-constant", "--sensitivity")],
     *[("fit shear", option, ["fit", "shear", "--out", "{out}", "--deformation", "0.1", "--shear-stress", "12Pa",
                              "--shear-rate", "1000/s", "--tank-treading-frequency", "400rad/s"])
@@ -319,7 +319,7 @@ QUANTITY_OPTIONS = [
     *[("lut", option, [*LUT, "--out", "{out}/lut.txt"])
       for option in ("--channel-radius", "--flow-rate", "--viscosity", "--radii", "--moduli")],
     *[("fit afm", option, ["fit", "afm", "{out}/curve.csv", "--radius", "8um", "--geometry", "sphere-indenter",
-                           "--indenter-radius", "5um"])
+                           "--indenter-radius", "5um", "--out", "{out}/fits"])
       for option in ("--indenter-radius", "--cap-height", "--layer-thickness")],
     *[("indent", option, ["indent", "--out", "{out}", "--indenter-radius", "0.5"])
       for option in ("--indenter-radius", "--radius", "--youngs-modulus", "--cap-height", "--layer-thickness")],
@@ -332,7 +332,7 @@ QUANTITY_OPTIONS = [
         ("indent", ["indent", "--out", "{out}", "--indenter", "cone", "--cell-shape", "layer", "--layer-thickness",
                     "10um", "--nucleus", "none"]),
         ("fit afm", ["fit", "afm", "{out}/curve.csv", "--geometry", "cone", "--cell-shape", "layer",
-                     "--layer-thickness", "5um"]))],
+                     "--layer-thickness", "5um", "--out", "{out}/fits"]))],
     *[(command, option, arguments) for option in ("--temperature", "--channel-length") for command, arguments in (
         ("pipe", ["pipe", "--out", "{out}", "--radius", "8um", "--youngs-modulus", "1kPa", "--medium",
                   "0.59%MC-PBS"]),

@@ -62,7 +62,7 @@ def test_impossible_solver_choices_name_the_option(options, shape, solver, optio
     assert error.value.parameter == option
 
 
-def test_the_3d_indentation_halves_the_default_pole_size_only():
+def test_the_3d_indentation_refines_the_default_pole_size_only():
     default = cell_parameters(nucleus="none")
     assert indentation_cell_3d(default).mesh.pole_size == pytest.approx(default.mesh.pole_size * POLE_SIZE_FACTOR_3D)
     given = cell_parameters(nucleus="none", pole_size=0.1)

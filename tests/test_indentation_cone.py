@@ -65,6 +65,7 @@ def test_impossible_cones_are_refused_in_one_line(tmp_path, args, option):
     assert result.exit_code == 2, result.output
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and option in lines[0], result.output
+    assert not (tmp_path / "fits").exists()  # refused before anything is written
     assert not (tmp_path / "o").exists()
 
 
@@ -157,6 +158,7 @@ def test_fit_cone_refits_a_forward_curve():
 
 @pytest.mark.parametrize("args, option", [
     (["--half-angle", "10deg", "--layer-thickness", "5um"], "--half-angle"),  # outside the surface's 20-75 deg
+    (["--half-angle", "80deg", "--layer-thickness", "5um"], "--half-angle"),
     (["--half-angle", "30deg", "--layer-thickness", "5um", "--cell-shape", "sphere", "--radius", "8um"],
      "--cell-shape"),
     (["--layer-thickness", "5um"], "--half-angle"),
@@ -172,3 +174,17 @@ def test_fit_cone_refusals_are_one_line(tmp_path, args, option):
     assert result.exit_code == 2, result.output
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and option in lines[0], result.output
+    assert not (tmp_path / "fits").exists()  # refused before anything is written
+
+
+def test_fit_cone_without_a_layer_names_the_cell_shape(tmp_path):
+    """--cell-shape defaults to sphere: a cone fit without --cell-shape layer is refused naming --cell-shape (not
+    --radius, which a layer does not take), before anything is written."""
+    path = tmp_path / "c.csv"
+    path.write_text("displacement,force\n0,0\n1e-6,1e-9\n")
+    result = CliRunner().invoke(app, ["fit", "afm", str(path), "--geometry", "cone", "--half-angle", "35deg",
+                                      "--layer-thickness", "5um", "--out", str(tmp_path / "fits")])
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("elastocell: error: --cell-shape"), result.output
+    assert not (tmp_path / "fits").exists()

@@ -58,7 +58,9 @@ def main() -> None:
         if record is None:
             rows.append({"gamma": ratio, "nodes": "not run"})
             continue
-        lines = record["stderr"].strip().splitlines()  # the end of the process's stderr
+        lines = record["stderr"].strip().splitlines()  # the end of the process's stderr (its last 500 characters)
+        if lines and len(record["stderr"]) >= 500:
+            lines[0] = "..." + lines[0]
         rows.append({"gamma": ratio, "steps": record["steps"], "nodes": record["nodes"],
                      "curve_s": record["curve_s"], "process_s": record["process_s"],
                      "delta_reached": record["delta"][-1], **errors(record, truth(ratio)),
@@ -69,7 +71,8 @@ def main() -> None:
         page.table(rows, f"`elastocell compress --volumetric mean` ({STEPS} steps to delta 0.75, a new process)",
                    columns=["gamma", "steps", "nodes", "curve_s", "process_s", "delta_reached", *ERRORS, "exit",
                             "stop", "warning"], formats={**form, "curve_s": ".0f", "process_s": ".0f"})
-    page.print("mean dilatation removes most of the error at delta 0.3-0.5 (the crushed layer's volumetric locking) "
+    page.print("mean dilatation removes most of the error at delta 0.3-0.5 (consistent with volumetric locking of the "
+               "crushed layer) "
                "and overshoots to the soft side at 0.1, but lets the layer lose volume (J 0.35) until Newton stops "
                "short of delta 0.75; the projected J (P1) removes little; neither is a default")
     page.write()

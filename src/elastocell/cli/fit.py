@@ -146,9 +146,10 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
        opt("cap_height", scale=None), opt("layer_thickness", scale=None),
        opt("half_angle", help="--geometry cone: the cone's half-angle (axis to flank; a pyramid: its equivalent "
            "cone's, tan(alpha_c) = 2/sqrt(pi) tan(face half-angle)).", shown="required with --geometry cone"),
-       opt("depth_max", annotation=float | None, default=None, help="sphere-indenter: fit the data up to this bead "
-           "depth after contact.", units="R, the cell radius (the layer: h, its thickness)",
-           shown="the master surface's range: min(R_b, R/2) (the cap: about min(R_b, H/2))"),
+       opt("depth_max", annotation=float | None, default=None, help="sphere-indenter, cone: fit the data up to "
+           "this indenter depth after contact (at most the master surface's range).",
+           units="R, the cell radius (the layer: h, its thickness)",
+           shown="the master surface's range: min(R_b, R/2) (the cap: about min(R_b, H/2); the cone: h/4)"),
        "spring_constant",
        "sensitivity", opt("poisson_ratio", help="nu (shipped: 0.45, 0.48, 0.49)."),
        opt("material", help="Master curve's law."),

@@ -205,6 +205,8 @@ class FitSettings:
                                    ("layer_thickness", "m", True)):
             object.__setattr__(self, name, _setting(getattr(self, name), unit, name, legacy))
         layer = GEOMETRIES.get(str(self.geometry).strip().lower()) in INDENTERS and self.cell_shape == "layer"
+        if GEOMETRIES.get(str(self.geometry).strip().lower()) == "cone":
+            surface_shape(self.cell_shape, "cone")  # the layer's surface only: named before --radius would be
         if self.radius is None and not layer:
             raise ParameterError("radius", "required (the cell radius, e.g. 8um)")
         if self.radius is not None and not (math.isfinite(self.radius) and self.radius > 0):
@@ -221,7 +223,6 @@ class FitSettings:
                 raise ParameterError("half_angle", "applies to --geometry cone only")
             object.__setattr__(self, "half_angle", parse_quantity(self.half_angle, "deg", "half_angle")[0])
         if geometry == "cone":
-            surface_shape(self.cell_shape, "cone")  # the layer's surface only: another shape refused
             if self.indenter_radius is not None:
                 raise ParameterError("indenter_radius", "is the bead's radius; --geometry cone has --half-angle")
             if self.half_angle is None:
@@ -689,9 +690,10 @@ def _model_function(model: str, curve, settings: FitSettings):
             return curve, settings.delta_max
         return (lambda delta: hertz_force(np.maximum(delta, 0.0), nu)), settings.delta_max
     ratio = settings.indenter_ratio
-    depth_max = settings.depth_max if settings.depth_max is not None else (
-        curve.depth_max(ratio) if curve is not None else float(depth_limit(ratio, settings.cell_shape,
-                                                                            settings.cap_ratio)))
+    shape = "cone-layer" if settings.geometry == "cone" else settings.cell_shape
+    tabulated = curve.depth_max(ratio) if curve is not None else float(depth_limit(ratio, shape, settings.cap_ratio))
+    # the same window for the surface and its closed form; a --depth-max beyond the surface fits its range only
+    depth_max = tabulated if settings.depth_max is None else min(settings.depth_max, tabulated)
     if model == "master":
         s = curve.curve(ratio)
         return (lambda u: s(2 * np.asarray(u, float))), depth_max / 2
@@ -1253,8 +1255,8 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
     check_execution(scheduler, workers)
     start = time.perf_counter()
     out = Path(out)
+    curve = load_model(settings)  # a surface or a ratio it lacks is refused before anything is written
     out.mkdir(parents=True, exist_ok=True)
-    curve = load_model(settings)
     files = expand_paths(paths)
     if not files:
         raise ParameterError("file", "no input files")
@@ -1343,7 +1345,7 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
         "settings": asdict(settings), "files": [str(p) for p in files],
         "curves": [{key: row.get(key) for key in curve_keys if key in row} for row in rows],
         "units": {"radius": "m", "indenter_radius": "m", "cap_height": "m", "layer_thickness": "m",
-                  "depth_max": "m in fits.csv, units of R in settings", "contact_point": "m", "spring_constant": "N/m",
+                  "depth_max": "m in fits.csv, units of R in settings (a layer, a cone: h)", "contact_point": "m", "spring_constant": "N/m",
                   "sensitivity": "m/V (NT-MDT: m/nA)", "youngs_modulus": "Pa"},
         "master_curve": (curve.metadata | {"poisson_ratio": curve.poisson_ratio, "material": curve.material}
                          | ({"hertz_blend_below": curve.hertz_blend_below} if isinstance(curve, MasterCurve) else {})
@@ -1357,7 +1359,7 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
         "delta_definition": "delta = (displacement - contact_point) / (2 R) = 1 - h/(2R); for an instrument file "
                             "displacement = -(tip position), tip position = height (measured) + force / k "
                             "(piezo height minus cantilever deflection)" if settings.geometry == "parallel-plates"
-                            else "depth = displacement - contact_point (the bead's depth after contact); "
+                            else "depth = displacement - contact_point (the indenter's depth after contact); "
                             "displacement = -(tip position), tip position = height (measured) + force / k",
         "contact_point_estimator": "baseline (mean, or line with baseline_tilt) on the first baseline_fraction of the "
                                    "approach, noise 1.4826 MAD; noise exit: the last point below threshold*sigma; "

@@ -324,14 +324,16 @@ class IndentationSurface(CurveFile):
 
     def curve(self, indenter_ratio: float):
         """s(depth) at one R_b/R: a function of depth (units of R, array), continued beyond the tabulated depth
-        with its last local power law (only used transiently by optimisers)."""
+        with its last local power law (only used transiently by optimisers: a fit's depth window is the
+        tabulated range)."""
         from scipy.interpolate import PchipInterpolator
 
         indenter_ratio = self._check_ratio(indenter_ratio)
         end = float(self.depth_limit(indenter_ratio))
         ratio = PchipInterpolator(self.fractions * end, self._across(self.ratios, self._ratio_grid, indenter_ratio))
         last = float(self.hertz(end, indenter_ratio) * ratio(end))
-        slope = 1.5 + float(ratio.derivative()(end) / ratio(end)) * end
+        closed_form = 2.0 if self.cell_shape == "cone-layer" else 1.5  # Sneddon's cone ~ d^2, Hertz ~ d^1.5
+        slope = closed_form + float(ratio.derivative()(end) / ratio(end)) * end
 
         def s(depth):
             depth = np.maximum(np.asarray(depth, float), 0.0)

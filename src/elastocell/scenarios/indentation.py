@@ -106,11 +106,12 @@ def cone_half_angle(indenter: str, half_angle: float | None) -> float:
     if half_angle is None:
         raise ParameterError("half_angle", f"is required with --indenter {indenter}")
     low, high = HALF_ANGLE_RANGE
-    if not low <= half_angle <= high:
-        raise ParameterError("half_angle", f"must be in [{low:g}, {high:g}] degrees, got {half_angle:g}")
-    if indenter == "pyramid":
-        return float(np.degrees(np.arctan(2 / np.sqrt(np.pi) * np.tan(np.radians(half_angle)))))
-    return float(half_angle)
+    cone = float(np.degrees(np.arctan(2 / np.sqrt(np.pi) * np.tan(np.radians(half_angle))))) if (
+        indenter == "pyramid" and 0 < half_angle < 90) else float(half_angle)
+    if not low <= cone <= high:  # the range is the cone's: a pyramid's equivalent cone is checked
+        shown = f" (its equivalent cone {cone:.4g})" if indenter == "pyramid" else ""
+        raise ParameterError("half_angle", f"must be in [{low:g}, {high:g}] degrees{shown}, got {half_angle:g}")
+    return cone
 
 
 def cone_geometry(cell_shape: str, half_angle: float, depth_max: float, cap_height: float | None = None,
@@ -125,24 +126,27 @@ def cone_geometry(cell_shape: str, half_angle: float, depth_max: float, cap_heig
     return geometry, (scale if cell_shape == "layer" else 1.0)
 
 
-CONE_LAYER_POLE_SIZE = 0.02
-"""The pole size (units of s) of a layer's mesh under a cone, twice the bead's default: with 0.01 s the element
-with a corner on the axis under the apex of a 37.5-40 degree cone degenerated (its Jacobian at that corner reached
-zero) at 0.85-0.96 of the final depth (a 35 degree pyramid's equivalent cone, 38.3 degrees, among them), and with
-0.005 s at half of it for 20-38 degrees; with 0.02 s every half-angle 20-85 degrees reaches depth h/4 (and h/20).
-It costs +1.0 % in F at depth h/4 at 20 degrees, +0.3 % at 30, within 0.13 % from 35 on (against 0.01 s)."""
+CONE_POLE_SIZE = 0.02
+"""The pole size under a cone in units of s (a layer: its mesh's pole size; a sphere or a cap: at most the bead
+mesh's), twice the 0.01 s it had: with 0.01 s the element with a corner on the axis under the apex of a 35-40
+degree cone degenerated (its Jacobian at that corner reached zero) before the final depth: on a layer at 0.85-0.96
+of it (a 35 degree pyramid's equivalent cone, 38.3 degrees, among them; with 0.005 s at half of it for 20-38
+degrees), on a sphere and a cap under a 35 degree pyramid or a 37.5-40 degree cone at 0.6-0.95 of it. With 0.02 s
+every half-angle of 20-85 degrees reaches depth h/4 (and h/20) on a layer, and those cones their depth on a sphere
+and a cap, homogeneous or with a nucleus. On a layer it costs +1.0 % in F at depth h/4 at 20 degrees, +0.3 % at 30,
+within 0.13 % from 35 on (against 0.01 s)."""
 
 
 def cone_mesh(cell_shape: str, half_angle: float, depth_max: float,
               mesh: MeridianMeshParameters | None = None) -> MeridianMeshParameters:
     """The meridian mesh under a cone (:func:`cone_geometry`'s unit): in a layer ``mesh``, by default the default
-    mesh with the pole size :data:`CONE_LAYER_POLE_SIZE`; in a sphere or a cap (``mesh`` or the default) its pole
-    size min(0.01 s, pole size) (s = depth_max max(tan(alpha), 1) in units of R, at least 0.0005 R)."""
+    mesh with the pole size :data:`CONE_POLE_SIZE`; in a sphere or a cap (``mesh`` or the default) its pole size
+    min(CONE_POLE_SIZE s, pole size) (s = depth_max max(tan(alpha), 1) in units of R, at least 0.0005 R)."""
     if cell_shape == "layer":
-        return mesh or MeridianMeshParameters(pole_size=CONE_LAYER_POLE_SIZE)
+        return mesh or MeridianMeshParameters(pole_size=CONE_POLE_SIZE)
     mesh = mesh or MeridianMeshParameters()
     scale = cone_scale(half_angle, depth_max)
-    return mesh.model_copy(update={"pole_size": float(max(min(0.01 * scale, mesh.pole_size), 0.0005))})
+    return mesh.model_copy(update={"pole_size": float(max(min(CONE_POLE_SIZE * scale, mesh.pole_size), 0.0005))})
 
 
 CONE_AXISYMMETRIC = "a cone or a pyramid runs the axisymmetric solver only"
