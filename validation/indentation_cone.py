@@ -145,7 +145,7 @@ def surface_section(page: Page) -> None:
     page.print(f"the shipped surface (half-angles {', '.join(f'{np.degrees(np.arctan(r)):.4g}' for r in surface.ratios)} "
                f"deg, depth to h/4): largest mesh error past a tenth of the depth {100 * mesh_error:.2f} % (sizes x 0.7 "
                f"at {', '.join(f'{np.degrees(np.arctan(r)):.4g}' for r in np.unique(surface.indenter_ratio[np.isfinite(surface.error)]))} "
-               "deg); the held-out {angle:.4g} deg curve against the surface interpolated there: "
+               f"deg); the held-out {angle:.4g} deg curve against the surface interpolated there: "
                f"largest |difference| {100 * np.abs(interpolated / force[inside] - 1).max():.2f} % past a tenth of "
                "the depth")
     ratio_curve = PchipInterpolator(depth[1:], force[1:] / sneddon_cone_force(depth[1:], np.radians(angle), NU))
