@@ -15,7 +15,7 @@ from elastocell.body.cell import Cell
 from elastocell.body.elements import dilatation_projections, reference_element
 from elastocell.body.materials import float64
 from elastocell.parameters.cell import cell_parameters
-from elastocell.scenarios.compression import CompressionParameters, compress, compression_parameters_for
+from elastocell.scenarios.compression import compression_parameters_for
 
 COARSE = {"mesh_size": 0.8, "pole_size": 0.8, "interface_size": 0.8, "stiffness_ratio": 5, "quadrature_degree": 5}
 

@@ -109,8 +109,8 @@ def test_the_cone_curve_converges_under_refinement():
 
 
 def test_the_3d_path_stays_sphere_only():
-    from elastocell.scenarios.indentation import indentation_solver
     from elastocell.body.axisymmetric import MeridianGeometry
+    from elastocell.scenarios.indentation import indentation_solver
 
     with pytest.raises(ParameterError, match="^solver: 3d presses a bead only"):
         indentation_solver("3d", CELL, MeridianGeometry(), indenter="cone")

@@ -41,13 +41,13 @@ from elastocell.body.axisymmetric import (
 )
 from elastocell.parameters.cell import CellParameters, cell_parameters
 from elastocell.parameters.units import ParameterError
-from elastocell.scenarios.compression import compression_parameters_for
 from elastocell.scenarios.axisymmetric import (
     DEFAULT_TOLERANCE,
     AxisymmetricError,
     AxisymmetricResult,
     indent_axisymmetric,
 )
+from elastocell.scenarios.compression import compression_parameters_for
 
 AXISYMMETRIC_ONLY = "indent runs the axisymmetric solver here; --solver 3d runs --cell-shape sphere in 3D"
 SOLVERS = ("auto", "3d", "axisymmetric")
