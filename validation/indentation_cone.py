@@ -21,10 +21,7 @@ from page import Page
 sys.path[:] = [entry for entry in sys.path if Path(entry or ".").resolve() != Path(__file__).resolve().parent]
 
 from elastocell.parameters.cell import cell_parameters  # noqa: E402
-from elastocell.scenarios.axisymmetric import (
-    AxisymmetricError,  # noqa: E402
-    sneddon_cone_force,  # noqa: E402
-)
+from elastocell.scenarios.axisymmetric import AxisymmetricError, sneddon_cone_force  # noqa: E402
 from elastocell.scenarios.indentation import cone_curve, cone_half_angle, cone_mesh, cone_tip_radius  # noqa: E402
 
 NU = 0.48
