@@ -121,7 +121,8 @@ def test_the_3d_path_stays_sphere_only():
 def _forward_curve(modulus: float, thickness: float, noise: float, seed: int = 0):
     """A measured-like curve from the forward model: the cone layer's held-out 37.5 degree curve (computed by
     cone_curve, not used by the surface's interpolation), F/Sneddon interpolated by PCHIP in depth onto 300
-    points, a flat baseline of 1 um before contact at x = 0, Gaussian noise of ``noise`` x the largest force."""
+    points, a flat baseline of 1 um before contact at x = 0, Gaussian noise of ``noise`` x the largest force. The
+    curve has no points between contact and the surface's first row (h/40), so the onset itself is not tested."""
     from scipy.interpolate import PchipInterpolator
 
     from elastocell.inverse.indentation_surface import load_indentation_surface

@@ -71,10 +71,6 @@ def main() -> None:
         page.table(rows, f"`elastocell compress --volumetric mean` ({STEPS} steps to delta 0.75, a new process)",
                    columns=["gamma", "steps", "nodes", "curve_s", "process_s", "delta_reached", *ERRORS, "exit",
                             "stop", "warning"], formats={**form, "curve_s": ".0f", "process_s": ".0f"})
-    page.print("mean dilatation removes most of the error at delta 0.3-0.5 (consistent with volumetric locking of the "
-               "crushed layer) "
-               "and overshoots to the soft side at 0.1, but lets the layer lose volume (J 0.35) until Newton stops "
-               "short of delta 0.75; the projected J (P1) removes little; neither is a default")
     page.write()
 
 
