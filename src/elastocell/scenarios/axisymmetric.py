@@ -15,8 +15,9 @@ energy gradient pushes into it is active; its dofs are turned into the obstacle'
 and the normal one is held (the linearised gap), the tangent one is free. For the sphere the Newton matrix is the
 Hessian of the Lagrangian, the stiffness minus lambda_i / |x_i - c| on the tangent dof of each active node (the
 curvature of the constraint), so that the iteration converges quadratically; the line search projects every
-trial point back onto the feasible set (clip to a plate, radial projection out of the ball) and accepts on the
-energy (Armijo). The contact force is the sum of the multipliers lambda_i = g_i . n_i of the active nodes (g the
+trial point back onto the feasible set (clip to a plate, radial projection out of the ball), retracts the nodes
+held on an obstacle onto its surface (a tangent step would lift them off a curved one) and accepts on the energy
+(Armijo). The contact force is the sum of the multipliers lambda_i = g_i . n_i of the active nodes (g the
 energy gradient; the ring force of each node), exact at convergence; the sphere's vertical force is
 sum lambda_i (-n_z,i).
 
@@ -198,6 +199,7 @@ class _Problem:
         self.on_axis = np.zeros(self.n_nodes, dtype=bool)
         self.on_axis[cell.mesh.axis_nodes] = True
         self.bonded = cell.mesh.base_nodes  # held in r and z (a base bonded to the dish)
+        self.bonded_candidates = np.isin(self.candidates, self.bonded)
         self.pattern = cell.stiffness_pattern
         self.noise = 1e-13 * float(np.sum(cell.element_volumes * cell.youngs_moduli))
         # round-off of the ring forces: a wide layer's far field (r ~ 40 in the mesh's unit) leaves ~3e-11 E L^2
@@ -215,6 +217,19 @@ class _Problem:
         x[self.bonded] = self.cell.mesh.nodes[self.bonded]
         for obstacle in self.obstacles:
             x[self.candidates] = obstacle.project(x[self.candidates])
+        return x
+
+    def retract(self, x: np.ndarray, on_surface: np.ndarray, obstacle_of: np.ndarray) -> np.ndarray:
+        """``x`` with the candidates ``on_surface`` moved along the normal onto the obstacle ``obstacle_of`` each
+        was held on (gap 0)."""
+        if not on_surface.any():
+            return x
+        x = x.copy()
+        for k, obstacle in enumerate(self.obstacles):
+            nodes = self.candidates[on_surface & (obstacle_of == k)]
+            if len(nodes):
+                gap, normal = obstacle.gaps_and_normals(x[nodes])
+                x[nodes] -= gap[:, None] * normal
         return x
 
     def violated(self, x: np.ndarray) -> bool:
@@ -368,9 +383,14 @@ def _newton(problem: _Problem, x: np.ndarray, tolerance: float, max_iterations: 
         largest = np.abs(step_vector).max()
         if largest > MAX_NODE_STEP:
             step_vector *= MAX_NODE_STEP / largest
+        # the nodes held on an obstacle stay on it: a tangent step of length s off a curved obstacle lifts a node
+        # by s^2 / (2 rho) (1e-9 to 1e-5 R_b on a thick layer), which released the whole contact zone on the next
+        # iteration and made the active set cycle; they are retracted onto the surface along its normal
+        on_surface = held.reshape(-1, 2)[problem.candidates].any(axis=1) & (contact.obstacle >= 0)
+        on_surface &= ~problem.bonded_candidates
         step, accepted = 1.0, False
         for _ in range(40):
-            trial = problem.project(x + step * step_vector)
+            trial = problem.retract(problem.project(x + step * step_vector), on_surface, contact.obstacle)
             trial_energy = cell.energy(trial)
             if np.isfinite(trial_energy) and trial_energy <= energy + 1e-4 * np.sum(gradient * (trial - x)) + problem.noise:
                 accepted = True
@@ -602,6 +622,23 @@ def hertz_half_space_force(depth, indenter_radius: float, poisson_ratio: float =
     """Hertz's force of a rigid sphere (radius R_b) pressed to ``depth`` into an elastic half-space of modulus
     E = 1: F = 4/3 E/(1 - nu^2) sqrt(R_b) depth^(3/2)."""
     return 4 / (3 * (1 - poisson_ratio**2)) * np.sqrt(indenter_radius) * np.asarray(depth) ** 1.5
+
+
+def sneddon_sphere_force(depth, indenter_radius: float, poisson_ratio: float = 0.48):
+    """Sneddon's (1965) exact force of a rigid sphere (radius R_b, not Hertz's paraboloid) pressed to ``depth`` into
+    a linear elastic half-space of modulus E = 1: with the contact radius a from
+    depth = a/2 ln((R_b + a)/(R_b - a)), F = E/(2 (1 - nu^2)) [(a^2 + R_b^2) ln((R_b + a)/(R_b - a)) - 2 a R_b];
+    Hertz's force to first order in depth/R_b, 5.0 % below it at depth R_b/2."""
+    from scipy.optimize import brentq
+
+    def force(d: float) -> float:
+        if d <= 0:
+            return 0.0
+        x = brentq(lambda x: x / 2 * np.log((1 + x) / (1 - x)) - d / indenter_radius, 1e-12, 1 - 1e-15,
+                   xtol=1e-15)
+        return ((x**2 + 1) * np.log((1 + x) / (1 - x)) - 2 * x) * indenter_radius**2 / (2 * (1 - poisson_ratio**2))
+
+    return np.vectorize(force, otypes=[float])(np.asarray(depth, float))
 
 
 def sneddon_cone_force(depth, half_angle: float, poisson_ratio: float = 0.48):
