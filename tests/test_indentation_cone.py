@@ -189,3 +189,53 @@ def test_fit_cone_without_a_layer_names_the_cell_shape(tmp_path):
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("elastocell: error: --cell-shape"), result.output
     assert not (tmp_path / "fits").exists()
+
+
+# ------------------------------------------------------------------ fit afm --geometry pyramid (its equivalent cone)
+PYRAMID_FACE = float(np.degrees(np.arctan(np.sqrt(np.pi) / 2 * np.tan(np.radians(37.5)))))
+"""The face half-angle of the four-sided pyramid whose area-equivalent cone is the held-out 37.5 degree cone."""
+
+
+def test_fit_pyramid_is_the_fit_of_its_equivalent_cone():
+    """A pyramid of face half-angle alpha_p is fitted as the cone of tan(alpha_c) = 2/sqrt(pi) tan(alpha_p): on the
+    same curve it gives the cone fit's numbers (to the optimiser's tolerance: measured 2.6e-9), records both angles, and a pyramid
+    whose equivalent cone is outside the surface is refused naming both."""
+    from elastocell.inverse.fit import FitSettings, fit_curve, load_model
+
+    x, f = _forward_curve(2e3, 5e-6, 0.005)
+    cone = fit_curve("synthetic", x, f, FitSettings(geometry="cone", cell_shape="layer", layer_thickness="5um",
+                                                    half_angle="37.5deg"))
+    settings = FitSettings(geometry="pyramid", cell_shape="layer", layer_thickness="5um", half_angle=PYRAMID_FACE)
+    assert settings.cone_half_angle == pytest.approx(37.5, abs=1e-12)
+    pyramid = fit_curve("synthetic", x, f, settings)
+    assert pyramid["flag"] == "" and pyramid["geometry"] == "pyramid"
+    assert pyramid["half_angle"] == pytest.approx(PYRAMID_FACE) and pyramid["cone_half_angle"] == pytest.approx(37.5)
+    for column in ("youngs_modulus", "youngs_modulus_ci_low", "youngs_modulus_ci_high", "youngs_modulus_hertz",
+                   "contact_point"):
+        assert pyramid[column] == pytest.approx(cone[column], rel=1e-7), column
+    with pytest.raises(ParameterError, match="face half-angle 15 deg.*equivalent cone"):
+        load_model(FitSettings(geometry="pyramid", cell_shape="layer", layer_thickness="5um", half_angle="15deg"))
+
+
+def test_fit_pyramid_from_the_command_line(tmp_path):
+    """`fit afm --geometry pyramid --half-angle A`: fits.csv says pyramid with both angles, fit_settings.json the
+    equivalent cone; without --half-angle, one line naming it."""
+    import csv
+
+    x, f = _forward_curve(2e3, 5e-6, 0.005)
+    path = tmp_path / "p.csv"
+    path.write_text("displacement,force\n" + "\n".join(f"{a:.17g},{b:.17g}" for a, b in zip(x, f)))
+    out = tmp_path / "fits"
+    result = CliRunner().invoke(app, ["fit", "afm", str(path), "--geometry", "pyramid", "--cell-shape", "layer",
+                                      "--layer-thickness", "5um", "--half-angle", f"{PYRAMID_FACE!r}deg",
+                                      "--no-plots", "--quiet", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    (row,) = list(csv.DictReader(open(out / "fits.csv")))
+    assert row["geometry"] == "pyramid" and float(row["cone_half_angle"]) == pytest.approx(37.5)
+    assert float(row["youngs_modulus"]) == pytest.approx(2e3, rel=0.015)
+    geometry = json.loads((out / "fit_settings.json").read_text())["geometry"]
+    assert geometry["cone_half_angle_deg"] == pytest.approx(37.5) and geometry["geometry"] == "pyramid"
+    refused = CliRunner().invoke(app, ["fit", "afm", str(path), "--geometry", "pyramid", "--cell-shape", "layer",
+                                       "--layer-thickness", "5um", "--out", str(tmp_path / "none")])
+    assert refused.exit_code == 2 and len(refused.output.strip().splitlines()) == 1
+    assert "--half-angle" in refused.output and not (tmp_path / "none").exists()

@@ -144,10 +144,11 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
            "bonded to the dish)."),
        opt("indenter_radius", annotation=str | None, default=None, scale=None, shown="required with sphere-indenter"),
        opt("cap_height", scale=None), opt("layer_thickness", scale=None),
-       opt("half_angle", help="--geometry cone: the cone's half-angle (axis to flank; a pyramid: its equivalent "
-           "cone's, tan(alpha_c) = 2/sqrt(pi) tan(face half-angle)).", shown="required with --geometry cone"),
-       opt("depth_max", annotation=float | None, default=None, help="sphere-indenter, cone: fit the data up to "
-           "this indenter depth after contact (at most the master surface's range).",
+       opt("half_angle", help="--geometry cone: the cone's half-angle (axis to flank); --geometry pyramid: the "
+           "face half-angle (axis to face), fitted as the cone of tan(alpha_c) = 2/sqrt(pi) tan(alpha).",
+           shown="required with --geometry cone or pyramid"),
+       opt("depth_max", annotation=float | None, default=None, help="sphere-indenter, cone, pyramid: fit the data up "
+           "to this indenter depth after contact (at most the master surface's range).",
            units="R, the cell radius (the layer: h, its thickness)",
            shown="the master surface's range: min(R_b, R/2) (the cap: about min(R_b, H/2); the cone: h/4)"),
        "spring_constant",

@@ -289,7 +289,8 @@ OPTIONS: dict[str, Opt] = _declare(
         "files; a folder contributes its files.", argument=True),
     Opt("geometry", str, "parallel-plates", "parallel-plates (or plates) | sphere-indenter (a bead of radius "
         "--indenter-radius pressed into the cell on a dish; the x-axis is the bead's depth) | cone (a sharp tip of "
-        "--half-angle on a layer, --cell-shape layer)."),
+        "--half-angle on a layer, --cell-shape layer) | pyramid (a four-sided pyramid of face half-angle "
+        "--half-angle on a layer, fitted as its area-equivalent cone)."),
     Opt("spring_constant", str | None, None, "Cantilever spring constant k: overrides the file's or supplies a "
         "missing one (force = k x deflection; afmformats recomputes it from the raw signal).", quantity="N/m",
         shown="the file's"),

@@ -12,7 +12,9 @@ Hertz's sphere on a half-space ``F = 4/3 E/(1-nu^2) sqrt(R_b) d^(3/2)`` beside i
 formula of :func:`fit_hertz_sphere`); the same contact point, intervals and checks as the plates. ``cone``: a cone of
 half-angle alpha (``half_angle``) pressed into a layer of thickness h bonded to the dish, ``F = E h^2
 s(depth/h, tan(alpha))`` with the cone layer's master surface, Sneddon's cone on a half-space
-``F = 2/pi E/(1-nu^2) tan(alpha) d^2`` beside it (``youngs_modulus_hertz``).
+``F = 2/pi E/(1-nu^2) tan(alpha) d^2`` beside it (``youngs_modulus_hertz``). ``pyramid``: a four-sided pyramid of
+face half-angle ``half_angle`` (the sharp tip of most AFM cantilevers), fitted as its area-equivalent
+cone (:func:`elastocell.scenarios.indentation.pyramid_equivalent_cone`).
 
 Reading (:func:`read_curves`): a ``.csv``/``.tsv``/``.txt`` whose header names the columns ``displacement`` (m)
 and ``force`` (N) is elastocell's plain CSV, read as it is (its displacement is the plate's own). Every other file
@@ -104,14 +106,17 @@ from elastocell.inverse.mastercurve_shear import load_shear_master_curve
 from elastocell.parameters.units import ParameterError, parse_quantity
 from elastocell.scenarios.axisymmetric import sneddon_cone_force
 from elastocell.scenarios.compression import hertz_force
+from elastocell.scenarios.indentation import pyramid_equivalent_cone
 from elastocell.simulation.distributed import TaskFailure, check_execution, default_workers, run_tasks
 
 PLAIN_SUFFIXES = (".csv", ".txt", ".tsv")
 GEOMETRIES = {"parallel-plates": "parallel-plates", "plates": "parallel-plates", "sphere-indenter": "sphere-indenter",
-              "cone": "cone"}
-INDENTERS = ("sphere-indenter", "cone")
-"""The geometries whose x-axis is an indenter's depth (fitted to a master surface)."""
+              "cone": "cone", "pyramid": "pyramid"}
 """Accepted ``geometry`` names and what they mean (``plates`` is an alias)."""
+CONES = ("cone", "pyramid")
+"""The sharp tips, fitted to the cone layer's master surface (a pyramid as its area-equivalent cone)."""
+INDENTERS = ("sphere-indenter", *CONES)
+"""The geometries whose x-axis is an indenter's depth (fitted to a master surface)."""
 
 RISE_FRACTION = 0.05
 """The contact point lies before the force has risen above this fraction of its largest value (and above
@@ -196,7 +201,7 @@ class FitSettings:
     cap_height: float | str | None = None  # m after construction (recorded; cap)
     layer_thickness: float | str | None = None  # m after construction (recorded; layer)
     depth_max: float | None = None  # units of R (sphere-indenter); None = the master surface's range
-    half_angle: float | str | None = None  # degrees after construction (cone)
+    half_angle: float | str | None = None  # degrees after construction (cone; pyramid: the face's)
 
     def __post_init__(self):
         for name, unit, legacy in (("radius", "m", True), ("contact_point", "m", False),
@@ -205,7 +210,7 @@ class FitSettings:
                                    ("layer_thickness", "m", True)):
             object.__setattr__(self, name, _setting(getattr(self, name), unit, name, legacy))
         layer = GEOMETRIES.get(str(self.geometry).strip().lower()) in INDENTERS and self.cell_shape == "layer"
-        if GEOMETRIES.get(str(self.geometry).strip().lower()) == "cone":
+        if GEOMETRIES.get(str(self.geometry).strip().lower()) in CONES:
             surface_shape(self.cell_shape, "cone")  # the layer's surface only: named before --radius would be
         if self.radius is None and not layer:
             raise ParameterError("radius", "required (the cell radius, e.g. 8um)")
@@ -215,22 +220,24 @@ class FitSettings:
             raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {self.poisson_ratio}")
         geometry = GEOMETRIES.get(str(self.geometry).strip().lower())
         if geometry is None:
-            raise ParameterError("geometry", f"must be parallel-plates (or plates), sphere-indenter or cone, got "
+            raise ParameterError("geometry", f"must be parallel-plates (or plates), sphere-indenter, cone or pyramid, got "
                                              f"{self.geometry!r}")
         object.__setattr__(self, "geometry", geometry)
         if self.half_angle is not None:
-            if geometry != "cone":
-                raise ParameterError("half_angle", "applies to --geometry cone only")
+            if geometry not in CONES:
+                raise ParameterError("half_angle", "applies to --geometry cone or pyramid only")
             object.__setattr__(self, "half_angle", parse_quantity(self.half_angle, "deg", "half_angle")[0])
-        if geometry == "cone":
+        if geometry in CONES:
             if self.indenter_radius is not None:
-                raise ParameterError("indenter_radius", "is the bead's radius; --geometry cone has --half-angle")
+                raise ParameterError("indenter_radius", f"is the bead's radius; --geometry {geometry} has "
+                                                        "--half-angle")
             if self.half_angle is None:
-                raise ParameterError("half_angle", "required with --geometry cone (e.g. 20deg)")
+                raise ParameterError("half_angle", f"required with --geometry {geometry} (e.g. "
+                                                   f"{'20deg' if geometry == 'cone' else '35deg, the face half-angle'})")
             if not 0 < self.half_angle < 90:
                 raise ParameterError("half_angle", f"must be in (0, 90) degrees, got {self.half_angle:g}")
             if self.layer_thickness is None:
-                raise ParameterError("layer_thickness", "required with --geometry cone (e.g. 5um)")
+                raise ParameterError("layer_thickness", f"required with --geometry {geometry} (e.g. 5um)")
             if self.depth_max is not None and not 0 < self.depth_max <= 1:
                 raise ParameterError("depth_max", f"must be in (0, 1] (units of h), got {self.depth_max}")
         if geometry == "sphere-indenter":
@@ -285,10 +292,18 @@ class FitSettings:
         return None
 
     @property
+    def cone_half_angle(self) -> float | None:
+        """alpha (degrees) of the cone fitted: ``half_angle`` for a cone, the area-equivalent cone's for a pyramid
+        (tan(alpha) = 2/sqrt(pi) tan(face half-angle)); None for a bead or the plates."""
+        if self.geometry == "pyramid":
+            return pyramid_equivalent_cone(self.half_angle)
+        return self.half_angle if self.geometry == "cone" else None
+
+    @property
     def indenter_ratio(self) -> float:
         """R_b/R of the sphere-indenter geometry (the layer: R_b/h); the cone's tan(alpha), its surface's key."""
-        if self.geometry == "cone":
-            return math.tan(math.radians(self.half_angle))
+        if self.geometry in CONES:
+            return math.tan(math.radians(self.cone_half_angle))
         return self.indenter_radius / self.length_unit
 
 
@@ -690,14 +705,14 @@ def _model_function(model: str, curve, settings: FitSettings):
             return curve, settings.delta_max
         return (lambda delta: hertz_force(np.maximum(delta, 0.0), nu)), settings.delta_max
     ratio = settings.indenter_ratio
-    shape = "cone-layer" if settings.geometry == "cone" else settings.cell_shape
+    shape = "cone-layer" if settings.geometry in CONES else settings.cell_shape
     tabulated = curve.depth_max(ratio) if curve is not None else float(depth_limit(ratio, shape, settings.cap_ratio))
     # the same window for the surface and its closed form; a --depth-max beyond the surface fits its range only
     depth_max = tabulated if settings.depth_max is None else min(settings.depth_max, tabulated)
     if model == "master":
         s = curve.curve(ratio)
         return (lambda u: s(2 * np.asarray(u, float))), depth_max / 2
-    if settings.geometry == "cone":
+    if settings.geometry in CONES:
         angle = math.atan(ratio)
         return (lambda u: sneddon_cone_force(np.maximum(2 * np.asarray(u, float), 0.0), angle, nu)), depth_max / 2
     return (lambda u: hertz_sphere_force(2 * np.asarray(u, float), nu, ratio)), depth_max / 2
@@ -708,9 +723,16 @@ def load_model(settings: FitSettings):
     if settings.model == "hertz":
         return None
     if settings.geometry in INDENTERS:
-        shape = "cone-layer" if settings.geometry == "cone" else settings.cell_shape
+        shape = "cone-layer" if settings.geometry in CONES else settings.cell_shape
         surface = load_indentation_surface(settings.poisson_ratio, settings.material, shape, settings.cap_ratio)
-        surface.depth_max(settings.indenter_ratio)  # a ratio outside the surface: refused before any file is read
+        try:  # a ratio outside the surface: refused before any file is read
+            surface.depth_max(settings.indenter_ratio)
+        except ParameterError as error:
+            if settings.geometry != "pyramid":
+                raise
+            raise ParameterError("half_angle", f"a pyramid of face half-angle {settings.half_angle:.4g} deg is "
+                                               f"fitted as its equivalent cone, and "
+                                               f"{str(error).split(': ', 1)[1]}") from None
         return surface
     return load_master_curve(settings.poisson_ratio, settings.material)
 
@@ -935,7 +957,8 @@ def _geometry_columns(settings: FitSettings) -> dict:
             "cell_shape": settings.cell_shape if settings.geometry in INDENTERS else "",
             "cap_height": nan if settings.cap_height is None else settings.cap_height,
             "layer_thickness": nan if settings.layer_thickness is None else settings.layer_thickness,
-            **({"half_angle": settings.half_angle} if settings.geometry == "cone" else {})}
+            **({"half_angle": settings.half_angle} if settings.geometry in CONES else {}),
+            **({"cone_half_angle": settings.cone_half_angle} if settings.geometry == "pyramid" else {})}
 
 
 def fit_curve(name: str, displacement, force, settings: FitSettings,
@@ -1087,7 +1110,7 @@ def plot_fit(path: Path, row: dict) -> None:
     top.plot(data["displacement"] * micro, data["force"] * 1e9, ".", ms=2,
              color="#f4a582" if flagged else "0.5", label="data (baseline removed)")
     styles = {"master": ("C0", "master surface" if row.get("geometry") in INDENTERS else "master curve"),
-              "hertz": ("C2", "Sneddon" if row.get("geometry") == "cone" else "Hertz")}
+              "hertz": ("C2", "Sneddon" if row.get("geometry") in CONES else "Hertz")}
     for model, fit in data["fits"].items():
         d, y, predicted = fit["fitted_points"]
         color, label = styles[model]
@@ -1114,8 +1137,12 @@ def plot_fit(path: Path, row: dict) -> None:
         size = f"h = {radius * micro:.3g} um" if row.get("cell_shape") == "layer" else f"R = {radius * micro:.3g} um"
         title = (f"{row['file']}: {size}, bead R_b = {row['indenter_radius'] * micro:.3g} um, "
                  f"depth up to {row.get('depth_max', float('nan')) * micro:.3g} um")
-    if row.get("geometry") == "cone":
-        title = (f"{row['file']}: h = {radius * micro:.3g} um, cone {row.get('half_angle', float('nan')):.3g} deg, "
+    if row.get("geometry") in CONES:
+        tip = f"cone {row.get('half_angle', float('nan')):.3g} deg"
+        if row.get("geometry") == "pyramid":
+            tip = (f"pyramid {row.get('half_angle', float('nan')):.3g} deg (cone "
+                   f"{row.get('cone_half_angle', float('nan')):.3g})")
+        title = (f"{row['file']}: h = {radius * micro:.3g} um, {tip}, "
                  f"depth up to {row.get('depth_max', float('nan')) * micro:.3g} um")
     if flagged:
         title = f"{row['file']}: FLAGGED\n" + "\n".join(_wrap(row["flag"], 90))
@@ -1352,10 +1379,12 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
                          ) if curve else None,
         "geometry": {"geometry": settings.geometry, "cell_shape": settings.cell_shape if
                      settings.geometry in INDENTERS else None, "indenter_radius": settings.indenter_radius,
-                     "indenter_ratio": settings.indenter_ratio if settings.indenter_radius or settings.geometry ==
-                     "cone" else None,  # R_b/R, R_b/h, or the cone's tan(alpha)
+                     "indenter_ratio": settings.indenter_ratio if settings.indenter_radius or settings.geometry in
+                     CONES else None,  # R_b/R, R_b/h, or the cone's tan(alpha)
                      "cap_ratio": settings.cap_ratio,
-                     **({"half_angle_deg": settings.half_angle} if settings.geometry == "cone" else {})},
+                     **({"half_angle_deg": settings.half_angle} if settings.geometry in CONES else {}),
+                     **({"cone_half_angle_deg": settings.cone_half_angle} if settings.geometry == "pyramid"
+                        else {})},
         "delta_definition": "delta = (displacement - contact_point) / (2 R) = 1 - h/(2R); for an instrument file "
                             "displacement = -(tip position), tip position = height (measured) + force / k "
                             "(piezo height minus cantilever deflection)" if settings.geometry == "parallel-plates"
