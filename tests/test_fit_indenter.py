@@ -16,18 +16,19 @@ import typer
 from typer.testing import CliRunner
 
 from elastocell.cli.fit import fit_app
-from elastocell.inverse.fit import FitSettings, fit_curve, parse_rate
+from elastocell.inverse.fit import FitSettings, fit_curve, load_model, parse_rate
 from elastocell.inverse.indentation_surface import (
     HELD_OUT_RATIOS,
     INDENTER_RATIOS,
     LAYER,
+    LAYER_HALF_SPACE_BELOW,
     curve_function,
     depth_limit,
     dimitriadis_bonded_force,
     load_indentation_surface,
 )
 from elastocell.parameters.units import ParameterError, parse_quantity
-from elastocell.scenarios.axisymmetric import hertz_sphere_indentation_force
+from elastocell.scenarios.axisymmetric import hertz_sphere_indentation_force, sneddon_sphere_force
 
 DATA = Path(__file__).resolve().parent / "data" / "afm"
 app = typer.Typer()
@@ -191,15 +192,17 @@ def test_round_trip_of_the_reference_cell_with_a_nucleus(surface):
 # ---------------------------------------------------------------- the bonded layer (R = h)
 
 H = 20e-6  # m, the layer's thickness
-# measured on the shipped layer surface (R_b/h 0.2-2): against Dimitriadis et al. (2002)'s bonded series where
-# chi <= 0.3 and d <= 0.1 R_b, -1.3 % to -1.5 % at d = 0.05 R_b and at most 2.45 % (R_b/h 0.28, d = 0.1 R_b; the sphere
-# is softer than the series' paraboloid by about d/(10 R_b) and the strain is no longer small)
+# measured on the shipped layer surface (R_b/h 0.01-2): against Dimitriadis et al. (2002)'s bonded series where
+# chi <= 0.3 and d <= 0.1 R_b, -1.27 % to -1.45 % at d = 0.05 R_b and at most 2.45 % (R_b/h 0.28, d = 0.1 R_b; the
+# sphere is softer than the series' paraboloid by about d/(10 R_b) and the strain is no longer small)
 LAYER_DIMITRIADIS_TOLERANCE = 0.03
-# measured: the surface against its held-out curves past a tenth of their range, at most 1.31 % (R_b/h 0.28) and
-# 2.68 % (1.1; the grid's widest gap, 0.8 to 1.4); its mesh error (every size x 0.7) at most 0.59 %
+# measured: the surface against its held-out curves past a tenth of their range, at most 0.03 % (R_b/h 0.07),
+# 0.30 % (0.28) and 2.68 % (1.1; the grid's widest gap, 0.8 to 1.4); its mesh error (every size x 0.7) at most
+# 0.33 % (R_b/h 0.01), 0.42 % (0.4), 0.59 % (2)
 LAYER_INTERPOLATION_TOLERANCE = 0.03
-# measured: the round trip below recovers E within +1.5 % (R_b/h 0.28) and +2.9 % (1.1): the interpolation error
-# plus the noise's (Hertz's half-space on the same curves: +16 % and +218 %)
+# measured: the round trip below recovers E within -0.56 % (R_b/h 0.07), -0.26 % (0.28) and +3.05 % (1.1) over
+# noise seeds 0-2: the interpolation error plus the noise's (Hertz's half-space on the same curves: -5 %, +16 % and
+# +218 %)
 LAYER_ROUND_TRIP_TOLERANCE = 0.035
 
 
@@ -253,12 +256,14 @@ def test_round_trip_of_held_out_layer_curves(layer_surface, ratio):
     assert row["youngs_modulus_ci_low"] < row["youngs_modulus"] < row["youngs_modulus_ci_high"]
     assert row["cell_shape"] == "layer" and row["layer_thickness"] == pytest.approx(H)
     assert row["depth_max"] == pytest.approx(depth[-1] * H, rel=0.05)
-    # Hertz's half-space ignores the dish: it overestimates E on a thin layer
-    assert row["youngs_modulus_hertz"] > row["youngs_modulus"]
+    # Hertz's half-space ignores the dish: it overestimates E on a thin layer (on a layer 14 R_b thick the sphere's
+    # large depth, softer than Hertz's paraboloid, outweighs the dish: it reads E 5 % low)
+    if ratio >= 0.2:
+        assert row["youngs_modulus_hertz"] > row["youngs_modulus"]
 
 
 def test_the_cli_fits_a_layer_and_refuses_what_is_outside_its_surface(tmp_path, layer_surface):
-    ratio = LAYER.held_out[1]
+    ratio = LAYER.held_out[-1]
     depth, force = layer_surface.held_out_curves()[ratio]
     displacement, force = layer_synthetic(curve_function(depth, force, ratio, cell_shape="layer"), depth[-1], seed=3)
     name = tmp_path / "layer.csv"
@@ -279,6 +284,26 @@ def test_the_cli_fits_a_layer_and_refuses_what_is_outside_its_surface(tmp_path, 
     result = runner.invoke(app, common + ["--layer-thickness", "20um", "--indenter-radius", f"{ratio * 20}um",
                                           "--depth-max", "2", "--out", str(tmp_path / "deep")])
     assert result.exit_code == 2 and "--depth-max" in result.output, result.output
+
+
+def test_a_layer_thicker_than_the_surface_is_the_half_space(layer_surface):
+    """R_b/h below the thickest tabulated layer (0.01: a 5 um bead on a 5 mm gel is 0.001) reads that layer's
+    F/F_Hertz, and against Sneddon's exact sphere on a half-space it is -0.57 % and -1.04 % at d = 0.05 and 0.1 R_b
+    (measured; the mesh and the 0.01 layer's bottom effect, < 0.8 %), -2.8 % at R_b/2 (large deformation).
+    Tolerance 1.5 % at d <= 0.1 R_b (as tests/test_indent.py's computed curve); thin layers beyond R_b/h 2 stay
+    refused."""
+    assert layer_surface.ratio_range[0] == LAYER_HALF_SPACE_BELOW
+    depth = np.array([0.05, 0.1, 0.5]) * 0.001
+    thick = layer_surface(depth, 0.001) / layer_surface.hertz(depth, 0.001)
+    np.testing.assert_allclose(thick, layer_surface(depth * 10, 0.01) / layer_surface.hertz(depth * 10, 0.01),
+                               rtol=1e-12)
+    sneddon = layer_surface(depth, 0.001) / sneddon_sphere_force(depth, 0.001) - 1
+    assert np.all(np.abs(sneddon[:2]) < 0.015), sneddon
+    settings = FitSettings(geometry="sphere-indenter", cell_shape="layer", layer_thickness="5mm",
+                           indenter_radius="5um")
+    assert load_model(settings).depth_max(settings.indenter_ratio) == pytest.approx(0.0005)
+    with pytest.raises(ParameterError, match="R_b/h"):
+        layer_surface.depth_max(2.5)
 
 
 def test_only_the_layer_goes_without_a_radius():

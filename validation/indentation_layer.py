@@ -41,7 +41,11 @@ from elastocell.inverse.indentation_surface import dimitriadis_bonded_force as d
 from elastocell.inverse.indentation_surface import garcia_bonded_force as garcia_bonded  # noqa: E402
 from elastocell.parameters.cell import cell_parameters  # noqa: E402
 from elastocell.parameters.units import ParameterError  # noqa: E402
-from elastocell.scenarios.axisymmetric import hertz_half_space_force, indent_axisymmetric  # noqa: E402
+from elastocell.scenarios.axisymmetric import (  # noqa: E402
+    hertz_half_space_force,
+    indent_axisymmetric,
+    sneddon_sphere_force,
+)
 
 NU = 0.48
 
@@ -141,12 +145,13 @@ def layer_study(page: Page, quick: bool, fresh: bool = False, cached_only: bool 
                          "chi": np.sqrt(d) / thickness, "F/(E R_b^2)": f,
                          "mesh error (x 0.7)": error[index] / force[index],
                          "/ Hertz": f / hertz_half_space_force(d, 1.0, NU),
+                         "/ Sneddon sphere": f / float(sneddon_sphere_force(d, 1.0, NU)),
                          "/ Dimitriadis": f / dimitriadis_bonded(d, 1.0, thickness),
                          "/ Garcia": f / garcia_bonded(d, 1.0, thickness),
                          "bottom effect / Dimitriadis'": (f / (thick_curve(d * thickest) / thickest**2))
                          / (dimitriadis_bonded(d, 1.0, thickness) / dimitriadis_bonded(d, 1.0, 1 / thickest))})
     page.table(rows, "The shipped layer master surface (default width and mesh, nu = 0.48) against Hertz's "
-                     "half-space, Dimitriadis et al. (2002, bonded, nu-dependent coefficients) and Garcia & Garcia "
+                     "half-space, Sneddon's exact sphere on a half-space (linear), Dimitriadis et al. (2002, bonded, nu-dependent coefficients) and Garcia & Garcia "
                      "(2018, bonded, derived for nu = 0.5); chi = sqrt(R_b d)/h; both series are small-chi "
                      "expansions of a paraboloid at small strain; mesh error: |F(every size x 0.7) - F|/F where "
                      f"computed; bottom effect: F over the thickest layer's F at the same depth (R_b/h = {thickest:g}), "

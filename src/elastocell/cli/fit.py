@@ -109,7 +109,7 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
     cell_shape = surface_shape(cell_shape, indenter)
     def curve_name(label: str) -> str:  # the cone's ratio is tan(alpha): say the half-angle
         if cell_shape != "cone-layer":
-            return f"R_b/R = {label}"
+            return f"R_b/{'h' if cell_shape == 'layer' else 'R'} = {label}"
         return f"half-angle {np.degrees(np.arctan(float(label))):.4g} deg"
 
     progress = None if quiet else (
@@ -127,7 +127,8 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
         worst = float(np.nanmax(np.where(past, error, np.nan)))
         heights = (f" at H/R {', '.join(f'{height:g}' for height in surface.heights)}" if cell_shape == "cap"
                    else "")
-        span = (f"R_b/R {surface.ratio_range[0]:g}...{surface.ratio_range[1]:g}" if cell_shape != "cone-layer" else
+        span = (f"R_b/{'h' if cell_shape == 'layer' else 'R'} {surface.ratio_range[0]:g}..."
+                f"{surface.ratio_range[1]:g}" if cell_shape != "cone-layer" else
                 f"half-angle {np.degrees(np.arctan(surface.ratio_range[0])):.3g}..."
                 f"{np.degrees(np.arctan(surface.ratio_range[1])):.3g} deg")
         typer.echo(f"nu={poisson_ratio:g} {material} ({source}): {span}{heights}; largest relative mesh error past a tenth of the depth range: "

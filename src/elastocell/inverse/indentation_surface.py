@@ -106,14 +106,19 @@ class SurfaceGrid:
     steps: int
 
 
-LAYER = SurfaceGrid(ratios=(0.2, 0.4, 0.8, 1.4, 2.0), held_out=(0.28, 1.1), mesh_check=(0.4, 2.0),
+LAYER = SurfaceGrid(ratios=(0.01, 0.025, 0.05, 0.1, 0.2, 0.4, 0.8, 1.4, 2.0), held_out=(0.07, 0.28, 1.1),
+                    mesh_check=(0.01, 0.4, 2.0),
                     meshes={"default": MeridianMeshParameters(), "fine": MeridianMeshParameters().scaled(0.7)},
                     depth_max=0.5, depth_per_ratio=0.5, steps=10)
-"""The layer's surface: R_b/h 0.2-2 (a 2-20 um bead on a tissue section up to 5 R_b thick, or on a thin cell or gel
-of a few um), to depth min(h/2, R_b/2), 10 load steps (R_b/h = 0.1, a layer 10 R_b thick and 24 R_b wide, stopped
-without convergence at depth 0.44 R_b); meshes in units of R_b, the fine one every size x 0.7 at R_b/h
-0.4 and 2 (the curves' cost on a shared 2-core machine bounds the grid; validation/indentation.py measures every
-size x 0.5 at R_b/h = 0.4). Between and beyond the mesh-check ratios the error is interpolated, clamped."""
+"""The layer's surface: R_b/h 0.01-2, from the half-space (a bead on a gel or tissue block 100 R_b thick, whose
+bottom effect is below 0.8 %: Dimitriadis's 1 + 1.133 chi at chi = sqrt(R_b d)/h <= 0.007) to a thin cell or gel
+of a few um under a 2-20 um bead, to depth min(h/2, R_b/2), 10 load steps; meshes in units of R_b, the fine one
+every size x 0.7 at R_b/h 0.01, 0.4 and 2 (validation/indentation.py measures every size x 0.5 at R_b/h = 0.4).
+Between and beyond the mesh-check ratios the error is interpolated, clamped. A layer thicker than 100 R_b takes
+the R_b/h = 0.01 row relative to Hertz (:data:`LAYER_HALF_SPACE_BELOW`)."""
+LAYER_HALF_SPACE_BELOW = 0.01
+"""R_b/h below which a layer is a half-space: its F/F_Hertz is the thickest tabulated layer's (the bottom effect
+that row still holds, < 0.8 % at d <= R_b/2, is the error of that reading)."""
 CAP = SurfaceGrid(ratios=INDENTER_RATIOS, held_out=(), mesh_check=(),
                   meshes={"default": MeridianMeshParameters(), "fine": MeridianMeshParameters().scaled(0.7)},
                   depth_max=0.5, depth_per_ratio=1.0, steps=10)
@@ -306,6 +311,8 @@ class IndentationSurface(CurveFile):
             raise ParameterError("half_angle", f"{np.degrees(np.arctan(indenter_ratio)):.4g} deg is outside the cone "
                                  f"layer's master surface's range [{np.degrees(np.arctan(low)):.3g}, "
                                  f"{np.degrees(np.arctan(high)):.3g}] deg")
+        if self.cell_shape == "layer" and 0 < indenter_ratio < low and low <= LAYER_HALF_SPACE_BELOW:
+            return indenter_ratio  # thicker than the thickest layer: the half-space (its row, clamped by _across)
         if not low * (1 - 1e-9) <= indenter_ratio <= high * (1 + 1e-9):
             unit = "h" if self.cell_shape == "layer" else "R"
             raise ParameterError("indenter_radius", f"R_b/{unit} = {indenter_ratio:.4g} is outside the "
