@@ -159,6 +159,8 @@ def test_sneddons_sphere_is_hertz_at_small_depth():
     ratio = sneddon_sphere_force(depth, 2.0) / hertz_half_space_force(depth, 2.0)
     assert np.all(np.abs(ratio - (1 - depth / 20)) < (depth / 2) ** 2)
     assert sneddon_sphere_force(0.5, 1.0) / hertz_half_space_force(0.5, 1.0) == pytest.approx(0.9498, abs=1e-4)
+    tiny = np.array([1e-30, 1e-20, 1e-9])  # the closed form cancels there: the series takes over
+    np.testing.assert_allclose(sneddon_sphere_force(tiny, 1.0) / hertz_half_space_force(tiny, 1.0), 1, rtol=1e-8)
 
 
 @pytest.mark.slow

@@ -207,6 +207,10 @@ def test_fit_pyramid_is_the_fit_of_its_equivalent_cone():
                                                     half_angle="37.5deg"))
     settings = FitSettings(geometry="pyramid", cell_shape="layer", layer_thickness="5um", half_angle=PYRAMID_FACE)
     assert settings.cone_half_angle == pytest.approx(37.5, abs=1e-12)
+    # equal cross-sections (4 tan^2 alpha_p = pi tan^2 alpha_c); a 35 degree pyramid is a 38.31 degree cone
+    assert 4 * np.tan(np.radians(PYRAMID_FACE)) ** 2 == pytest.approx(np.pi * np.tan(np.radians(37.5)) ** 2)
+    assert FitSettings(geometry="pyramid", cell_shape="layer", layer_thickness="5um",
+                       half_angle="35deg").cone_half_angle == pytest.approx(38.31, abs=0.01)
     pyramid = fit_curve("synthetic", x, f, settings)
     assert pyramid["flag"] == "" and pyramid["geometry"] == "pyramid"
     assert pyramid["half_angle"] == pytest.approx(PYRAMID_FACE) and pyramid["cone_half_angle"] == pytest.approx(37.5)

@@ -53,7 +53,7 @@ NU = 0.48
 LAYER_CACHE_FORMAT = 1
 LAYER_STEPS = 10
 WIDTH_THICKNESSES = (2.5, 5.0)
-"""h/R_b of the width study (R_b/h = 0.4 and 0.2, the thickest layer of the master surface)."""
+"""h/R_b of the width study (R_b/h = 0.4 and 0.2)."""
 REFINED_THICKNESS = 2.5
 
 

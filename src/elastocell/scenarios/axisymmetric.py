@@ -386,8 +386,9 @@ def _newton(problem: _Problem, x: np.ndarray, tolerance: float, max_iterations: 
         # the nodes held on an obstacle stay on it: a tangent step of length s off a curved obstacle lifts a node
         # by s^2 / (2 rho) (1e-9 to 1e-5 R_b on a thick layer), which released the whole contact zone on the next
         # iteration and made the active set cycle; they are retracted onto the surface along its normal
-        on_surface = held.reshape(-1, 2)[problem.candidates].any(axis=1) & (contact.obstacle >= 0)
-        on_surface &= ~problem.bonded_candidates
+        # (the normal dof only: an axis node's u_r = 0 is always held, a released pole must stay free to lift)
+        normal_dofs = 2 * problem.candidates + problem.on_axis[problem.candidates]
+        on_surface = held[normal_dofs] & (contact.obstacle >= 0) & ~problem.bonded_candidates
         step, accepted = 1.0, False
         for _ in range(40):
             trial = problem.retract(problem.project(x + step * step_vector), on_surface, contact.obstacle)
@@ -632,11 +633,14 @@ def sneddon_sphere_force(depth, indenter_radius: float, poisson_ratio: float = 0
     from scipy.optimize import brentq
 
     def force(d: float) -> float:
-        if d <= 0:
+        relative = d / indenter_radius
+        if relative <= 0:
             return 0.0
-        x = brentq(lambda x: x / 2 * np.log((1 + x) / (1 - x)) - d / indenter_radius, 1e-12, 1 - 1e-15,
-                   xtol=1e-15)
-        return ((x**2 + 1) * np.log((1 + x) / (1 - x)) - 2 * x) * indenter_radius**2 / (2 * (1 - poisson_ratio**2))
+        if relative < 1e-6:  # the closed form cancels: its series, F (1 - nu^2)/R_b^2 = 4/3 x^3 + 8/15 x^5
+            x = np.sqrt(relative * (1 - relative / 3))
+            return (4 / 3 * x**3 + 8 / 15 * x**5) * indenter_radius**2 / (1 - poisson_ratio**2)
+        x = brentq(lambda x: x * np.arctanh(x) - relative, 0.0, 1 - 1e-15, xtol=1e-15)
+        return ((x**2 + 1) * 2 * np.arctanh(x) - 2 * x) * indenter_radius**2 / (2 * (1 - poisson_ratio**2))
 
     return np.vectorize(force, otypes=[float])(np.asarray(depth, float))
 

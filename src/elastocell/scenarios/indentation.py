@@ -100,7 +100,9 @@ def cone_scale(half_angle: float, depth_max: float) -> float:
 def pyramid_equivalent_cone(face_half_angle: float) -> float:
     """alpha_c (degrees): the half-angle of the cone whose cross-section has the area of a four-sided pyramid's of
     face half-angle ``face_half_angle`` alpha_p (degrees, axis to face), tan(alpha_c) = 2/sqrt(pi) tan(alpha_p)
-    (Bilodeau 1992; a 35 degree pyramid: 38.3 degrees)."""
+    (4 d^2 tan^2 alpha_p = pi d^2 tan^2 alpha_c; a 35 degree pyramid: 38.3 degrees). Its Sneddon force,
+    4/pi^1.5 = 0.718 E/(1 - nu^2) tan(alpha_p) d^2, is 3.6 % below Bilodeau's (1992) 0.7453 for the pyramid
+    itself: a fit through this cone reads E about 3.8 % above a Bilodeau fit of the same curve."""
     return float(np.degrees(np.arctan(2 / np.sqrt(np.pi) * np.tan(np.radians(face_half_angle)))))
 
 
