@@ -339,11 +339,14 @@ def test_ctrl_c_on_the_command_line_exits_130_in_one_line_and_resume_finishes(tm
 
     out = tmp_path / "run"
     command = [sys.executable, "-m", "elastocell", "compress", "--out", str(out), "--element", "p1", "--mesh-size",
-               "0.4", "--pole-size", "0.2", "--delta-max", "0.6", "--steps", "40", "--quiet"]
+               "0.4", "--pole-size", "0.2", "--delta-max", "0.6", "--steps", "200", "--quiet"]
+    # 200 rows, so that the signal reaches a running curve: with 40, full runs of the suite saw exit 0 (the curve
+    # had finished; the cause of its speed there is not established)
     process = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     deadline = time.time() + 120
     while not (out / "checkpoint.npz").exists() and time.time() < deadline and process.poll() is None:
-        time.sleep(0.05)
+        time.sleep(0.01)
+    assert process.poll() is None, "the curve finished before it could be interrupted"
     process.send_signal(signal.SIGINT)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 130, stderr
@@ -352,7 +355,7 @@ def test_ctrl_c_on_the_command_line_exits_130_in_one_line_and_resume_finishes(tm
     finished = subprocess.run(command + ["--resume"], capture_output=True, text=True, timeout=300)
     assert finished.returncode == 0, finished.stderr
     rows = np.genfromtxt(out / "compression.csv", delimiter=",", names=True)
-    assert len(rows) == 41 and rows["delta"][-1] == pytest.approx(0.6)
+    assert len(rows) == 201 and rows["delta"][-1] == pytest.approx(0.6)
 
 
 def test_a_study_directory_and_a_lut_in_use_are_refused(tmp_path):
