@@ -340,9 +340,10 @@ def test_ctrl_c_on_the_command_line_exits_130_in_one_line_and_resume_finishes(tm
     out = tmp_path / "run"
     command = [sys.executable, "-m", "elastocell", "compress", "--out", str(out), "--element", "p1", "--mesh-size",
                "0.4", "--pole-size", "0.2", "--delta-max", "0.6", "--steps", "200", "--quiet"]
-    # 200 rows, so that the signal reaches a running curve: with 40, full runs of the suite saw exit 0 (the curve
-    # had finished; the cause of its speed there is not established)
-    process = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    # a shell that starts the suite in the background (``pytest &`` in a script) ignores SIGINT for it, and an
+    # ignored signal is inherited: the child gets the terminal's disposition back, as a Ctrl-C at a prompt finds it
+    process = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 120
     while not (out / "checkpoint.npz").exists() and time.time() < deadline and process.poll() is None:
         time.sleep(0.01)
