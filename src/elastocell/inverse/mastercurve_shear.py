@@ -7,7 +7,7 @@ numerics), so measuring D gives Ca and, with the shear stress ``tau = eta * shea
 ``mu = tau / Ca`` (:func:`elastocell.inverse.fit.fit_shear`).
 
 Computation (:func:`compute_shear_master_curve`): the existing shear scenario (:func:`elastocell.shear`,
-default flow: confinement 2R/H = 0.2, box 8R, particle Reynolds number 0.1, p1 mesh with edges 2 dx) is run
+default flow: confinement 2R/H = 0.2, box 8R, tau 2 and particle Reynolds number 1/30, p1 mesh with edges 2 dx) is run
 for every Ca of :data:`CAPILLARY_NUMBERS` at two resolutions R/dx (:data:`RESOLUTIONS`: 6 and the default 8)
 for a strain of :data:`DURATION` (4); the stationary values are the means over the second half of each run
 (strain 2..4; ``summary.json`` of the run). Lattice units at these settings do not depend on Ca (the
@@ -341,7 +341,7 @@ def compute_shear_master_curve(poisson_ratio: float = 0.48, material: str = "neo
         "error": f"|extrapolated - R/dx {fine:g}| (size of the extrapolation's correction; an estimate assuming "
                  "order-2 convergence at every Ca, not a bound)",
         "resolutions": list(resolutions), "duration_strain": duration, "averaging": "strain >= duration/2",
-        "flow": "elastocell.shear defaults (confinement 0.2, box 8R, Re_p 0.1, tau 1, trilinear kernel, float32)",
+        "flow": "elastocell.shear defaults (confinement 0.2, box 8R, tau 2, Re_p 1/30, trilinear kernel, float32)",
         "mesh": "p1, uniform, edge 2 dx (parameters.flow.shear_mesh_size), nucleus none",
         "small_ca_check": {"capillary_number": capillary_numbers[0], "deformation_over_ca_extrapolated": first,
                            "deformation_over_ca_fine": raw[fine]["deformation"][0] / capillary_numbers[0],
