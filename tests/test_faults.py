@@ -340,8 +340,9 @@ def test_ctrl_c_on_the_command_line_exits_130_in_one_line_and_resume_finishes(tm
     out = tmp_path / "run"
     command = [sys.executable, "-m", "elastocell", "compress", "--out", str(out), "--element", "p1", "--mesh-size",
                "0.4", "--pole-size", "0.2", "--delta-max", "0.6", "--steps", "200", "--quiet"]
-    # a shell that starts the suite in the background (``pytest &`` in a script) ignores SIGINT for it, and an
-    # ignored signal is inherited: the child gets the terminal's disposition back, as a Ctrl-C at a prompt finds it
+    # 200 rows, so that the signal reaches a running curve (the poll below fails the test if it did not). A shell
+    # that starts the suite in the background (``pytest &`` in a script) ignores SIGINT for it, and an ignored
+    # signal is inherited: the child gets the terminal's disposition back, as a Ctrl-C at a prompt finds it
     process = subprocess.Popen(command, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 120

@@ -124,7 +124,7 @@ def torque_case(resolution: float, kernel: str, edge: float, correction: float) 
     start = time.perf_counter()
     cell = make_cell(resolution, edge)
     params = flow.ShearFlowParameters(capillary_number=CAPILLARY_NUMBER, resolution=resolution, kernel=kernel,
-                                      dtype="float64")
+                                      dtype="float64", relaxation_time=1.0)  # the page's "tau = 1"
     units = flow.shear_lattice_units(cell, params)
     lattice = flow.shear_setup(cell, params, units).lattice  # the channel with the Couette profile
     radius = marker_radius(resolution, correction)

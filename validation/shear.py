@@ -9,8 +9,8 @@ Run::
     python validation/shear.py --only reference     # nucleus cell (gamma = 2, lambda = 0.5) and equivalent
     python validation/shear.py --only resolution --resolutions 4 6 8
 
-Every run uses the shear defaults (``ShearFlowParameters()``: R/dx = 8, confinement 2R/H = 0.2, box 8R,
-tau = 1, particle Reynolds number 0.1, trilinear kernel) and a uniform p1 mesh with edges of 2 dx
+Every run uses the shear settings its page was made with (``ShearFlowParameters`` with tau = 1 pinned, which
+were the defaults then: R/dx = 8, confinement 2R/H = 0.2, box 8R, particle Reynolds number 0.1, trilinear kernel) and a uniform p1 mesh with edges of 2 dx
 (``shear_mesh_size``). Stationary values are means over strain >= duration/2; the tank-treading
 frequency is the r^2-weighted mean angular velocity of the surface nodes about the cell centre over the
 same window, in units of the shear rate. Reference (docs/theory.md): D -> (5/4) Ca, 45 deg and 1/2 as Ca -> 0.
@@ -45,6 +45,9 @@ from elastocell.coupling import ibm
 from elastocell.parameters.flow import shear_mesh_size
 from elastocell.scenarios import shear as flow
 
+PINNED = {"relaxation_time": 1.0}
+"""tau 1, the shear defaults' before the matched tau (ShearFlowParameters.relaxation_time): this page's runs."""
+
 
 def make_cell(resolution: float, nucleus: str = "none", element: str = "p1") -> Cell:
     size = shear_mesh_size(resolution)
@@ -53,7 +56,7 @@ def make_cell(resolution: float, nucleus: str = "none", element: str = "p1") -> 
 
 
 def run(cell: Cell, ca: float, resolution: float, duration: float, **overrides) -> dict:
-    params = flow.ShearFlowParameters(capillary_number=ca, resolution=resolution, **overrides)
+    params = flow.ShearFlowParameters(capillary_number=ca, resolution=resolution, **{**PINNED, **overrides})
     start = time.perf_counter()
     result = flow.run_shear(cell, params, duration=duration, record_interval=0.05)
     s = result.summary
@@ -77,7 +80,7 @@ def run(cell: Cell, ca: float, resolution: float, duration: float, **overrides) 
 def cost_split(resolution: float, steps: int = 200) -> list[dict]:
     """Seconds per step of each part of the coupled step, and MLUPS with and without the cell."""
     cell = make_cell(resolution)
-    params = flow.ShearFlowParameters(capillary_number=0.1, resolution=resolution)
+    params = flow.ShearFlowParameters(capillary_number=0.1, resolution=resolution, **PINNED)
     units = flow.shear_lattice_units(cell, params)
     system = flow.shear_setup(cell, params, units)
     system.advance(10)  # compile, and a deformed state

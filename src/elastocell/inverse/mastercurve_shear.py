@@ -7,11 +7,12 @@ numerics), so measuring D gives Ca and, with the shear stress ``tau = eta * shea
 ``mu = tau / Ca`` (:func:`elastocell.inverse.fit.fit_shear`).
 
 Computation (:func:`compute_shear_master_curve`): the existing shear scenario (:func:`elastocell.shear`,
-default flow: confinement 2R/H = 0.2, box 8R, tau 2 and particle Reynolds number 1/30, p1 mesh with edges 2 dx) is run
+default flow: confinement 2R/H = 0.2, box 8R, the matched tau at particle Reynolds number <= 0.1, p1 mesh with edges 2 dx) is run
 for every Ca of :data:`CAPILLARY_NUMBERS` at two resolutions R/dx (:data:`RESOLUTIONS`: 6 and the default 8)
 for a strain of :data:`DURATION` (4); the stationary values are the means over the second half of each run
-(strain 2..4; ``summary.json`` of the run). Lattice units at these settings do not depend on Ca (the
-Reynolds-number limit sets the shear rate: 2,160 LB steps per strain at R/dx = 6, 3,840 at 8).
+(strain 2..4; ``summary.json`` of the run). The lattice shear rate at these settings does not depend on Ca
+(the Reynolds-number limit at tau 1 sets it: 2,160 LB steps per strain at R/dx = 6, 3,840 at 8; the matched
+tau is 2 except at Ca 0.025 and 0.05 at R/dx 6 and 0.025 at 8, where the elastic step limit holds it lower).
 
 Discretisation error and the tabulated curve: the excess of D/Ca over the small-Ca theory 5/4 falls like
 (dx/R)^2 (README: D/Ca = 1.64, 1.46, 1.37, 1.32 at R/dx = 4, 6, 8, 10 and Ca = 0.05). The tabulated
@@ -21,9 +22,9 @@ curve is therefore the Richardson extrapolation of the two resolutions with orde
 assumes the order-2 convergence measured at Ca = 0.05 holds at every Ca (two resolutions cannot check the
 order), and it is conservative if the extrapolation is right (the extrapolated D/Ca at the smallest Ca can be
 compared with 5/4, see the metadata's ``small_ca_check``). The raw columns of both resolutions are kept.
-Measured for the shipped nu = 0.48 curve (README): the extrapolated D/Ca at Ca = 0.025 and 0.05 is 1.245 and
-1.252 (theory 1.25); one run at R/dx = 10 and Ca = 0.3 lies 0.24 % below the order-2 prediction, and the
-three resolutions put the converged D 0.7-2.1 % below the tabulated one there (error column 5.9 %).
+Measured for the shipped nu = 0.48 curve: the extrapolated D/Ca at the smallest Ca against 5/4 is the
+metadata's ``small_ca_check`` (docs/validation/fit.md); against Roscoe's finite-Ca theory and with an R/dx 10
+run at Ca = 0.3: docs/validation/shear_targets.md.
 
 Small Ca: between Ca = 0 and the first tabulated Ca, D/Ca goes linearly from the theory's 5/4 to the first
 tabulated value (the analogue of the compression curve's Hertz blend); above it, monotone cubic (PCHIP)
@@ -341,7 +342,7 @@ def compute_shear_master_curve(poisson_ratio: float = 0.48, material: str = "neo
         "error": f"|extrapolated - R/dx {fine:g}| (size of the extrapolation's correction; an estimate assuming "
                  "order-2 convergence at every Ca, not a bound)",
         "resolutions": list(resolutions), "duration_strain": duration, "averaging": "strain >= duration/2",
-        "flow": "elastocell.shear defaults (confinement 0.2, box 8R, tau 2, Re_p 1/30, trilinear kernel, float32)",
+        "flow": "elastocell.shear defaults (confinement 0.2, box 8R, the matched tau: tau 1's shear rate at Re_p <= 0.1, tau up to 2; trilinear kernel, float32)",
         "mesh": "p1, uniform, edge 2 dx (parameters.flow.shear_mesh_size), nucleus none",
         "small_ca_check": {"capillary_number": capillary_numbers[0], "deformation_over_ca_extrapolated": first,
                            "deformation_over_ca_fine": raw[fine]["deformation"][0] / capillary_numbers[0],

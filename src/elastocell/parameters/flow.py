@@ -8,7 +8,7 @@ import math
 import warnings
 
 # =========================================================================== shear flow
-from typing import Literal  # noqa: E402
+from typing import ClassVar, Literal  # noqa: E402
 
 from pydantic import BaseModel, ConfigDict, model_validator  # noqa: E402
 
@@ -28,10 +28,11 @@ class FlowLatticeParameters(BaseModel):
     """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
+    automatic_relaxation_time: ClassVar[bool] = False  # a scenario that chooses tau itself accepts None
 
     resolution: float = 8.0
     box_length: float = 8.0
-    relaxation_time: float = 1.0
+    relaxation_time: float | None = 1.0
     reynolds_number: float = 0.1
     velocity_limit: float = 0.05
     kernel: Literal["trilinear", "peskin4"] = "trilinear"
@@ -44,7 +45,9 @@ class FlowLatticeParameters(BaseModel):
                 f"R/dx must be in [2, 64], got {self.resolution}")
         require(math.isfinite(self.box_length) and self.box_length >= 2.5, "box_length",
                 f"must be >= 2.5 (units of R; the cell is 2R across), got {self.box_length}")
-        require(math.isfinite(self.relaxation_time) and 0.55 <= self.relaxation_time <= 5, "relaxation_time",
+        automatic = self.relaxation_time is None and self.automatic_relaxation_time
+        require(automatic or (self.relaxation_time is not None and math.isfinite(self.relaxation_time)
+                              and 0.55 <= self.relaxation_time <= 5), "relaxation_time",
                 f"tau must be in [0.55, 5], got {self.relaxation_time}")
         require(math.isfinite(self.reynolds_number) and 0 < self.reynolds_number <= 0.1, "reynolds_number",
                 f"the particle Reynolds number must be in (0, 0.1] (Stokes regime), got {self.reynolds_number}")

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import ClassVar
 from pathlib import Path
 
 # =========================================================================== shear flow
@@ -66,14 +67,13 @@ class ShearFlowParameters(FlowLatticeParameters):
     box_length: periodic length of the box along x (flow) and z (vorticity), in units of R. Default 8 from
         the same study: D/Ca = 1.58 (5R), 1.639 (8R), 1.663 (12R) -- the periodic images lower D.
     relaxation_time: LB relaxation time tau (time steps); the kinematic viscosity is (tau - 1/2)/3 dx^2/dt.
-        Default 2 with ``reynolds_number`` 1/30: the shear rate in lattice units (the cost) of tau 1 at
-        Re_p 0.1, with a third of its inertia. The steady state depends on the Reynolds number and not on tau
-        (TRT with the magic parameter): at Ca 0.3, R/dx 6, tau 1 and tau 3 at Re_p 0.02 agree within 0.03 %
-        in D and the tank treading and 0.005 degrees in inclination, while Re_p 0.1 -> 0.02 raises the tank
-        treading by 1.1 % and lowers D by 1.0 % (docs/validation/shear_targets.md). A larger tau would lower
-        Re_p further but charges the elastic time step (E_c in lattice units grows with the viscosity): at
-        tau 2 the elastic limit binds below Ca 0.040 at R/dx 8 and 0.070 at R/dx 6 (the extrapolated default's
-        coarse run: 1.39x its steps and Re_p 0.024 at Ca 0.05; 1.58x at Ca 0.025, R/dx 8).
+        None (the default): :func:`matched_relaxation_time`, the largest tau up to
+        :data:`MATCHED_RELAXATION_TIME_MAX` that keeps the lattice shear rate (the cost) tau 1 would have under
+        the same limits, i.e. a particle Reynolds number up to three times lower at the same cost. The steady
+        state depends on the Reynolds number and not on tau (TRT with the magic parameter): at Ca 0.3, R/dx 6,
+        tau 1 and tau 3 at Re_p 0.02 agree within 0.03 % in D and the tank treading and 0.005 degrees in
+        inclination, while Re_p 0.1 -> 0.02 raises the tank treading by 1.1 % and lowers D by 1.0 %
+        (docs/validation/shear_targets.md).
     reynolds_number: upper limit of the particle Reynolds number shear_rate R^2 / nu (Stokes regime).
     velocity_limit: upper limit of the wall speed |U| (dx/dt).
     kernel: immersed-boundary kernel ("trilinear", the paper's 2-point one, or "peskin4").
@@ -93,9 +93,10 @@ class ShearFlowParameters(FlowLatticeParameters):
         physics in JAX on its default device: a GPU when JAX has CUDA/ROCm, else the CPU).
     """
 
+    automatic_relaxation_time: ClassVar[bool] = True
+
     capillary_number: float
-    relaxation_time: float = 2.0
-    reynolds_number: float = 0.1 / 3
+    relaxation_time: float | None = None
     confinement: float = 0.2
     hydrodynamic_radius_correction: float = 0.0
     lattice_shear_rate: float | None = None
@@ -182,6 +183,30 @@ def _check_wall_gap(params: ShearFlowParameters) -> None:
         )
 
 
+MATCHED_RELAXATION_TIME_MAX = 2.0
+"""The largest tau :func:`matched_relaxation_time` chooses: a third of the Reynolds number of tau 1 where the
+Reynolds number sets the shear rate (the homogeneous cell at Ca >= 0.04 at R/dx 8)."""
+
+
+def matched_relaxation_time(cell, radius: float, params: ShearFlowParameters, ny: int) -> tuple[float, float, str]:
+    """(tau, the lattice shear rate, the limit that sets it) of the automatic relaxation time: the shear rate of
+    tau 1 under ``params``' limits (or its ``lattice_shear_rate``) is kept, and tau raised (up to
+    :data:`MATCHED_RELAXATION_TIME_MAX`) as far as the elastic step limit allows at that rate. That limit falls
+    like 1/nu (E_c in lattice units grows with the viscosity at a fixed Ca and rate; c(tau) = 1 from tau 0.9),
+    the Reynolds number's rises like nu: where the elastic limit already binds at tau 1 (a stiff nucleus, low Ca)
+    tau stays 1, so no run takes more steps than at tau 1."""
+    rates = shear_rate_limits(cell, radius, 1.0, params.capillary_number, params.kernel, params.reynolds_number,
+                              params.velocity_limit, ny)
+    if params.lattice_shear_rate is None:
+        limiting = min(rates.limits, key=rates.limits.get)
+        rate = rates.limits[limiting]
+    else:
+        limiting, rate = "lattice_shear_rate", float(params.lattice_shear_rate)
+    largest = rates.viscosity * rates.limits["elastic_stability"] / rate * (1 - 1e-9)
+    tau = min(MATCHED_RELAXATION_TIME_MAX, max(1.0, 0.5 + 3.0 * largest))
+    return float(tau), float(rate), limiting
+
+
 def shear_lattice_units(cell, params: ShearFlowParameters) -> ShearUnits:
     """Derive the lattice parameters of a shear run from (Ca, R/dx, confinement) and the limits.
 
@@ -198,12 +223,17 @@ def shear_lattice_units(cell, params: ShearFlowParameters) -> ShearUnits:
     n_side = int(round(params.box_length * radius))
     _check_wall_gap(params)
     tau = params.relaxation_time
+    automatic = tau is None
+    if automatic:
+        tau, matched_rate, matched_limit = matched_relaxation_time(cell, radius, params, ny)
     ca = params.capillary_number
     rates = shear_rate_limits(cell, radius, tau, ca, params.kernel, params.reynolds_number,
                               params.velocity_limit, ny)
     viscosity, modulus_per_rate, limits = rates.viscosity, rates.modulus_per_rate, rates.limits
     stiffness_mobility, spacing, stability_number = rates.stiffness_mobility, rates.spacing, rates.stability_number
-    if params.lattice_shear_rate is None:
+    if automatic and params.lattice_shear_rate is None:  # tau 1's rate, named by the limit that set it there
+        limiting, shear_rate = matched_limit, min(matched_rate, *limits.values())
+    elif params.lattice_shear_rate is None:
         limiting = min(limits, key=limits.get)
         shear_rate = limits[limiting]
     else:
