@@ -57,7 +57,8 @@ class ShearFlowParameters(FlowLatticeParameters):
     capillary_number: Ca = eta * shear_rate / mu_ref, mu_ref = mu_c = E_c/(2(1+nu)) (mu_eff = gamma_eff mu_c
         for the homogeneous equivalent cell).
     resolution: R/dx (lattice nodes per cell radius). Default 8 from the resolution study (homogeneous p1
-        cell, mesh edge 2 dx, Ca = 0.05, confinement 0.2, box 8R): D/Ca = 1.639, 1.460, 1.365, 1.324 at
+        cell, mesh edge 2 dx, Ca = 0.05, confinement 0.2, box 8R; this study and the two below at tau 1,
+        Re_p 0.1, the defaults then): D/Ca = 1.639, 1.460, 1.365, 1.324 at
         R/dx = 4, 6, 8, 10; the excess over Taylor's 5/4 falls like (dx/R)^2 and the extrapolation gives
         1.243-1.251. R/dx = 8 is 9 % above the limit at a third of the cost of R/dx = 10 (6 % above; cost ~ R^5:
         R^3 nodes and R^2 steps per strain at a fixed Reynolds number).
@@ -80,7 +81,8 @@ class ShearFlowParameters(FlowLatticeParameters):
     hydrodynamic_radius_correction: c in dx: the markers lie on a sphere of radius R - c dx, so that the
         body the fluid sees (larger than the marker surface by a constant of the kernel and the marker spacing:
         0.28-0.36 dx for trilinear with edges of 2 dx at R/dx = 4-8, 0.36-0.49 dx with edges of 1.33 dx,
-        0.15-0.25 dx with edges of 2.4-3 dx, 0.6-0.9 dx for peskin4; docs/validation/flow_accuracy.md) has radius R: 0.3 puts the held sphere's
+        0.15-0.25 dx with edges of 2.4-3 dx, 0.6-0.9 dx for peskin4, measured at tau 1 and not re-measured at the
+        matched tau; docs/validation/flow_accuracy.md) has radius R: 0.3 puts the held sphere's
         torque within 2 % of Stokes' at R/dx = 4-8. It corrects the
         cell's size in the flow (drag, torque, confinement), not D/Ca, which depends on the ratio of the
         hydrodynamic to the elastic radius (measured: D/Ca rises from 1.670 to 1.734 with c = 0.3 at R/dx = 4).
