@@ -135,6 +135,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     "afm": ("AFM fits of real instrument files against nanite", {
         "afm_nanite.py": ("elastocell's Hertz-sphere estimate beside nanite's fit, same curves, same contact point",
                           "python validation/afm_nanite.py"),
+        "nucleated_fit.py": ("A cell with a nucleus: E_c from its own curve against the conversions",
+                             "nice python validation/nucleated_fit.py"),
     }),
     "studies": ("Studies on Dask", {
         "studies.py": ("Wall time of the studies", "python validation/studies.py --run --workers 2"),

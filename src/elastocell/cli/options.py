@@ -300,7 +300,9 @@ OPTIONS: dict[str, Opt] = _declare(
     Opt("model", str, "both", "master | hertz | both (master is youngs_modulus)."),
     Opt("contact_point", str, "auto", "auto, or the contact point's displacement.", quantity="m", words=("auto",)),
     Opt("bootstrap", int, 0, "Residual-bootstrap replicas for a second CI."),
-    Opt("nucleus_size_ratio", float | None, None, "lambda: also report E_c and E_n (needs --stiffness-ratio).",
+    Opt("nucleus_size_ratio", float | None, None,
+        "lambda: also fit E_c to the cell with its nucleus (axisymmetric solver, seconds, cached) and convert E "
+        "(needs --stiffness-ratio).",
         units=_DIMENSIONLESS, shown="none: homogeneous"),
     Opt("baseline_fraction", float, 0.2, "Share of the approach for the baseline.", units=_DIMENSIONLESS),
     Opt("threshold", float, 5.0, "Contact: force above threshold*sigma of the baseline.",

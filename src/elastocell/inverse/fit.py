@@ -103,6 +103,7 @@ from elastocell.inverse.indentation_surface import (
 )
 from elastocell.inverse.mastercurve import MasterCurve, load_master_curve
 from elastocell.inverse.mastercurve_shear import load_shear_master_curve
+from elastocell.inverse.nucleated_curve import NucleatedCurve, nucleated_curve, volume_fraction
 from elastocell.parameters.units import ParameterError, parse_quantity
 from elastocell.scenarios.axisymmetric import sneddon_cone_force
 from elastocell.scenarios.compression import hertz_force
@@ -267,6 +268,10 @@ class FitSettings:
         if (self.nucleus_size_ratio is None) != (self.stiffness_ratio is None):
             raise ParameterError("nucleus_size_ratio", "give both --nucleus-size-ratio and --stiffness-ratio, or neither")
         if self.nucleus_size_ratio is not None:
+            if geometry in CONES or (geometry == "sphere-indenter" and self.cell_shape == "layer"):
+                raise ParameterError("nucleus_size_ratio", "a layer (a gel or tissue section) is homogeneous: the "
+                                                           "nucleus options apply to --geometry plates or "
+                                                           "sphere-indenter with --cell-shape sphere or cap")
             if not 0 < self.nucleus_size_ratio < 1:
                 raise ParameterError("nucleus_size_ratio", f"must be in (0, 1), got {self.nucleus_size_ratio}")
             if not (math.isfinite(self.stiffness_ratio) and self.stiffness_ratio > 0):
@@ -290,6 +295,15 @@ class FitSettings:
         if self.geometry == "sphere-indenter" and self.cell_shape == "cap":
             return self.cap_height / self.radius
         return None
+
+    @property
+    def nucleus_volume_fraction(self) -> float | None:
+        """phi: the nucleus's share of the cell's volume (lambda^3; in a cap, of the cap's volume); None without
+        a nucleus."""
+        if self.nucleus_size_ratio is None:
+            return None
+        return volume_fraction(self.nucleus_size_ratio, "cap" if self.cap_ratio is not None else "sphere",
+                               self.cap_ratio)
 
     @property
     def cone_half_angle(self) -> float | None:
@@ -962,9 +976,12 @@ def _geometry_columns(settings: FitSettings) -> dict:
 
 
 def fit_curve(name: str, displacement, force, settings: FitSettings,
-              curve: MasterCurve | IndentationSurface | None = None) -> dict:
+              curve: MasterCurve | IndentationSurface | None = None, nucleated: NucleatedCurve | None = None) -> dict:
     """Fit one curve; returns a dict (fits.csv row plus ``_plot`` data), ``flag`` empty when every check of
-    :func:`check_fit` passed. Raises CurveError when nothing can be fitted (too few points, no contact)."""
+    :func:`check_fit` passed. Raises CurveError when nothing can be fitted (too few points, no contact).
+
+    With the nucleus options (and a master curve or surface in ``settings.model``) E_c is also fitted to the
+    nucleated cell's own curve (``nucleated``; None: :func:`load_nucleated_curve`), :func:`nucleated_columns`."""
     displacement, force = _clean(name, np.asarray(displacement, float), np.asarray(force, float))
     start = time.perf_counter()
     fit_contact = settings.contact_point is None
@@ -1027,7 +1044,19 @@ def fit_curve(name: str, displacement, force, settings: FitSettings,
         row["master_curve_relative_error"] = float(curve.relative_error_at(fits["master"]["delta_max"]))
     if settings.nucleus_size_ratio is not None:
         row.update(heterogeneous_moduli(row, settings.nucleus_size_ratio, settings.stiffness_ratio,
-                                        settings.poisson_ratio))
+                                        settings.poisson_ratio, settings.nucleus_volume_fraction))
+        if nucleated is None and settings.model != "hertz":
+            nucleated = load_nucleated_curve(settings)
+        if nucleated is not None:
+            f, limit = _nucleated_function(nucleated, settings)
+            try:
+                fits["nucleated"] = fit_model(displacement, corrected, settings.length_unit, f, limit, contact0,
+                                              fit_contact, baseline.sigma, contact_bounds=region if fit_contact
+                                              else None)
+            except CurveError as error:
+                raise CurveError(f"{name}: {error}") from None
+            row.update(nucleated_columns(fits["nucleated"], check_fit(fits["nucleated"], region), row, settings,
+                                         nucleated))
     row["fit_time_s"] = time.perf_counter() - start
     row["_plot"] = {"displacement": displacement, "force": corrected, "fits": fits, "radius": settings.length_unit,
                     "region": region}
@@ -1075,14 +1104,15 @@ def fit_hertz_sphere(displacement, force, bead_radius: float, poisson_ratio: flo
     return fit
 
 
-def heterogeneous_moduli(row: dict, size_ratio: float, stiffness_ratio: float, poisson_ratio: float = 0.48) -> dict:
-    """E_c = E_eff / (1 + (G - 1) L^3) and E_n = G E_c (the paper's volume average, spherical nucleus), and E_c
-    with the Hashin-Shtrikman upper bound E_eff/E_c (``*_hashin_shtrikman_upper``). The equivalent-modulus study
-    (README) found the volume average closest for gamma <= 5 (errors 7-12 %) and the HS upper bound for gamma 10
-    and 20 (-9 % and +16 %, against +12 % and +58 % for the volume average)."""
+def heterogeneous_moduli(row: dict, size_ratio: float, stiffness_ratio: float, poisson_ratio: float = 0.48,
+                         phi: float | None = None) -> dict:
+    """E_c = E_eff / (1 + (G - 1) phi) and E_n = G E_c (the paper's volume average; phi the nucleus's volume
+    fraction, L^3 in a sphere, :func:`elastocell.inverse.nucleated_curve.volume_fraction`), and E_c with the
+    Hashin-Shtrikman upper bound E_eff/E_c (``*_hashin_shtrikman_upper``). Both are conversions of the homogeneous
+    fit; the nucleated cell's own curve fits E_c without one (:func:`nucleated_columns`)."""
 
-    factor = 1.0 + (stiffness_ratio - 1.0) * size_ratio**3
-    phi = size_ratio**3
+    phi = size_ratio**3 if phi is None else phi
+    factor = 1.0 + (stiffness_ratio - 1.0) * phi
     factor_hs = hashin_shtrikman_upper([1.0, stiffness_ratio], [1.0 - phi, phi], poisson_ratio)
     out = {"effective_stiffness_ratio": factor, "effective_stiffness_ratio_hashin_shtrikman_upper": factor_hs,
            "nucleus_size_ratio": size_ratio, "stiffness_ratio": stiffness_ratio}
@@ -1091,6 +1121,53 @@ def heterogeneous_moduli(row: dict, size_ratio: float, stiffness_ratio: float, p
         out[f"youngs_modulus_cytoplasm{suffix}"] = value / factor
         out[f"youngs_modulus_nucleus{suffix}"] = stiffness_ratio * value / factor
         out[f"youngs_modulus_cytoplasm_hashin_shtrikman_upper{suffix}"] = value / factor_hs
+    return out
+
+
+@functools.lru_cache(maxsize=8)
+def load_nucleated_curve(settings: FitSettings) -> NucleatedCurve | None:
+    """The nucleated cell's own curve of ``settings`` (:func:`elastocell.inverse.nucleated_curve.nucleated_curve`:
+    cached on disk, computed by the axisymmetric solver in seconds the first time); None without the nucleus
+    options or with ``model="hertz"``."""
+    if settings.nucleus_size_ratio is None or settings.model == "hertz":
+        return None
+    bead = settings.geometry == "sphere-indenter"
+    return nucleated_curve(settings.geometry, settings.nucleus_size_ratio, settings.stiffness_ratio,
+                           settings.poisson_ratio, settings.material, settings.cell_shape if bead else "sphere",
+                           settings.indenter_ratio if bead else None, settings.cap_ratio)
+
+
+def _nucleated_function(nucleated: NucleatedCurve, settings: FitSettings):
+    """(f, limit) of the nucleated cell's curve in :func:`_model_function`'s variable and window: the plates up
+    to ``delta_max``, a bead up to ``depth_max`` (default the master surface's range); both within the rows the
+    curve reached."""
+    if settings.geometry == "parallel-plates":
+        return nucleated, min(settings.delta_max, nucleated.load_reached)
+    depth_max = nucleated.load_requested if settings.depth_max is None else min(settings.depth_max,
+                                                                               nucleated.load_requested)
+    return (lambda u: nucleated(2 * np.asarray(u, float))), min(depth_max, nucleated.load_reached) / 2
+
+
+def nucleated_columns(fit: dict, reasons: list[str], row: dict, settings: FitSettings,
+                      nucleated: NucleatedCurve) -> dict:
+    """The fits.csv columns of E_c fitted to the nucleated cell's own curve: ``youngs_modulus_cytoplasm_nucleated``
+    (with ``_ci_low``, ``_ci_high``; NaN where :func:`check_fit` found no result), E_n = gamma E_c
+    (``youngs_modulus_nucleus_nucleated``), its contact point, reduced chi-square and ``flag_nucleated`` (its
+    reasons; empty: accepted), and ``effective_stiffness_ratio_fitted`` = E/E_c: the homogeneous equivalent's
+    modulus (``youngs_modulus``) over the cytoplasm's, the conversion this measurement needs, beside the volume
+    average's ``effective_stiffness_ratio``; ``nucleated_load_reached``: how far the nucleated curve was computed
+    (delta, or depth/R)."""
+    gamma = settings.stiffness_ratio
+    out = {}
+    for suffix in ("", "_ci_low", "_ci_high"):
+        value = fit[f"youngs_modulus{suffix}"]
+        out[f"youngs_modulus_cytoplasm_nucleated{suffix}"] = value
+        out[f"youngs_modulus_nucleus_nucleated{suffix}"] = gamma * value
+    out["contact_point_nucleated"] = fit["contact_point"]
+    out["reduced_chi_square_nucleated"] = fit["reduced_chi_square"]
+    out["flag_nucleated"] = "; ".join(reasons)
+    out["effective_stiffness_ratio_fitted"] = row.get("youngs_modulus", float("nan")) / fit["youngs_modulus"]
+    out["nucleated_load_reached"] = nucleated.load_reached
     return out
 
 
@@ -1110,7 +1187,8 @@ def plot_fit(path: Path, row: dict) -> None:
     top.plot(data["displacement"] * micro, data["force"] * 1e9, ".", ms=2,
              color="#f4a582" if flagged else "0.5", label="data (baseline removed)")
     styles = {"master": ("C0", "master surface" if row.get("geometry") in INDENTERS else "master curve"),
-              "hertz": ("C2", "Sneddon" if row.get("geometry") in CONES else "Hertz")}
+              "hertz": ("C2", "Sneddon" if row.get("geometry") in CONES else "Hertz"),
+              "nucleated": ("C1", "nucleated cell (E_c)")}
     for model, fit in data["fits"].items():
         d, y, predicted = fit["fitted_points"]
         color, label = styles[model]
@@ -1283,6 +1361,7 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
     start = time.perf_counter()
     out = Path(out)
     curve = load_model(settings)  # a surface or a ratio it lacks is refused before anything is written
+    nucleated = load_nucleated_curve(settings)  # computed once (seconds), before any file is read
     out.mkdir(parents=True, exist_ok=True)
     files = expand_paths(paths)
     if not files:
@@ -1399,14 +1478,15 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
                    "systematic_limit": SYSTEMATIC_LIMIT, "modulus_floor": MODULUS_FLOOR,
                    "interval": "finite, low > 0, high - low <= E", "contact": "inside the rise region, not on "
                    "its edge"},
+        "nucleated_curve": None if nucleated is None else nucleated.metadata,
         "heterogeneous_conversion": None if settings.nucleus_size_ratio is None else (
-            "E_c = E_eff / (1 + (gamma - 1) lambda^3), E_n = gamma E_c (volume average, spherical centred nucleus). "
-            "Measured (equivalent-modulus study, full compression, p2 meshes; README): the best homogeneous modulus "
-            "of a centred-nucleus cell is 1.233/1.611/1.896/2.127 E_c for gamma 2/5/10/20 (lambda 0.5) against the "
-            "volume average 1.124/1.496/2.115/3.354, so E_c from the volume average is 10 % too high (gamma 2) to "
-            "37 % too low (gamma 20). Recommended: the volume average for gamma <= 5 (closest in 11 of 13 cells, "
-            "median error 7.7 %), the Hashin-Shtrikman upper bound (columns *_hashin_shtrikman_upper) for gamma >= "
-            "10 (errors -9 % and +16 % at gamma 10 and 20)."),
+            "youngs_modulus_cytoplasm_nucleated: E_c fitted to the nucleated cell's own curve (nucleated_curve: "
+            "axisymmetric solver, concentric nucleus), no conversion; effective_stiffness_ratio_fitted = "
+            "youngs_modulus / that E_c. Conversions of the homogeneous fit beside it: E_c = E_eff / (1 + (gamma - "
+            "1) phi) (youngs_modulus_cytoplasm, volume average, phi the nucleus's volume fraction) and the "
+            "Hashin-Shtrikman upper bound (*_hashin_shtrikman_upper); E_n = gamma E_c."
+            + ("" if settings.model != "hertz" else " model hertz: no nucleated fit (it needs the master "
+               "curve or surface)")),
         "execution": execution, "dask_auto_min_files": DASK_AUTO_MIN_FILES, "n_curves": len(rows),
         "n_accepted": accepted, "n_flagged": len(rows) - accepted, "n_unreadable": len(errors),
         "n_errors": len(errors),  # the name earlier outputs used for n_unreadable
