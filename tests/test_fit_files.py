@@ -119,13 +119,18 @@ def test_the_tip_position_is_nanites(name):
         assert np.allclose(curve.displacement, -tip, rtol=0, atol=relative * np.max(np.abs(tip)))
 
 
+GEOMETRIES = {"parallel-plates": {}, "sphere-indenter": {"geometry": "sphere-indenter", "indenter_radius": "5um"}}
+
+
+@pytest.mark.parametrize("geometry", GEOMETRIES)
 @pytest.mark.parametrize("name", FILES)
-def test_every_file_gets_a_finite_modulus_or_a_flag_with_a_reason(tmp_path, name):
-    """fit_files on each file (with the calibration it lacks): one row per curve; an accepted row (empty flag)
-    has a finite positive E inside a finite positive interval no wider than E; a flagged one says why; no row
-    reports E <= 0, E at the solver's floor or an interval bound below zero."""
+def test_every_file_gets_a_finite_modulus_or_a_flag_with_a_reason(tmp_path, name, geometry):
+    """fit_files on each file (with the calibration it lacks), between plates and under a 5 um bead on an 8 um
+    cell: one row per curve; an accepted row (empty flag) has a finite positive E inside a finite positive interval
+    no wider than E; a flagged one says why; no row reports E <= 0, E at the solver's floor or an interval bound
+    below zero."""
     k, s = CALIBRATION.get(name, (None, None))
-    settings = FitSettings(radius=8e-6, spring_constant=k, sensitivity=s)
+    settings = FitSettings(radius=8e-6, spring_constant=k, sensitivity=s, **GEOMETRIES[geometry])
     result = fit_files([DATA / name], settings, tmp_path, plots=False)
     assert not result["errors"]
     table = pd.read_csv(tmp_path / "fits.csv", dtype={"flag": str})
@@ -140,6 +145,10 @@ def test_every_file_gets_a_finite_modulus_or_a_flag_with_a_reason(tmp_path, name
         assert not (E <= 0) and not (low <= 0), row
     if name == "force-save-example.jpk-force":  # nanite's documented example: a clean curve, accepted
         assert table["flag"].iloc[0] == ""
+    if geometry == "sphere-indenter":  # the surface's fit and Hertz's sphere beside it, on the bead's depth
+        assert (table["geometry"] == "sphere-indenter").all() and np.isnan(table["delta_max"]).all()
+        accepted = table[table["flag"] == ""]
+        assert (accepted["depth_max"] > 0).all() and (accepted["youngs_modulus_hertz"] > 0).all()
 
 
 def test_the_overrides_change_force_and_deflection_as_the_physics_says():
