@@ -129,7 +129,9 @@ def main():
         "R_b is 18.64 um for force-save-example (nanite's documentation of that file) and a nominal 5 um for the "
         "others, whose files do not name the indenter (E scales as R_b^-1/2 in both tools). Table 3: the "
         "sphere-indenter fit (master surface of a suspended cell of radius --radius on a dish) beside nanite and "
-        "elastocell's Hertz estimate. Table 4: what the surface captures at large indentation, on computed curves."))
+        "elastocell's Hertz estimate. Table 4: what the surface captures at large indentation, on computed curves. "
+        "Table 5: the round trip; the reference cell's E_c from its own curve (`youngs_modulus_cytoplasm_nucleated`) "
+        "and from the conversions of the homogeneous fit."))
     curve = load_master_curve(nu)
     surface = load_indentation_surface(nu)
     sphere_rows, plate_rows, indenter_rows = [], [], []
@@ -316,6 +318,7 @@ def round_trip_table(page: Page, surface, nu: float) -> None:
         fit = fit_curve(label, displacement, noisy, FitSettings(radius=p["R"], poisson_ratio=nu,
                         geometry="sphere-indenter", indenter_radius=ratio * p["R"], **extra), surface)
         rows.append({"curve": label, "depth max / R": depth[-1], "E fitted / E_c": fit["youngs_modulus"] / p["E"],
+                     "E_c nucleated fit / E_c": fit.get("youngs_modulus_cytoplasm_nucleated", math.nan) / p["E"],
                      "E_c from the volume average / E_c": fit.get("youngs_modulus_cytoplasm", math.nan) / p["E"],
                      "E_c from HS upper / E_c":
                          fit.get("youngs_modulus_cytoplasm_hashin_shtrikman_upper", math.nan) / p["E"],
@@ -324,7 +327,8 @@ def round_trip_table(page: Page, surface, nu: float) -> None:
                      "flag": fit["flag"] or "accepted"})
     page.table(rows, f"5. Round trip: computed curves (E_c = {p['E']:g} Pa, R = {p['R'] * 1e6:g} um), "
                f"{100 * p['noise']:g} % noise, {p['contact'] * 1e6:g} um of baseline, refitted",
-               formats={"depth max / R": ".3g", "E fitted / E_c": ".4f", "E_c from the volume average / E_c": ".4f",
+               formats={"depth max / R": ".3g", "E fitted / E_c": ".4f", "E_c nucleated fit / E_c": ".4f",
+                        "E_c from the volume average / E_c": ".4f",
                         "E_c from HS upper / E_c": ".4f", "Hertz E / E_c": ".3f", "contact error (nm)": "+.1f"})
 
 
