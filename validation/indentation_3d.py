@@ -6,10 +6,10 @@
 
 1. Against the axisymmetric solver (homogeneous, nu = 0.48, depth to 0.3 R in 6 steps): F(depth) of the 3D
    solver on indent's 3D default mesh (compression's with the size at the poles, both contacts, times
-   ``POLE_SIZE_FACTOR_3D``), with the poles x 0.5, on compression's default mesh and on compression's mesh with every size x 1.4, over
+   ``POLE_SIZE_FACTOR_3D`` and the pole radius ``POLE_RADIUS_3D``), with compression's pole radius, with the poles x 0.5, on compression's default mesh and on compression's mesh with every size x 1.4, over
    the axisymmetric solver's on the meridian mesh with every size x 0.7 (its own refinement error,
    docs/validation/indentation.md, is far below these), and the axisymmetric default beside them. The same for a centred nucleus (gamma 5, lambda 0.5), which
-   both solvers can run.
+   both solvers can run, and the two defaults for gamma 2 and 10.
 2. Small depth (0.01 and 0.02 R): indent's 3D default mesh against Hertz's two contacts in series (bead on cell with
    R_eff = R_b R/(R_b + R), cell on dish).
 3. Cells only the 3D solver can run, to depth 0.3 R, on indent's 3D default mesh: a nucleus (gamma 5, lambda 0.5) offset 0.2 R along x, and
@@ -45,7 +45,7 @@ from elastocell.files import cache_directory, parameter_hash  # noqa: E402
 from elastocell.parameters.cell import cell_parameters  # noqa: E402
 from elastocell.scenarios.axisymmetric import hertz_sphere_indentation_force  # noqa: E402
 from elastocell.scenarios.compression import compression_parameters_for  # noqa: E402
-from elastocell.scenarios.indentation import POLE_SIZE_FACTOR_3D, indentation_curve  # noqa: E402
+from elastocell.scenarios.indentation import POLE_RADIUS_3D, POLE_SIZE_FACTOR_3D, indentation_curve  # noqa: E402
 from elastocell.scenarios.indentation_3d import Indentation3DError, indent_3d  # noqa: E402
 
 NU = 0.48
@@ -55,14 +55,18 @@ COMPARED = np.array([0.05, 0.1, 0.2, 0.3])
 NUCLEUS = {"nucleus": "sphere", "stiffness_ratio": 5.0, "size_ratio": 0.5}
 FORMAT = 1
 POLES = POLE_SIZE_FACTOR_3D  # the 3D indentation's default: compression's mesh with the poles this much finer
+POLE_RADIUS = POLE_RADIUS_3D  # and its pole refinement reaching this far (compression's: 1.4)
 
 
 def curve_3d(options: dict, depth: float, steps: int, scale: float = 1.0, fresh: bool = False,
-             pole_scale: float = 1.0) -> dict:
+             pole_scale: float = 1.0, pole_radius: float | None = None) -> dict:
     """The 3D curve (depth, force, energy per row, pin reaction, nodes, seconds, note), cached; the default mesh
-    with every size times ``scale``, the poles' times ``pole_scale`` more."""
+    with every size times ``scale``, the poles' times ``pole_scale`` more, the pole radius ``pole_radius``
+    (None: compression's)."""
     default = cell_parameters().mesh  # the 3D default mesh, every size times ``scale``
     more = {} if pole_scale == 1.0 else {"pole_scale": pole_scale}
+    if pole_radius is not None:
+        more["pole_radius"] = pole_radius
     key = parameter_hash(options, {"depth": depth, "steps": steps, "scale": scale, "bead": BEAD, **more,
                                    "mesh": default.model_dump(mode="json")}, format_version=FORMAT)
     path = cache_directory() / "validation-indentation-3d" / f"{key}.npz"
@@ -71,7 +75,8 @@ def curve_3d(options: dict, depth: float, steps: int, scale: float = 1.0, fresh:
         return {name: data[name] for name in data.files} | {"note": str(data["note"])}
     # the nucleus surface's size follows mesh_size in proportion (cell_parameters)
     parameters = compression_parameters_for(cell_parameters(**options, mesh_size=default.mesh_size * scale,
-                                                            pole_size=default.pole_size * scale * pole_scale))
+                                                            pole_size=default.pole_size * scale * pole_scale,
+                                                            pole_radius=pole_radius))
     cell = Cell.from_parameters(parameters)
     start = time.perf_counter()
     note = ""
@@ -104,18 +109,24 @@ def at(curve: dict, depth: float) -> float:
 
 def against_axisymmetric(page: Page, fresh: bool, quick: bool) -> None:
     rows = []
-    cells = {"homogeneous": {"nucleus": "none"}} if quick else {"homogeneous": {"nucleus": "none"},
-                                                                "centred nucleus (gamma 5, lambda 0.5)": NUCLEUS}
+    cells = {"homogeneous": {"nucleus": "none"}} if quick else {
+        "homogeneous": {"nucleus": "none"}, "centred nucleus (gamma 2, lambda 0.5)": {**NUCLEUS, "stiffness_ratio": 2.0},
+        "centred nucleus (gamma 5, lambda 0.5)": NUCLEUS,
+        "centred nucleus (gamma 10, lambda 0.5)": {**NUCLEUS, "stiffness_ratio": 10.0}}
     for name, options in cells.items():
         truth_depth, truth = curve_axisymmetric(options, 0.7)
         axi_depth, axi = curve_axisymmetric(options, 1.0)
-        variants = [(f"3D indent default (compress's, poles x {POLES:g})", 1.0, POLES),
-                    ("3D compress's poles x 0.5", 1.0, 0.5),
-                    ("3D compress's default mesh", 1.0, 1.0), ("3D compress's mesh x 1.4", 1.4, 1.0)]
-        for label, scale, pole_scale in variants:
+        variants = [(f"3D indent default (compress's, poles x {POLES:g}, pole radius {POLE_RADIUS:g})", 1.0, POLES,
+                     POLE_RADIUS),
+                    (f"3D compress's poles x {POLES:g} (pole radius 1.4)", 1.0, POLES, None),
+                    ("3D compress's poles x 0.5", 1.0, 0.5, None),
+                    ("3D compress's default mesh", 1.0, 1.0, None), ("3D compress's mesh x 1.4", 1.4, 1.0, None)]
+        if "gamma 2" in name or "gamma 10" in name:  # the defaults only
+            variants = variants[:2]
+        for label, scale, pole_scale, pole_radius in variants:
             if quick and scale == 1.0 and pole_scale in (1.0, 0.5):
                 continue
-            curve = curve_3d(options, DEPTH, STEPS, scale, fresh, pole_scale)
+            curve = curve_3d(options, DEPTH, STEPS, scale, fresh, pole_scale, pole_radius)
             row = {"cell": name, "curve": label, "nodes": int(curve["nodes"]), "seconds": float(curve["seconds"]),
                    "max pin reaction / F": float(curve["reaction"].max())}
             for depth in COMPARED:
@@ -133,7 +144,7 @@ def against_axisymmetric(page: Page, fresh: bool, quick: bool) -> None:
 
 def hertz(page: Page, fresh: bool, quick: bool) -> None:
     scale = 1.4 if quick else 1.0
-    curve = curve_3d({"nucleus": "none"}, 0.02, 2, scale, fresh, POLES)
+    curve = curve_3d({"nucleus": "none"}, 0.02, 2, scale, fresh, POLES, POLE_RADIUS)
     rows = [{"depth / R": depth, "F/(E_c R^2)": force, "F/F_Hertz in series": force /
              hertz_sphere_indentation_force(depth, BEAD, NU), "dish force / F": support / force}
             for depth, force, support in zip(curve["depth"][1:], curve["force"][1:], curve["support"][1:], strict=True)]
@@ -143,13 +154,13 @@ def hertz(page: Page, fresh: bool, quick: bool) -> None:
 
 def heterogeneous(page: Page, fresh: bool, quick: bool) -> None:
     scale = 1.4 if quick else 1.0
-    homogeneous = curve_3d({"nucleus": "none"}, DEPTH, STEPS, scale, fresh, POLES)
+    homogeneous = curve_3d({"nucleus": "none"}, DEPTH, STEPS, scale, fresh, POLES, POLE_RADIUS)
     centred_depth, centred = curve_axisymmetric(NUCLEUS, 1.0)
     cells = {"nucleus offset 0.2 R along x (gamma 5, lambda 0.5)": {**NUCLEUS, "offset": 0.2, "offset_axis": "x"},
              "random cell (U[1, 10], seed 0)": {"random": True, "seed": 0}}
     rows = []
     for name, options in cells.items():
-        curve = curve_3d(options, DEPTH, STEPS, scale, fresh, POLES)
+        curve = curve_3d(options, DEPTH, STEPS, scale, fresh, POLES, POLE_RADIUS)
         n = min(len(curve["depth"]), len(homogeneous["depth"]))
         for index in range(1, n):
             depth = float(curve["depth"][index])

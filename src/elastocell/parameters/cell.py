@@ -183,7 +183,8 @@ class MeshParameters(ParameterModel):
     element: ``p1`` (4-node, the paper's model) or ``p2`` (10-node, curved boundary).
     mesh_size: characteristic element edge length far from the poles (units of R).
     pole_size: edge length at the two poles z = +-R where the plates touch (units of R); ``None`` = uniform.
-    pole_radius: distance from a pole over which the size grows from ``pole_size`` to ``mesh_size``.
+    pole_radius: distance from a pole over which the size grows from ``pole_size`` to ``mesh_size`` (above 2, the
+    pole-to-pole distance, the grading only gets gentler; at most 4).
     interface_size: edge length on the nucleus surface (units of R); ``None`` (or >= ``mesh_size``) = no interface
     refinement.
     interface_width: distance from the nucleus surface over which the size grows from ``interface_size`` to
@@ -270,7 +271,7 @@ class MeshParameters(ParameterModel):
                 "pole_size",
                 f"must be in [0.005, mesh_size={self.mesh_size}], got {self.pole_size}",
             )
-        require(0 < self.pole_radius <= 2, "pole_radius", f"must be in (0, 2], got {self.pole_radius}")
+        require(0 < self.pole_radius <= 4, "pole_radius", f"must be in (0, 4], got {self.pole_radius}")
         if self.interface_size is not None:  # at or above mesh_size: no refinement
             require(0.005 <= self.interface_size, "interface_size", f"must be >= 0.005 (units of R), got {self.interface_size}")
         require(0 < self.interface_width <= 2, "interface_width", f"must be in (0, 2], got {self.interface_width}")
