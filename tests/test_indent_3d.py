@@ -69,9 +69,11 @@ def test_the_3d_indentation_refines_the_default_pole_size_only():
     given = cell_parameters(nucleus="none", pole_size=0.1)
     assert indentation_cell_3d(given).mesh.pole_size == 0.1
     assert indentation_cell_3d(default).mesh.mesh_size == default.mesh.mesh_size
-    # the p2 poles' refinement reaches further (POLE_RADIUS_3D) unless a pole radius is given; p1 keeps its own
+    # the p2 poles' refinement reaches further (POLE_RADIUS_3D) unless a pole radius or size is given; p1 keeps
+    # its own
     assert indentation_cell_3d(default).mesh.pole_radius == POLE_RADIUS_3D
     assert indentation_cell_3d(cell_parameters(nucleus="none", pole_radius=1.0)).mesh.pole_radius == 1.0
+    assert indentation_cell_3d(given).mesh.pole_radius == given.mesh.pole_radius
     linear = cell_parameters(nucleus="none", element="p1")
     assert indentation_cell_3d(linear).mesh.pole_radius == linear.mesh.pole_radius
 

@@ -103,7 +103,13 @@ from elastocell.inverse.indentation_surface import (
 )
 from elastocell.inverse.mastercurve import MasterCurve, load_master_curve
 from elastocell.inverse.mastercurve_shear import load_shear_master_curve
-from elastocell.inverse.nucleated_curve import NucleatedCurve, nucleated_curve, volume_fraction
+from elastocell.inverse.nucleated_curve import (
+    COLLAPSE_VOLUME_RATIO,
+    NucleatedCurve,
+    check_nucleus_fits,
+    nucleated_curve,
+    volume_fraction,
+)
 from elastocell.parameters.units import ParameterError, parse_quantity
 from elastocell.scenarios.axisymmetric import sneddon_cone_force
 from elastocell.scenarios.compression import hertz_force
@@ -265,6 +271,10 @@ class FitSettings:
             raise ParameterError("baseline_fraction", f"must be in [0.02, 0.8], got {self.baseline_fraction}")
         if not self.threshold > 0:
             raise ParameterError("threshold", f"must be > 0, got {self.threshold}")
+        for name in ("spring_constant", "sensitivity", "indenter_radius", "cap_height", "layer_thickness"):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise ParameterError(name, f"must be > 0, got {value}")
         if (self.nucleus_size_ratio is None) != (self.stiffness_ratio is None):
             raise ParameterError("nucleus_size_ratio", "give both --nucleus-size-ratio and --stiffness-ratio, or neither")
         if self.nucleus_size_ratio is not None:
@@ -272,14 +282,10 @@ class FitSettings:
                 raise ParameterError("nucleus_size_ratio", "a layer (a gel or tissue section) is homogeneous: the "
                                                            "nucleus options apply to --geometry plates or "
                                                            "sphere-indenter with --cell-shape sphere or cap")
-            if not 0 < self.nucleus_size_ratio < 1:
-                raise ParameterError("nucleus_size_ratio", f"must be in (0, 1), got {self.nucleus_size_ratio}")
+            check_nucleus_fits(self.nucleus_size_ratio, "cap" if self.cap_ratio is not None else "sphere",
+                               self.cap_ratio)
             if not (math.isfinite(self.stiffness_ratio) and self.stiffness_ratio > 0):
                 raise ParameterError("stiffness_ratio", f"must be > 0, got {self.stiffness_ratio}")
-        for name in ("spring_constant", "sensitivity", "indenter_radius", "cap_height", "layer_thickness"):
-            value = getattr(self, name)
-            if value is not None and not (math.isfinite(value) and value > 0):
-                raise ParameterError(name, f"must be > 0, got {value}")
 
     @property
     def length_unit(self) -> float:
@@ -1050,13 +1056,14 @@ def fit_curve(name: str, displacement, force, settings: FitSettings,
         if nucleated is not None:
             f, limit = _nucleated_function(nucleated, settings)
             try:
-                fits["nucleated"] = fit_model(displacement, corrected, settings.length_unit, f, limit, contact0,
-                                              fit_contact, baseline.sigma, contact_bounds=region if fit_contact
-                                              else None)
-            except CurveError as error:
-                raise CurveError(f"{name}: {error}") from None
-            row.update(nucleated_columns(fits["nucleated"], check_fit(fits["nucleated"], region), row, settings,
-                                         nucleated))
+                fit = fit_model(displacement, corrected, settings.length_unit, f, limit, contact0, fit_contact,
+                                baseline.sigma, contact_bounds=region if fit_contact else None)
+            except CurveError as error:  # the homogeneous fit stands; the nucleated one says why it has no result
+                row.update(nucleated_columns(None, [str(error)], row, settings, nucleated))
+            else:
+                fits["nucleated"] = fit
+                row.update(nucleated_columns(fit, check_fit(fit, region) + nucleated_reasons(fit, nucleated, settings),
+                                             row, settings, nucleated))
     row["fit_time_s"] = time.perf_counter() - start
     row["_plot"] = {"displacement": displacement, "force": corrected, "fits": fits, "radius": settings.length_unit,
                     "region": region}
@@ -1148,7 +1155,29 @@ def _nucleated_function(nucleated: NucleatedCurve, settings: FitSettings):
     return (lambda u: nucleated(2 * np.asarray(u, float))), min(depth_max, nucleated.load_reached) / 2
 
 
-def nucleated_columns(fit: dict, reasons: list[str], row: dict, settings: FitSettings,
+def nucleated_reasons(fit: dict, nucleated: NucleatedCurve, settings: FitSettings) -> list[str]:
+    """What the nucleated cell's curve itself makes of its fit: a window cut short where the curve stopped before
+    the requested load, and a window past the load where the cell's volume collapses (J <
+    :data:`COLLAPSE_VOLUME_RATIO`: the compressible law's regime, README)."""
+    reasons = []
+    plates = settings.geometry == "parallel-plates"
+    wanted = settings.delta_max if plates else (nucleated.load_requested if settings.depth_max is None
+                                                else min(settings.depth_max, nucleated.load_requested))
+    reached = fit["delta_max"] * (1 if plates else 2)  # the deepest point fitted, in the curve's load
+    if nucleated.load_reached < wanted - 1e-9:
+        reasons.append(f"the nucleated cell's curve stops at {'delta' if plates else 'depth/R'} "
+                       f"{nucleated.load_reached:.3g} ({nucleated.metadata.get('stopped', '')}): fitted up to there "
+                       "at most")
+    collapse = nucleated.collapse_load()
+    if reached > collapse:
+        reasons.append(f"the nucleated cell loses more than half its volume in places (J < "
+                       f"{COLLAPSE_VOLUME_RATIO:g}) past {'delta' if plates else 'depth/R'} {collapse:.3g}: the "
+                       f"compressible law's regime, not a water-filled cytoplasm (fit a smaller --"
+                       f"{'delta' if plates else 'depth'}-max)")
+    return reasons
+
+
+def nucleated_columns(fit: dict | None, reasons: list[str], row: dict, settings: FitSettings,
                       nucleated: NucleatedCurve) -> dict:
     """The fits.csv columns of E_c fitted to the nucleated cell's own curve: ``youngs_modulus_cytoplasm_nucleated``
     (with ``_ci_low``, ``_ci_high``; NaN where :func:`check_fit` found no result), E_n = gamma E_c
@@ -1158,15 +1187,17 @@ def nucleated_columns(fit: dict, reasons: list[str], row: dict, settings: FitSet
     average's ``effective_stiffness_ratio``; ``nucleated_load_reached``: how far the nucleated curve was computed
     (delta, or depth/R)."""
     gamma = settings.stiffness_ratio
+    nan = float("nan")
+    fit = fit or {}
     out = {}
     for suffix in ("", "_ci_low", "_ci_high"):
-        value = fit[f"youngs_modulus{suffix}"]
+        value = fit.get(f"youngs_modulus{suffix}", nan)
         out[f"youngs_modulus_cytoplasm_nucleated{suffix}"] = value
         out[f"youngs_modulus_nucleus_nucleated{suffix}"] = gamma * value
-    out["contact_point_nucleated"] = fit["contact_point"]
-    out["reduced_chi_square_nucleated"] = fit["reduced_chi_square"]
+    out["contact_point_nucleated"] = fit.get("contact_point", nan)
+    out["reduced_chi_square_nucleated"] = fit.get("reduced_chi_square", nan)
     out["flag_nucleated"] = "; ".join(reasons)
-    out["effective_stiffness_ratio_fitted"] = row.get("youngs_modulus", float("nan")) / fit["youngs_modulus"]
+    out["effective_stiffness_ratio_fitted"] = row.get("youngs_modulus", nan) / out["youngs_modulus_cytoplasm_nucleated"]
     out["nucleated_load_reached"] = nucleated.load_reached
     return out
 
@@ -1288,7 +1319,8 @@ def _flagged_row(name: str, message: str, curve: Curve | None, settings: FitSett
     return row
 
 
-def _fit_path(path: Path, settings: FitSettings, curve: MasterCurve | None, plot_directory: Path | None) -> list:
+def _fit_path(path: Path, settings: FitSettings, curve: MasterCurve | None, plot_directory: Path | None,
+              nucleated: NucleatedCurve | None = None) -> list:
     """Fit every curve of one file: ``[(name, row, None), ...]`` in file order (a curve that cannot be fitted is a
     row with its reason as the flag; one failing curve does not stop the others); ``[(None, None, message)]``
     when the file cannot be read. Plots go to ``plot_directory/<name>.png``."""
@@ -1304,7 +1336,7 @@ def _fit_path(path: Path, settings: FitSettings, curve: MasterCurve | None, plot
         else:
             name, info = item.name, item.info()
             try:
-                row = fit_curve(name, item.displacement, item.force, settings, curve)
+                row = fit_curve(name, item.displacement, item.force, settings, curve, nucleated)
             except CurveError as error:
                 message = str(error)
                 if message.startswith(f"{name}: "):
@@ -1326,13 +1358,13 @@ def _worker_model(settings: FitSettings):
 def _fit_file_task(item) -> list:
     """One Dask task: the curves of one file (its plots in a private folder ``out/.plots-<index>``, renamed by
     the caller once names are made unique in input order); rows without their plot data (small results)."""
-    index, path, settings, out, plots = item
+    index, path, settings, out, plots, nucleated = item  # the nucleated curve travels with the task (a few kB)
     curve = _worker_model(settings)
     plot_directory = None
     if plots:
         plot_directory = Path(out) / f".plots-{index:06d}"
         plot_directory.mkdir(parents=True, exist_ok=True)
-    results = _fit_path(Path(path), settings, curve, plot_directory)
+    results = _fit_path(Path(path), settings, curve, plot_directory, nucleated)
     for _, row, _ in results:
         if row is not None:
             row.pop("_plot", None)
@@ -1361,11 +1393,11 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
     start = time.perf_counter()
     out = Path(out)
     curve = load_model(settings)  # a surface or a ratio it lacks is refused before anything is written
-    nucleated = load_nucleated_curve(settings)  # computed once (seconds), before any file is read
-    out.mkdir(parents=True, exist_ok=True)
     files = expand_paths(paths)
     if not files:
         raise ParameterError("file", "no input files")
+    nucleated = load_nucleated_curve(settings)  # computed once (seconds), before any file is read
+    out.mkdir(parents=True, exist_ok=True)
     if dask is False and (scheduler is not None or workers is not None):
         raise ParameterError("workers", "dask=False (in process) cannot take a scheduler or workers")
     use_dask = scheduler is not None or workers is not None or (
@@ -1380,7 +1412,7 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
     per_file: list[list | None] = [None] * len(files)
     if use_dask:
 
-        items = [(i, str(path), settings, str(out), plots) for i, path in enumerate(files)]
+        items = [(i, str(path), settings, str(out), plots, nucleated) for i, path in enumerate(files)]
         for index, result in run_tasks(_fit_file_task, items, scheduler=scheduler, workers=workers,
                                        progress=progress and len(files) > 3, description="fitting"):
             if isinstance(result, TaskFailure):
@@ -1396,7 +1428,7 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
             task = bar.add_task("fitting", total=len(files))
         try:
             for index, path in enumerate(files):
-                per_file[index] = _fit_path(path, settings, curve, None)  # plotted below, named uniquely
+                per_file[index] = _fit_path(path, settings, curve, None, nucleated)  # plotted below, named uniquely
                 if bar is not None:
                     bar.advance(task)
         finally:

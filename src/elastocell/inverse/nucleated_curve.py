@@ -16,8 +16,15 @@ computed, once per cell, geometry and Poisson ratio, by the axisymmetric solver
 - ``sphere-indenter``, ``cell_shape="cap"``: a spherical cap of base radius R and apex height H bonded to the
   dish, its nucleus (radius lambda R) centred on the axis at H/2.
 
-The meridian mesh is the solver's default; against its own refinement (docs/validation/axisymmetric.md) the
-compression curve of such a cell is within 0.07 % (gamma <= 20) at delta <= 0.5 and 0.46 % at delta 0.7.
+The meridian mesh is the solver's default; against its own refinement (every size x 0.5,
+docs/validation/axisymmetric.md: plates, lambda 0.5) the compression curve is within 0.10 % at delta <= 0.5 and
+0.46 % at delta 0.7 for gamma <= 20. The first load step is computed again in :data:`FIRST_STEP_ROWS` steps: a
+large or shallow nucleus raises the force over Hertz's within it (plates, lambda 0.7, gamma 5: 1.44 times Hertz at
+delta 0.019), and a fit over a small window needs those rows (without them, fits to delta 0.025 of that cell read
+E_c 2.5-4 % low). Below about a twentieth of the range the default mesh's contact steps (the force is within
++-1 % of a finer mesh's there) still move such a fit by up to 2 % (docs/validation/afm.md). Each row keeps the smallest volume ratio J of the
+cell (:attr:`NucleatedCurve.min_volume_ratio`): the cytoplasm crushed between nucleus and plate loses volume under
+the compressible law, and a fit that reaches J < :data:`COLLAPSE_VOLUME_RATIO` is flagged.
 A layer or a cone (a homogeneous gel or tissue) has no nucleus, and a nucleus off the axis is not axisymmetric:
 neither has a curve here.
 
@@ -34,7 +41,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from elastocell.body.axisymmetric import MeridianMeshParameters
+from elastocell.body.axisymmetric import (
+    NUCLEUS_MARGIN,
+    MeridianGeometry,
+    MeridianMeshParameters,
+    meridian_nucleus,
+)
 from elastocell.files import (
     cache_directory,
     curve_csv_text,
@@ -46,12 +58,16 @@ from elastocell.files import (
 from elastocell.inverse.indentation_surface import curve_function, depth_limit
 from elastocell.parameters.cell import cell_parameters
 from elastocell.parameters.units import ParameterError
-from elastocell.scenarios.axisymmetric import AxisymmetricError, compress_axisymmetric
+from elastocell.scenarios.axisymmetric import (
+    AxisymmetricError,
+    AxisymmetricInterrupted,
+    compress_axisymmetric,
+)
 from elastocell.scenarios.compression import hertz_force
 from elastocell.scenarios.indentation import indentation_curve
 from elastocell.version import __version__
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 PLATES_DELTA_MAX = 0.75
 """delta range of the plates' curve (the homogeneous master curve's)."""
 STEPS = {"parallel-plates": 40, "sphere-indenter": 20}
@@ -60,6 +76,10 @@ SHAPES = ("sphere", "cap")
 """The bead geometries with a nucleus: the suspended cell and the adherent cap."""
 MIN_ROWS = 4
 """Fewest converged rows past zero load that a curve stopped early must have to be used."""
+FIRST_STEP_ROWS = 8
+"""Rows the first load step is resolved in (a short curve to the first step's load, merged)."""
+COLLAPSE_VOLUME_RATIO = 0.5
+"""J below which the fit flags the cell's volume collapse (``elastocell compress`` warns at the same J)."""
 
 
 @dataclass
@@ -72,10 +92,13 @@ class NucleatedCurve:
     force: np.ndarray
     load_requested: float
     metadata: dict = field(default_factory=dict)
+    min_volume_ratio: np.ndarray | None = None
 
     def __post_init__(self):
         self.load = np.asarray(self.load, float)
         self.force = np.asarray(self.force, float)
+        if self.min_volume_ratio is not None:
+            self.min_volume_ratio = np.asarray(self.min_volume_ratio, float)
         info = self.metadata
         if self.geometry == "parallel-plates":
             nu = info["poisson_ratio"]
@@ -105,8 +128,34 @@ class NucleatedCurve:
     def load_reached(self) -> float:
         return float(self.load[-1])
 
+    def collapse_load(self, volume_ratio: float = COLLAPSE_VOLUME_RATIO) -> float:
+        """The first load (delta or depth/R) at which some element's J is below ``volume_ratio``; inf if none."""
+        if self.min_volume_ratio is None:
+            return float("inf")
+        below = np.flatnonzero(self.min_volume_ratio < volume_ratio)
+        return float(self.load[below[0]]) if below.size else float("inf")
+
     def __call__(self, load) -> np.ndarray:
         return self._function(load)
+
+
+def check_nucleus_fits(size_ratio: float, cell_shape: str = "sphere", cap_ratio: float | None = None) -> None:
+    """Refuse (``nucleus_size_ratio``, one line) a nucleus of radius ``size_ratio`` R that does not lie inside the
+    cell: in a cap of apex height ``cap_ratio`` R, centred on its axis at half its height, at least
+    :data:`elastocell.body.axisymmetric.NUCLEUS_MARGIN` from its surface and base."""
+    if not 0 < size_ratio < 1:
+        raise ParameterError("nucleus_size_ratio", f"must be in (0, 1), got {size_ratio}")
+    if cell_shape != "cap":
+        return
+    cell = cell_parameters(nucleus="sphere", size_ratio=float(size_ratio))
+    geometry = MeridianGeometry(shape="cap", height=float(cap_ratio))
+    try:
+        meridian_nucleus(cell, geometry)
+    except ParameterError:
+        raise ParameterError("nucleus_size_ratio", f"a nucleus of radius {size_ratio:g} R centred at half the cap's "
+                                                   f"height does not fit inside a cap of height {cap_ratio:.3g} R "
+                                                   f"(at least {NUCLEUS_MARGIN:g} R from its surface and base): "
+                                                   "a smaller --nucleus-size-ratio") from None
 
 
 def curve_parameters(geometry: str, size_ratio: float, stiffness_ratio: float, poisson_ratio: float = 0.48,
@@ -126,6 +175,7 @@ def curve_parameters(geometry: str, size_ratio: float, stiffness_ratio: float, p
             raise ParameterError("indenter_radius", "required with a bead")
         if cell_shape == "cap" and not (cap_ratio and cap_ratio > 0):
             raise ParameterError("cap_height", "required with --cell-shape cap")
+        check_nucleus_fits(size_ratio, cell_shape, cap_ratio)
     cell = cell_parameters(nucleus="sphere", size_ratio=float(size_ratio), stiffness_ratio=float(stiffness_ratio),
                            poisson_ratio=float(poisson_ratio), material=material)
     plates = geometry == "parallel-plates"
@@ -133,39 +183,54 @@ def curve_parameters(geometry: str, size_ratio: float, stiffness_ratio: float, p
     return {"geometry": geometry, "cell": cell, "cell_shape": None if plates else cell_shape,
             "indenter_ratio": None if plates else float(indenter_ratio),
             "cap_ratio": float(cap_ratio) if not plates and cell_shape == "cap" else None,
-            "mesh": MeridianMeshParameters(), "load_max": load, "steps": STEPS[geometry]}
+            "mesh": MeridianMeshParameters(), "load_max": load, "steps": STEPS[geometry],
+            "first_step_rows": FIRST_STEP_ROWS}
 
 
 def _cache_path(parameters: dict):
     return cache_directory() / f"nucleated-curve-{parameter_hash(parameters, format_version=FORMAT_VERSION)[:16]}.csv"
 
 
+def _solve(parameters: dict, load_max: float, steps: int):
+    """The curve of ``parameters`` to ``load_max`` in ``steps`` equal steps (an interruption propagates)."""
+    cell, mesh = parameters["cell"], parameters["mesh"]
+    if parameters["geometry"] == "parallel-plates":
+        return compress_axisymmetric(cell, load_max, steps=steps, mesh=mesh)
+    return indentation_curve(cell, parameters["cell_shape"], parameters["indenter_ratio"],
+                             cap_height=parameters["cap_ratio"], depth_max=load_max, steps=steps, mesh=mesh)
+
+
 def _compute(parameters: dict):
-    """(load, force, info) of the curve, computed; a curve that stops early keeps its converged rows when it has
-    :data:`MIN_ROWS` of them."""
-    cell, load_max, steps = parameters["cell"], parameters["load_max"], parameters["steps"]
+    """(load, force, min_volume_ratio, info) of the curve, computed: the first step in :data:`FIRST_STEP_ROWS`
+    rows, then the whole range; a curve that stops early keeps its converged rows when it has :data:`MIN_ROWS` of
+    them. Ctrl-C (:class:`AxisymmetricInterrupted`) is not a stop: it propagates, and nothing is cached."""
+    load_max, steps = parameters["load_max"], parameters["steps"]
     start = time.perf_counter()
+    stop = ""
     try:
-        if parameters["geometry"] == "parallel-plates":
-            result = compress_axisymmetric(cell, load_max, steps=steps, mesh=parameters["mesh"])
-        else:
-            result = indentation_curve(cell, parameters["cell_shape"], parameters["indenter_ratio"],
-                                       cap_height=parameters["cap_ratio"], depth_max=load_max, steps=steps,
-                                       mesh=parameters["mesh"])
-        stop = ""
-    except AxisymmetricError as error:
-        result = error.partial
-        if result is None or len(result.load) <= MIN_ROWS:
-            raise ParameterError("stiffness_ratio", f"the nucleated cell's curve could not be computed ({error}); "
-                                                    "fit without the nucleus options") from None
-        stop = str(error)
-    except ParameterError as error:  # a nucleus that does not fit inside the cap names the fit's option
-        if error.parameter == "size_ratio":
-            raise ParameterError("nucleus_size_ratio", str(error).split(": ", 1)[-1]) from None
+        first = _solve(parameters, load_max / steps, parameters["first_step_rows"])
+        try:
+            result = _solve(parameters, load_max, steps)
+        except AxisymmetricInterrupted:
+            raise
+        except AxisymmetricError as error:
+            result = error.partial
+            if result is None or len(result.load) <= MIN_ROWS:
+                raise ParameterError("stiffness_ratio", f"the nucleated cell's curve could not be computed ({error}); "
+                                                        "fit without the nucleus options") from None
+            stop = str(error)
+    except AxisymmetricInterrupted:
         raise
+    except AxisymmetricError as error:  # the first step itself
+        raise ParameterError("stiffness_ratio", f"the nucleated cell's curve could not be computed ({error}); fit "
+                                                "without the nucleus options") from None
+    keep = first.load[:-1]  # the first step's end is the curve's first row
+    load = np.r_[keep, result.load[1:]]
+    force = np.r_[first.force[:-1], result.force[1:]]
+    volume = np.r_[first.min_volume_ratio[:-1], result.min_volume_ratio[1:]]
     info = {"n_nodes": int(result.n_nodes), "wall_time_s": round(time.perf_counter() - start, 2),
-            "min_volume_ratio": float(np.min(result.min_volume_ratio)), "stopped": stop}
-    return result.load, result.force, info
+            "min_volume_ratio": float(np.min(volume)), "stopped": stop}
+    return load, force, volume, info
 
 
 def nucleated_curve(geometry: str, size_ratio: float, stiffness_ratio: float, poisson_ratio: float = 0.48,
@@ -184,9 +249,9 @@ def nucleated_curve(geometry: str, size_ratio: float, stiffness_ratio: float, po
             payload.decode()))
     if entry is not None:
         info, table = entry
-        load, force = table["load"], table["force_per_Ec_R2"]
+        load, force, volume = table["load"], table["force_per_Ec_R2"], table["min_volume_ratio"]
     else:
-        load, force, details = _compute(parameters)
+        load, force, volume, details = _compute(parameters)
         info = {"quantity": "F/(E_c R^2) of a cell with a concentric spherical nucleus (radius lambda R, modulus "
                             "gamma E_c), axisymmetric solver, default meridian mesh; load: delta (plates) or the "
                             "bead's depth/R",
@@ -195,9 +260,10 @@ def nucleated_curve(geometry: str, size_ratio: float, stiffness_ratio: float, po
                 "poisson_ratio": float(poisson_ratio), "material": material, **details,
                 "elastocell_version": __version__}
         if use_cache:
-            write_cache_entry(path, curve_csv_text(info, {"load": load, "force_per_Ec_R2": force}).encode(), kind,
+            write_cache_entry(path, curve_csv_text(info, {"load": load, "force_per_Ec_R2": force,
+                                                           "min_volume_ratio": volume}).encode(), kind,
                               parameters, FORMAT_VERSION)
-    return NucleatedCurve(geometry, load, force, parameters["load_max"], dict(info))
+    return NucleatedCurve(geometry, load, force, parameters["load_max"], dict(info), volume)
 
 
 def volume_fraction(size_ratio: float, cell_shape: str = "sphere", cap_ratio: float | None = None) -> float:

@@ -183,8 +183,9 @@ class MeshParameters(ParameterModel):
     element: ``p1`` (4-node, the paper's model) or ``p2`` (10-node, curved boundary).
     mesh_size: characteristic element edge length far from the poles (units of R).
     pole_size: edge length at the two poles z = +-R where the plates touch (units of R); ``None`` = uniform.
-    pole_radius: distance from a pole over which the size grows from ``pole_size`` to ``mesh_size`` (above 2, the
-    pole-to-pole distance, the grading only gets gentler; at most 4).
+    pole_radius: distance from a pole over which the size grows from ``pole_size`` to ``mesh_size`` (above
+    sqrt(2), the equator's distance from the nearer pole, no point reaches ``mesh_size``: the whole cell is graded;
+    at most 4).
     interface_size: edge length on the nucleus surface (units of R); ``None`` (or >= ``mesh_size``) = no interface
     refinement.
     interface_width: distance from the nucleus surface over which the size grows from ``interface_size`` to

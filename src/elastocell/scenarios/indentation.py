@@ -211,23 +211,28 @@ at 0.3 R on compression's mesh (3,350 nodes), 1.3 % and 0.7 % with the poles x 0
 
 POLE_RADIUS_3D = 2.2
 """The 3D indentation's pole radius (units of R: the distance over which the size grows from the pole size to the
-mesh size) for the p2 element, where it is compression's default (1.4): the finer poles reach through the shell
-between the bead and a nucleus and to the dish. Measured (R_b = 0.5 R, against the axisymmetric solver on its
-meridian mesh x 0.7, 4 steps to depth 0.2 R; validation/indentation_3d.py gives the page): at depth 0.1 R the
-force is too high by 1.20/1.62/1.80 % for a nucleus of gamma 2/5/10 (lambda 0.5) with compression's pole radius,
-0.59/0.94/1.04 % with 2.0 and 0.85 % (gamma 10) with 2.2, at about 2.2 times the nodes (16,258 against 7,631)."""
+mesh size) for the p2 element, where the pole size and radius are compression's defaults (radius 1.4): the graded
+size then reaches 0.24 R at the equator instead of 0.35 R, finer through the shell between the bead and a nucleus
+and towards the dish. Measured (docs/validation/indentation.md, section indentation_3d.py; R_b = 0.5 R, against the
+axisymmetric solver on its meridian mesh x 0.7): at depth 0.1 R the force is too high by 0.92/1.20/1.62 % for the
+homogeneous cell and a nucleus of gamma 2/5 (lambda 0.5) with compression's pole radius, 0.33/0.50/0.79 % with
+2.2 (gamma 10: 0.85 %), on 2.1 times the nodes, at 3.4-4.6 times the wall time per curve. What helps is the
+finer mesh over the whole cell more than the radius as such: compression's mesh x 0.8 with the same poles (1.6
+times the nodes) reads 0.56/0.94 % (homogeneous, gamma 5); the radius keeps a margin at gamma 10."""
 
 
 def indentation_cell_3d(cell: CellParameters) -> CellParameters:
     """``cell`` as the 3D indentation meshes it: compression's cell (:func:`compression_parameters_for`) with the
-    pole size, where it is compression's default, times :data:`POLE_SIZE_FACTOR_3D`, and for p2 the pole radius,
-    where it is compression's default, :data:`POLE_RADIUS_3D`."""
+    pole size, where it is compression's default, times :data:`POLE_SIZE_FACTOR_3D`, and then for p2 the pole
+    radius, where it is compression's default too, :data:`POLE_RADIUS_3D` (a mesh given by its pole size is used as
+    given)."""
     mesh = cell.mesh
     default = cell_parameters(element=mesh.element).mesh
     if mesh.pole_size is not None and mesh.pole_size == default.pole_size:
-        mesh = mesh.model_copy(update={"pole_size": mesh.pole_size * POLE_SIZE_FACTOR_3D})
-    if mesh.element == "p2" and mesh.pole_size is not None and mesh.pole_radius == default.pole_radius:
-        mesh = mesh.model_copy(update={"pole_radius": POLE_RADIUS_3D})
+        update = {"pole_size": mesh.pole_size * POLE_SIZE_FACTOR_3D}
+        if mesh.element == "p2" and mesh.pole_radius == default.pole_radius:
+            update["pole_radius"] = POLE_RADIUS_3D
+        mesh = mesh.model_copy(update=update)
     return compression_parameters_for(cell.model_copy(update={"mesh": mesh}))
 
 
