@@ -37,9 +37,10 @@ app.add_typer(fit_app, name="fit")
 runner = CliRunner()
 R, E_C, CONTACT = 8e-6, 1000.0, 3e-6  # m, Pa, m
 # measured (validation/nucleated_fit.py, seeds 0-2, 0.5 % noise, contact fitted; docs/validation/afm.md): E_c from
-# the nucleated curve within 1.03 % in all 42 bead fits (R_b/R 0.25 and 0.707 on a suspended cell, a cap H/R 0.75;
-# gamma 2-10) and within 1.0 % in the plate fits up to delta 0.5 (gamma 2-20, lambda 0.5 and 0.7); up to 3.5 % at
-# delta 0.7, where the onset is buried in noise scaled to the largest force.
+# the nucleated curve within 1.30 % in all 45 bead fits (R_b/R 0.25 and 0.707 on a suspended cell, a cap H/R 0.75;
+# gamma 2-10; 1.30 % in the cap's smallest window, depth 0.02 R, else within 1.0 %) and within 1.02 % in the plate
+# fits from delta 0.1 to 0.5 (gamma 2-20, lambda 0.5 and 0.7); up to 1.52 % at delta 0.025 and 3.5 % at delta 0.7,
+# where the onset is buried in noise scaled to the largest force. The tests below fit windows of the 1.0 % kind.
 ROUND_TRIP_TOLERANCE = 0.015
 
 

@@ -216,7 +216,7 @@ size then reaches 0.24 R at the equator instead of 0.35 R, finer through the she
 and towards the dish. Measured (docs/validation/indentation.md, section indentation_3d.py; R_b = 0.5 R, against the
 axisymmetric solver on its meridian mesh x 0.7): at depth 0.1 R the force is too high by 0.92/1.20/1.62 % for the
 homogeneous cell and a nucleus of gamma 2/5 (lambda 0.5) with compression's pole radius, 0.33/0.50/0.79 % with
-2.2 (gamma 10: 0.85 %), on 2.1 times the nodes, at 3.4-4.6 times the wall time per curve. What helps is the
+2.2 (gamma 10: 0.85 %), on 2.1-2.3 times the nodes, at 3.4-4.6 times the wall time per curve. What helps is the
 finer mesh over the whole cell more than the radius as such: compression's mesh x 0.8 with the same poles (1.6
 times the nodes) reads 0.56/0.94 % (homogeneous, gamma 5); the radius keeps a margin at gamma 10."""
 
