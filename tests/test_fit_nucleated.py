@@ -151,15 +151,15 @@ def test_the_curve_is_computed_once_and_then_read_from_the_cache(tmp_path, monke
         nucleated_curve("sphere-indenter", 0.5, 3.0, indenter_ratio=1.0)
 
 
-def _partial_solver(rows: int, error: type[AxisymmetricError]):
-    """A stand-in for the solver: a made-up curve (Hertz-like, the plates' delta) whose full range stops with
-    ``error`` after ``rows`` rows."""
+def _partial_solver(rows: int, error: type[AxisymmetricError], which: str = "full"):
+    """A stand-in for the solver: a made-up curve (Hertz-like, the plates' delta) whose full range (``which``
+    "full") or first step in rows ("first") stops with ``error`` after ``rows`` rows."""
     from types import SimpleNamespace
 
     def solve(parameters, load_max, steps):
         load = np.linspace(0.0, load_max, steps + 1)
         result = SimpleNamespace(load=load, force=4 * load**1.5, min_volume_ratio=1 - load, n_nodes=10)
-        if steps == parameters["steps"]:  # the whole range: stop
+        if (steps == parameters["steps"]) == (which == "full"):  # this solve stops
             partial = SimpleNamespace(**{**vars(result), "load": load[:rows], "force": result.force[:rows],
                                          "min_volume_ratio": result.min_volume_ratio[:rows]})
             raise error("stopped", partial)
@@ -183,12 +183,46 @@ def test_a_curve_that_stops_early_is_fitted_where_it_reached_and_says_so(tmp_pat
     assert "volume" not in row["flag_nucleated"]
 
 
-def test_an_interrupted_curve_propagates_and_is_not_cached(tmp_path, monkeypatch):
+@pytest.mark.parametrize("which", ["first", "full"])
+def test_an_interrupted_curve_propagates_and_is_not_cached(tmp_path, monkeypatch, which):
     monkeypatch.setenv("ELASTOCELL_CACHE", str(tmp_path))
-    monkeypatch.setattr(module, "_solve", _partial_solver(11, AxisymmetricInterrupted))
+    monkeypatch.setattr(module, "_solve", _partial_solver(3, AxisymmetricInterrupted, which))
     with pytest.raises(AxisymmetricInterrupted):
         nucleated_curve("parallel-plates", 0.5, 8.0)
     assert not list(tmp_path.glob("nucleated-curve-*"))
+
+
+def test_ctrl_c_while_the_curve_is_computed_exits_130_and_writes_nothing(tmp_path, monkeypatch):
+    monkeypatch.setenv("ELASTOCELL_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(module, "_solve", _partial_solver(3, AxisymmetricInterrupted))
+    out = tmp_path / "fits"
+    result = runner.invoke(app, ["fit", "afm", str(DATA / "force-save-example.jpk-force"), "--radius", "8um",
+                                 "--nucleus-size-ratio", "0.5", "--stiffness-ratio", "6", "--out", str(out)])
+    assert result.exit_code == 130, result.output
+    assert not out.exists() and not list((tmp_path / "cache").glob("nucleated-curve-*"))
+
+
+def test_a_first_step_that_fails_leaves_the_curve_without_its_rows(tmp_path, monkeypatch):
+    monkeypatch.setenv("ELASTOCELL_CACHE", str(tmp_path))
+    monkeypatch.setattr(module, "_solve", _partial_solver(3, AxisymmetricError, "first"))
+    curve = nucleated_curve("parallel-plates", 0.5, 9.0)
+    np.testing.assert_allclose(curve.load, np.linspace(0.0, 0.75, 41))
+    assert curve.metadata["stopped"].startswith("first step in rows")
+
+
+def test_a_nucleated_fit_with_no_points_keeps_the_row_and_says_why(tmp_path):
+    """A curve that stopped at delta 1e-3: no point of the data lies in its window. The homogeneous fit stands, the
+    nucleated columns are NaN and flag_nucleated names both the missing points and the stop."""
+    load = np.linspace(0.0, 1e-3, 5)
+    curve = NucleatedCurve("parallel-plates", load, 3 * load**1.5, 0.75, {"poisson_ratio": 0.48, "stopped": "x"},
+                           np.ones(5))
+    x = np.linspace(0.0, CONTACT + 0.3 * 2 * R, 300)
+    y = E_C * R**2 * 3 * (np.maximum(x - CONTACT, 0.0) / (2 * R)) ** 1.5  # the made-up law beyond the curve too
+    row = fit_curve("nothing", x, y, FitSettings(radius=R, delta_max=0.3, nucleus_size_ratio=0.5,
+                                                 stiffness_ratio=7.0), nucleated=curve)
+    assert np.isfinite(row["youngs_modulus"])
+    assert np.isnan(row["youngs_modulus_cytoplasm_nucleated"]) and np.isnan(row["effective_stiffness_ratio_fitted"])
+    assert "points in contact" in row["flag_nucleated"] and "curve stops at delta 0.001" in row["flag_nucleated"]
 
 
 def test_a_fit_past_the_volume_collapse_is_flagged():
@@ -205,8 +239,12 @@ def test_a_fit_past_the_volume_collapse_is_flagged():
     assert short["flag_nucleated"] == ""
 
 
-def test_the_dask_task_fits_with_the_curve_it_carries(tmp_path):
-    """One file's task (what a Dask worker runs) uses the nucleated curve sent with it, not a recomputed one."""
+def test_the_dask_task_fits_with_the_curve_it_carries(tmp_path, monkeypatch):
+    """One file's task (what a Dask worker runs, after distributed's serialisation) uses the nucleated curve sent
+    with it, not a recomputed one."""
+    from distributed.protocol.pickle import dumps, loads
+
+    monkeypatch.setenv("ELASTOCELL_CACHE", str(tmp_path / "cache"))
     load = np.linspace(0.0, 0.75, 41)
     curve = NucleatedCurve("parallel-plates", load, 3 * load**1.5, 0.75, {"poisson_ratio": 0.48}, np.ones(41))
     x = np.linspace(0.0, CONTACT + 0.3 * 2 * R, 400)
@@ -214,7 +252,8 @@ def test_the_dask_task_fits_with_the_curve_it_carries(tmp_path):
     path = tmp_path / "curve.csv"
     path.write_text("displacement,force\n" + "\n".join(f"{a:.17g},{b:.17g}" for a, b in zip(x, y, strict=True)))
     settings = FitSettings(radius=R, delta_max=0.3, nucleus_size_ratio=0.5, stiffness_ratio=7.0)
-    [(name, row, message)] = _fit_file_task((0, str(path), settings, str(tmp_path), False, curve))
+    task = loads(dumps((0, str(path), settings, str(tmp_path), False, curve)))
+    [(name, row, message)] = _fit_file_task(task)
     assert message is None and row["youngs_modulus_cytoplasm_nucleated"] == pytest.approx(2 * E_C, rel=1e-3)
 
 

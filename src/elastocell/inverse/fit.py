@@ -111,7 +111,7 @@ from elastocell.inverse.nucleated_curve import (
     volume_fraction,
 )
 from elastocell.parameters.units import ParameterError, parse_quantity
-from elastocell.scenarios.axisymmetric import sneddon_cone_force
+from elastocell.scenarios.axisymmetric import AxisymmetricInterrupted, sneddon_cone_force
 from elastocell.scenarios.compression import hertz_force
 from elastocell.scenarios.indentation import pyramid_equivalent_cone
 from elastocell.simulation.distributed import TaskFailure, check_execution, default_workers, run_tasks
@@ -1055,15 +1055,21 @@ def fit_curve(name: str, displacement, force, settings: FitSettings,
             nucleated = load_nucleated_curve(settings)
         if nucleated is not None:
             f, limit = _nucleated_function(nucleated, settings)
+            scale = settings.length_unit * (2 if settings.geometry == "parallel-plates" else 1)
+
+            def data_load(contact):  # the data's deepest load past ``contact``: delta or depth/R
+                return float((displacement.max() - contact) / scale)
+
             try:
                 fit = fit_model(displacement, corrected, settings.length_unit, f, limit, contact0, fit_contact,
                                 baseline.sigma, contact_bounds=region if fit_contact else None)
             except CurveError as error:  # the homogeneous fit stands; the nucleated one says why it has no result
-                row.update(nucleated_columns(None, [str(error)], row, settings, nucleated))
+                row.update(nucleated_columns(None, [str(error)] + nucleated_reasons(
+                    None, nucleated, settings, data_load(contact0)), row, settings, nucleated))
             else:
                 fits["nucleated"] = fit
-                row.update(nucleated_columns(fit, check_fit(fit, region) + nucleated_reasons(fit, nucleated, settings),
-                                             row, settings, nucleated))
+                row.update(nucleated_columns(fit, check_fit(fit, region) + nucleated_reasons(
+                    fit, nucleated, settings, data_load(fit["contact_point"])), row, settings, nucleated))
     row["fit_time_s"] = time.perf_counter() - start
     row["_plot"] = {"displacement": displacement, "force": corrected, "fits": fits, "radius": settings.length_unit,
                     "region": region}
@@ -1139,9 +1145,12 @@ def load_nucleated_curve(settings: FitSettings) -> NucleatedCurve | None:
     if settings.nucleus_size_ratio is None or settings.model == "hertz":
         return None
     bead = settings.geometry == "sphere-indenter"
-    return nucleated_curve(settings.geometry, settings.nucleus_size_ratio, settings.stiffness_ratio,
-                           settings.poisson_ratio, settings.material, settings.cell_shape if bead else "sphere",
-                           settings.indenter_ratio if bead else None, settings.cap_ratio)
+    try:
+        return nucleated_curve(settings.geometry, settings.nucleus_size_ratio, settings.stiffness_ratio,
+                               settings.poisson_ratio, settings.material, settings.cell_shape if bead else "sphere",
+                               settings.indenter_ratio if bead else None, settings.cap_ratio)
+    except AxisymmetricInterrupted as interruption:  # Ctrl-C or SIGTERM: nothing was cached or written
+        raise KeyboardInterrupt(str(interruption)) from None
 
 
 def _nucleated_function(nucleated: NucleatedCurve, settings: FitSettings):
@@ -1155,19 +1164,23 @@ def _nucleated_function(nucleated: NucleatedCurve, settings: FitSettings):
     return (lambda u: nucleated(2 * np.asarray(u, float))), min(depth_max, nucleated.load_reached) / 2
 
 
-def nucleated_reasons(fit: dict, nucleated: NucleatedCurve, settings: FitSettings) -> list[str]:
-    """What the nucleated cell's curve itself makes of its fit: a window cut short where the curve stopped before
-    the requested load, and a window past the load where the cell's volume collapses (J <
+def nucleated_reasons(fit: dict | None, nucleated: NucleatedCurve, settings: FitSettings,
+                      data_load: float) -> list[str]:
+    """What the nucleated cell's curve itself makes of its fit (``fit`` None: there was none): a window cut short
+    where the curve stopped before the requested load while the data (``data_load``, their deepest load past the
+    contact point, delta or depth/R) go further, and a window past the load where the cell's volume collapses (J <
     :data:`COLLAPSE_VOLUME_RATIO`: the compressible law's regime, README)."""
     reasons = []
     plates = settings.geometry == "parallel-plates"
     wanted = settings.delta_max if plates else (nucleated.load_requested if settings.depth_max is None
                                                 else min(settings.depth_max, nucleated.load_requested))
-    reached = fit["delta_max"] * (1 if plates else 2)  # the deepest point fitted, in the curve's load
-    if nucleated.load_reached < wanted - 1e-9:
+    if nucleated.load_reached < min(wanted, data_load) - 1e-9:
         reasons.append(f"the nucleated cell's curve stops at {'delta' if plates else 'depth/R'} "
                        f"{nucleated.load_reached:.3g} ({nucleated.metadata.get('stopped', '')}): fitted up to there "
                        "at most")
+    if fit is None:
+        return reasons
+    reached = fit["delta_max"] * (1 if plates else 2)  # the deepest point fitted, in the curve's load
     collapse = nucleated.collapse_load()
     if reached > collapse:
         reasons.append(f"the nucleated cell loses more than half its volume in places (J < "

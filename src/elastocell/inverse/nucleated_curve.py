@@ -133,7 +133,13 @@ class NucleatedCurve:
         if self.min_volume_ratio is None:
             return float("inf")
         below = np.flatnonzero(self.min_volume_ratio < volume_ratio)
-        return float(self.load[below[0]]) if below.size else float("inf")
+        if not below.size:
+            return float("inf")
+        if below[0] == 0:
+            return 0.0
+        i = below[0]  # J crosses volume_ratio between rows i - 1 and i: linearly
+        j0, j1 = self.min_volume_ratio[i - 1], self.min_volume_ratio[i]
+        return float(self.load[i - 1] + (self.load[i] - self.load[i - 1]) * (j0 - volume_ratio) / (j0 - j1))
 
     def __call__(self, load) -> np.ndarray:
         return self._function(load)
@@ -148,7 +154,8 @@ def check_nucleus_fits(size_ratio: float, cell_shape: str = "sphere", cap_ratio:
     if cell_shape != "cap":
         return
     cell = cell_parameters(nucleus="sphere", size_ratio=float(size_ratio))
-    geometry = MeridianGeometry(shape="cap", height=float(cap_ratio))
+    # unvalidated: the cap's height range is the surface's and the solver's to refuse, under --cap-height
+    geometry = MeridianGeometry.model_construct(shape="cap", height=float(cap_ratio))
     try:
         meridian_nucleus(cell, geometry)
     except ParameterError:
@@ -202,32 +209,34 @@ def _solve(parameters: dict, load_max: float, steps: int):
 
 def _compute(parameters: dict):
     """(load, force, min_volume_ratio, info) of the curve, computed: the first step in :data:`FIRST_STEP_ROWS`
-    rows, then the whole range; a curve that stops early keeps its converged rows when it has :data:`MIN_ROWS` of
-    them. Ctrl-C (:class:`AxisymmetricInterrupted`) is not a stop: it propagates, and nothing is cached."""
+    rows (if that fails, the curve goes without them, and ``info["stopped"]`` says so), then the whole range; a
+    curve that stops early keeps its converged rows when it has :data:`MIN_ROWS` of them. Ctrl-C
+    (:class:`AxisymmetricInterrupted`) is not a stop: it propagates, and nothing is cached."""
     load_max, steps = parameters["load_max"], parameters["steps"]
     start = time.perf_counter()
     stop = ""
     try:
         first = _solve(parameters, load_max / steps, parameters["first_step_rows"])
-        try:
-            result = _solve(parameters, load_max, steps)
-        except AxisymmetricInterrupted:
-            raise
-        except AxisymmetricError as error:
-            result = error.partial
-            if result is None or len(result.load) <= MIN_ROWS:
-                raise ParameterError("stiffness_ratio", f"the nucleated cell's curve could not be computed ({error}); "
-                                                        "fit without the nucleus options") from None
-            stop = str(error)
     except AxisymmetricInterrupted:
         raise
-    except AxisymmetricError as error:  # the first step itself
-        raise ParameterError("stiffness_ratio", f"the nucleated cell's curve could not be computed ({error}); fit "
-                                                "without the nucleus options") from None
-    keep = first.load[:-1]  # the first step's end is the curve's first row
-    load = np.r_[keep, result.load[1:]]
-    force = np.r_[first.force[:-1], result.force[1:]]
-    volume = np.r_[first.min_volume_ratio[:-1], result.min_volume_ratio[1:]]
+    except AxisymmetricError as error:  # the first step in rows failed: the curve without them
+        first, stop = None, f"first step in rows: {error}"
+    try:
+        result = _solve(parameters, load_max, steps)
+    except AxisymmetricInterrupted:
+        raise
+    except AxisymmetricError as error:
+        result = error.partial
+        if result is None or len(result.load) <= MIN_ROWS:
+            raise ParameterError("stiffness_ratio", f"the nucleated cell's curve could not be computed ({error}); "
+                                                    "fit without the nucleus options") from None
+        stop = "; ".join(filter(None, (stop, str(error))))
+    if first is None:
+        load, force, volume = result.load, result.force, result.min_volume_ratio
+    else:  # the first step's end is the curve's first row
+        load = np.r_[first.load[:-1], result.load[1:]]
+        force = np.r_[first.force[:-1], result.force[1:]]
+        volume = np.r_[first.min_volume_ratio[:-1], result.min_volume_ratio[1:]]
     info = {"n_nodes": int(result.n_nodes), "wall_time_s": round(time.perf_counter() - start, 2),
             "min_volume_ratio": float(np.min(volume)), "stopped": stop}
     return load, force, volume, info
