@@ -1153,15 +1153,22 @@ def load_nucleated_curve(settings: FitSettings) -> NucleatedCurve | None:
         raise KeyboardInterrupt(str(interruption)) from None
 
 
-def _nucleated_function(nucleated: NucleatedCurve, settings: FitSettings):
-    """(f, limit) of the nucleated cell's curve in :func:`_model_function`'s variable and window: the plates up
-    to ``delta_max``, a bead up to ``depth_max`` (default the master surface's range); both within the rows the
-    curve reached."""
+def _nucleated_window(nucleated: NucleatedCurve, settings: FitSettings) -> float:
+    """The load the nucleated fit asks for, in the curve's unit: the plates' ``delta_max``, a bead's ``depth_max``
+    (default the master surface's range, the curve's own)."""
     if settings.geometry == "parallel-plates":
-        return nucleated, min(settings.delta_max, nucleated.load_reached)
-    depth_max = nucleated.load_requested if settings.depth_max is None else min(settings.depth_max,
-                                                                               nucleated.load_requested)
-    return (lambda u: nucleated(2 * np.asarray(u, float))), min(depth_max, nucleated.load_reached) / 2
+        return settings.delta_max
+    return nucleated.load_requested if settings.depth_max is None else min(settings.depth_max,
+                                                                          nucleated.load_requested)
+
+
+def _nucleated_function(nucleated: NucleatedCurve, settings: FitSettings):
+    """(f, limit) of the nucleated cell's curve in :func:`_model_function`'s variable and window
+    (:func:`_nucleated_window`, within the rows the curve reached)."""
+    limit = min(_nucleated_window(nucleated, settings), nucleated.load_reached)
+    if settings.geometry == "parallel-plates":
+        return nucleated, limit
+    return (lambda u: nucleated(2 * np.asarray(u, float))), limit / 2
 
 
 def nucleated_reasons(fit: dict | None, nucleated: NucleatedCurve, settings: FitSettings,
@@ -1172,9 +1179,7 @@ def nucleated_reasons(fit: dict | None, nucleated: NucleatedCurve, settings: Fit
     :data:`COLLAPSE_VOLUME_RATIO`: the compressible law's regime, README)."""
     reasons = []
     plates = settings.geometry == "parallel-plates"
-    wanted = settings.delta_max if plates else (nucleated.load_requested if settings.depth_max is None
-                                                else min(settings.depth_max, nucleated.load_requested))
-    if nucleated.load_reached < min(wanted, data_load) - 1e-9:
+    if nucleated.load_reached < min(_nucleated_window(nucleated, settings), data_load) - 1e-9:
         reasons.append(f"the nucleated cell's curve stops at {'delta' if plates else 'depth/R'} "
                        f"{nucleated.load_reached:.3g} ({nucleated.metadata.get('stopped', '')}): fitted up to there "
                        "at most")
