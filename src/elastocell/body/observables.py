@@ -191,18 +191,12 @@ OUTLINE_SAMPLES = 256
 """Longitudes of the dense reference grid of :func:`smooth_outline` (half as many latitudes, poles included)."""
 
 OUTLINE_MAX_AREA_RATIO = 1.1
-"""Largest ratio of the area of the fitted surface's projection to that of the convex hull of the projected nodes
-:func:`smooth_outline` trusts. The nodes' hull lies inside the true outline and, for the meshes of the flow
-scenarios, within a few percent of it (2.2 % short at rest at R/dx 6, 4.5 % at R/dx 4). A surface that is not
-star-shaped from the centre (a cup, a parachute: a ray crosses it twice) is no radial function, and its fit
-overshoots: measured on cup-shaped test cells (rear pole pushed forward), an area 12x the true one. Above this
-ratio the outline is the nodes' hull.
-
-There is no lower bound. A fit smoother than the surface (a rim at the rear of a bullet shape that degree 6 rounds
-off, nodes up to 0.1 R outside the fit) projects slightly inside the nodes' hull (0.982-0.998 of its area in the
-rtdc-nucleus runs with quadratic elements), and a lower bound of 1 switched such a state to the nodes' hull from
-one record to the next: D jumped from 0.0218 to 0.0330 at constant area (gamma 5, lambda 0.7). The cup-shaped test
-cells on finer meshes (300-1000 nodes) do not leave the band from below either (fit/hull 1.007-1.016)."""
+"""Largest ratio of the area of :func:`smooth_outline` to that of the convex hull of the projected nodes it trusts.
+The nodes' hull lies inside the true outline and, for the meshes of the flow scenarios, within a few percent of
+it (2.2 % short at rest at R/dx 6, 4.5 % at R/dx 4). A surface that is not star-shaped from the centre (a cup, a
+parachute: a ray crosses it twice) is no radial function, and its fit leaves that band: measured on cup-shaped
+test cells (rear pole pushed forward), an area 12x the true one on the coarse mesh and below the nodes' hull on
+a finer one. Outside [1, this] x the nodes' hull, the outline is the nodes' hull."""
 
 
 def harmonic_basis(directions: np.ndarray, degree: int) -> np.ndarray:
@@ -268,7 +262,7 @@ def smooth_outline(x_surface: np.ndarray, centre: np.ndarray | None = None, plan
     projected = (grid_basis(samples, degree) @ coefficients)[:, None] * directions + centre[list(plane)]
     hull = ConvexHull(np.ascontiguousarray(projected))
     nodes = ConvexHull(np.ascontiguousarray(x[:, list(plane)]))
-    if hull.volume > OUTLINE_MAX_AREA_RATIO * nodes.volume:
+    if not nodes.volume <= hull.volume <= OUTLINE_MAX_AREA_RATIO * nodes.volume:
         return float(nodes.volume), float(nodes.area)  # not star-shaped from the centre: the nodes' own hull
     return float(hull.volume), float(hull.area)  # 2D: volume = area, area = perimeter
 
