@@ -336,15 +336,21 @@ def _orient_positive(nodes: np.ndarray, elements: np.ndarray) -> np.ndarray:
     return elements
 
 
-def _outer_surface(elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Boundary triangles (faces used by one element) and all nodes on them (edge nodes included)."""
+def outer_surface_triangles(elements: np.ndarray) -> np.ndarray:
+    """The boundary triangles (faces used by one element) with all their nodes: (n_faces, 3) corners for linear
+    tetrahedra, (n_faces, 6) for quadratic ones in the 6-node triangle's order (corners c0 c1 c2, then the edge
+    nodes of c0-c1, c1-c2, c2-c0)."""
     faces = elements[:, TET_FACES].reshape(-1, 3)
     key = np.sort(faces, axis=1)
     _, index, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
     boundary = index[counts == 1]
-    surface_faces = faces[boundary]
-    nodes = [surface_faces.ravel()]
-    if elements.shape[1] == 10:
-        edge_nodes = elements[:, TET10_FACE_EDGE_NODES].reshape(-1, 3)
-        nodes.append(edge_nodes[boundary].ravel())
-    return surface_faces, np.unique(np.concatenate(nodes))
+    if elements.shape[1] == 4:
+        return faces[boundary]
+    edge_nodes = elements[:, TET10_FACE_EDGE_NODES].reshape(-1, 3)
+    return np.concatenate([faces[boundary], edge_nodes[boundary]], axis=1)
+
+
+def _outer_surface(elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Boundary triangles (corners) and all nodes on them (edge nodes included)."""
+    triangles = outer_surface_triangles(elements)
+    return triangles[:, :3], np.unique(triangles.ravel())

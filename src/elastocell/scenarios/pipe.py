@@ -30,10 +30,11 @@ the local capillary number at the centre, the strains eps_x = l_x/(2R) (extent a
 eps_r = l_r/(2R) (extent along y, the radial direction of the start offset; by symmetry the cell stays in
 the x-y plane; 2R is taken as the undeformed mesh's own extent along the same axis, so that a coarse mesh,
 whose extreme nodes lie inside the sphere's poles, reads exactly 1 at rest), the projected side-view contour
-(what a camera looking along z sees, RT-DC's smooth cell outline: the convex hull of the projection of the smooth
-surface fitted through the surface nodes, :func:`elastocell.body.observables.smooth_outline`; the hull of the
-nodes alone, :func:`side_view`, is a polygon inside the outline that reads D = 0.0037 and an area 2.2 % short for
-the sphere at rest at R/dx 6): its area (units of R^2; pi for the undeformed cell) and its deformation
+(what a camera looking along z sees, RT-DC's convex cell outline: for linear elements, the convex hull of the
+projection of the smooth surface fitted through the surface nodes, :func:`elastocell.body.observables.smooth_outline`
+(the hull of the nodes alone, :func:`side_view`, is a polygon inside the outline that reads D = 0.0037 and an area
+2.2 % short for the sphere at rest at R/dx 6); for quadratic elements, the convex hull of their own curved surface,
+:func:`elastocell.body.observables.element_surface_outline`): its area (units of R^2; pi for the undeformed cell) and its deformation
 1 - circularity, circularity = 2 sqrt(pi area)/perimeter; the volume change and the nucleus position.
 
 Running (:class:`PipeRun`, :func:`pipe`): the simulation runner of the shear-flow scenario
@@ -55,7 +56,8 @@ from typing import Literal
 import numpy as np
 from pydantic import model_serializer, model_validator
 
-from elastocell.body.observables import moments, smooth_outline
+from elastocell.body.mesh import outer_surface_triangles
+from elastocell.body.observables import element_surface_outline, moments, smooth_outline
 from elastocell.coupling import ibm
 from elastocell.coupling.immersed import ImmersedCell, immersed_cell
 from elastocell.coupling.markers import FlowError
@@ -678,7 +680,8 @@ def pipe_setup(cell, params: PipeFlowParameters, units: PipeUnits | None = None)
 # =========================================================================== observables
 def side_view(x: np.ndarray) -> tuple[float, float]:
     """(area, perimeter) of the convex hull of the points projected on the x-y plane (units of x): for mesh nodes,
-    a polygon inscribed in the outline (the observables use :func:`~elastocell.body.observables.smooth_outline`)."""
+    a polygon inscribed in the outline (the observables use :func:`~elastocell.body.observables.smooth_outline`
+    or :func:`~elastocell.body.observables.element_surface_outline`)."""
     from scipy.spatial import ConvexHull
 
     hull = ConvexHull(np.ascontiguousarray(x[:, :2]))
@@ -741,6 +744,13 @@ class PipeRun(FlowRun):
         velocity = self.system.fluid_velocity_at(self.system.positions)
         self._append(self._row(velocity, 0.0))
 
+    def _quadratic_surface(self) -> np.ndarray | None:
+        """The outer surface's 6-node triangles of a quadratic-element cell (None for linear elements)."""
+        if not hasattr(self, "_surface_triangles"):
+            mesh = self.cell.mesh
+            self._surface_triangles = outer_surface_triangles(mesh.elements) if mesh.order == 2 else None
+        return self._surface_triangles
+
     def _measure(self) -> dict:
         return self._row(self.system.marker_velocities, self.system.max_speed)
 
@@ -755,8 +765,11 @@ class PipeRun(FlowRun):
         r_c = math.hypot(cy, cz)
         size = self.system.radius  # the markers' radius R - c dx: the shape of the body of hydrodynamic radius R
         extent = (x.max(axis=0) - x.min(axis=0)) / size / self.reference_extent
-        surface = self.cell.mesh.surface_nodes
-        area, perimeter = smooth_outline(x[surface] / size, m.centre * units.radius / size)
+        triangles = self._quadratic_surface()
+        if triangles is not None:  # quadratic elements: their own curved surface
+            area, perimeter = element_surface_outline(x / size, triangles)
+        else:
+            area, perimeter = smooth_outline(x[self.cell.mesh.surface_nodes] / size, m.centre * units.radius / size)
         circularity = 2.0 * math.sqrt(math.pi * area) / perimeter
         if self._nucleus_mask is not None:
             nc = moments(x / units.radius, elements, self._nucleus_mask).centre * units.radius
