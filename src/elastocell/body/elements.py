@@ -20,7 +20,8 @@ from functools import lru_cache
 import numpy as np
 
 TET10_EDGES = np.array([(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)])
-"""Corner pairs of the six edges of a tetrahedron, in the order of the TET10 edge nodes 4-9 (gmsh)."""
+"""Corner pairs of the six edges of a tetrahedron, in the order of the TET10 edge nodes 4-9 as the meshes store them
+(VTK's order; gmsh's swaps nodes 8 and 9, ``mesh.GMSH_TO_VTK_TET10``)."""
 
 
 @dataclass(frozen=True)

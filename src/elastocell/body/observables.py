@@ -267,10 +267,11 @@ def smooth_outline(x_surface: np.ndarray, centre: np.ndarray | None = None, plan
     return float(hull.volume), float(hull.area)  # 2D: volume = area, area = perimeter
 
 
-ELEMENT_OUTLINE_SUBDIVISIONS = 8
-"""Subdivisions of each edge of a quadratic surface triangle in :func:`element_surface_outline` (45 points per
-triangle): the chord between two samples lies within ~ kappa (h/8)^2/8 of the curved edge, 1e-4 R for an edge of
-0.35 R on the unit sphere."""
+ELEMENT_OUTLINE_SUBDIVISIONS = 16
+"""Subdivisions of each edge of a quadratic surface triangle in :func:`element_surface_outline` (153 points per
+triangle): the chord between two samples lies within ~ kappa (h/16)^2/8 of the curved edge, 6e-5 R for an edge of
+0.35 R on the unit sphere. Measured on the unit sphere's p2 flow mesh: D 1.5e-5 and area -0.021 % (8
+subdivisions: 5.9e-5 and -0.046 %), some 3-8 ms per outline."""
 
 
 @lru_cache(maxsize=2)
@@ -293,12 +294,15 @@ def element_surface_outline(x: np.ndarray, triangles: np.ndarray, plane: tuple[i
     convex contour.
 
     Quadratic elements carry their own curved surface, so no smoothing is needed (:func:`smooth_outline` is for
-    the flat facets of linear elements): the unit sphere's p2 flow mesh gives an area 0.05 % short and
-    1 - circularity 6e-5 (tests/test_outline.py). The degree-6 fit through the same nodes rounds off the rim a
+    the flat facets of linear elements): the unit sphere's p2 flow mesh gives an area 0.02 % short and
+    1 - circularity 1.5e-5 (tests/test_outline.py). The degree-6 fit through the same nodes rounds off the rim a
     quadratic cell forms at its rear in the pipe, and then either reads D low or falls back to the nodes' hull
-    from one record to the next: on the last states of eleven quadratic pipe runs (R/dx 6 and 8), this outline
-    and the nodes' hull agree within 3 % in D, while the fit read one of them 19 % low (0.0372 against 0.0462)
-    and fell back to the hull on the ten others.
+    from one record to the next: on the last states of two sets of eleven quadratic pipe runs (R/dx 6 and 8),
+    this outline and the nodes' hull agree within 3.2 % in D, while the fit read 7-19 % below this outline or
+    fell back to the hull (on 10 and on 5 of the 11). Like the nodes' hull, this outline keeps the node-scale
+    roughness a cell takes in flow: at small deformation (Ca_w 0.1-0.2) it read twice the fit's D (0.0017
+    against 0.0007), a difference the fit's degree (4-8) does not change; which of the two the converged
+    shape supports is not settled.
 
     x: (n_nodes, 3) positions; triangles: (n_faces, 6) node indices
     (:func:`elastocell.body.mesh.outer_surface_triangles`)."""

@@ -14,8 +14,8 @@ physical flow fixes the dimensionless driving:
     confinement:                R_ch / R
 
 and the stationary side-view contour gives the table's columns: ``area_um`` = the projected area times R^2 (um^2;
-the convex hull of the mesh nodes projected on the x-y plane), ``deform`` = the deformation (1 - circularity of
-that hull), both averaged over the last unit of 1/gdot_w (:data:`FINAL_WINDOW`), ``emodulus`` = E (kPa). A run
+the pipe scenario's side-view outline: the smooth surface fitted through the surface nodes, or a quadratic cell's
+own curved surface, projected on the x-y plane), ``deform`` = the deformation (1 - circularity of that outline), both averaged over the last unit of 1/gdot_w (:data:`FINAL_WINDOW`), ``emodulus`` = E (kPa). A run
 stops once the mean deformation over that window differs from the window before by less than the tolerance.
 
 Channel: by default a cylinder of radius R_ch. A square channel of width W stands for the cylinder of radius
@@ -794,7 +794,7 @@ def lut_metadata(settings: dict, identifier: str) -> dict:
         "summary": (
             f"{shape_read(settings)} of {channel}. {fluid}. Driving: the pressure gradient G that carries flow_rate, "
             "wall shear stress tau_w = G A/P (cylinder G R_ch/2, square G W/4), Ca_w = tau_w/mu. "
-            "area_um and deform are the convex hull of the mesh nodes seen from the side (deform = 1 - "
+            "area_um and deform are the convex outline of the cell seen from the side (deform = 1 - "
             "circularity)."),
         "elastocell": settings,
     }

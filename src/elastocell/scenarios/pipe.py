@@ -832,7 +832,7 @@ class PipeRun(FlowRun):
             out[f"{name}_std"] = float(values.std()) if values.size else float("nan")
         out.update(window_verdict(s, keep, WINDOW_OBSERVABLES))
         out["radial_position_initial"] = float(s["radial_position"][0])
-        out["deformation_initial"] = float(s["deformation"][0])  # the outline's own at rest (~2.5e-5)
+        out["deformation_initial"] = float(s["deformation"][0])  # the outline's own at rest (p1 ~2.5e-5, p2 ~1.5e-5)
         out["projected_area_initial"] = float(s["projected_area"][0])
         out["reference_extent"] = [float(v) for v in self.reference_extent]
         out["radial_position"] = float(s["radial_position"][-1])
