@@ -100,6 +100,8 @@ def test_a_cup_shaped_cell_falls_back_to_the_nodes_hull(monkeypatch):
     hull = ConvexHull(x[:, :2])
     area, perimeter = smooth_outline(x)
     assert area == pytest.approx(hull.volume, rel=1e-12) and perimeter == pytest.approx(hull.area, rel=1e-12)
+    assert observables.smooth_outline_checked(x)[2] is False  # reported: the outline is the nodes' hull
+    assert observables.smooth_outline_checked(fibonacci_sphere(146))[2] is True
     monkeypatch.setattr(observables, "OUTLINE_MAX_AREA_RATIO", 1e9)  # the unguarded fit
     assert smooth_outline(x)[0] > 1.5 * hull.volume
     # a mild dent (x -> x + 0.5 x^2) stays a radial function: the smooth outline, not the hull (2.4 % larger)
@@ -181,3 +183,29 @@ def test_every_face_of_a_quadratic_tetrahedron_gets_its_own_edge_nodes():
     for t in triangles:
         for k, (i, j) in enumerate(((0, 1), (1, 2), (2, 0))):
             np.testing.assert_allclose(x[t[3 + k]], 0.5 * (x[t[i]] + x[t[j]]), atol=1e-15)
+
+
+@pytest.mark.slow
+def test_a_run_reports_where_its_outline_is_the_nodes_hull(monkeypatch):
+    """The pipe's series marks each record whose side view fell back to the nodes' hull (outline_fallback 1),
+    and its summary counts them in the averaging window and gives the first time, so that a user sees that D
+    there is the hull's (biased high by the mesh-scale roughness): a fit that is trusted until time 0.15 and not
+    after, forced on a short run."""
+    from elastocell.body import observables
+    from elastocell.scenarios import pipe as pipe_module
+
+    cell = Cell.from_parameters(cell_parameters(nucleus="none", element="p1", mesh_size=0.6, pole_size=0.6))
+    params = PipeFlowParameters(capillary_number_wall=0.1, resolution=4, channel_radius_ratio=2.5, box_length=6)
+    calls = []
+
+    def outline(*args, **kwargs):
+        area, perimeter, _ = observables.smooth_outline_checked(*args, **kwargs)
+        calls.append(None)
+        return area, perimeter, len(calls) <= 2  # records at t = 0 and 0.1 fitted, later ones on the hull
+
+    monkeypatch.setattr(pipe_module, "smooth_outline_checked", outline)
+    run = run_pipe(cell, params, duration=0.4, record_interval=0.1)
+    assert list(run.series["outline_fallback"]) == [0.0, 0.0, 1.0, 1.0, 1.0]
+    summary = run.summary
+    assert summary["outline_fallback_first_time"] == pytest.approx(0.2)
+    assert summary["outline_fallback_records"] == int((np.asarray(run.series["time"]) >= 0.2).sum())

@@ -57,7 +57,7 @@ import numpy as np
 from pydantic import model_serializer, model_validator
 
 from elastocell.body.mesh import outer_surface_triangles
-from elastocell.body.observables import element_surface_outline, moments, smooth_outline
+from elastocell.body.observables import element_surface_outline, moments, smooth_outline_checked
 from elastocell.coupling import ibm
 from elastocell.coupling.immersed import ImmersedCell, immersed_cell
 from elastocell.coupling.markers import FlowError
@@ -691,14 +691,17 @@ def side_view(x: np.ndarray) -> tuple[float, float]:
 PIPE_COLUMNS = (
     "time", "radial_position", "axial_velocity", "local_capillary_number", "strain_axial", "strain_radial",
     "strain_transverse", "projected_area", "deformation", "volume_change", "axial_position", "centre_y",
-    "centre_z", "nucleus_radial_position", "nucleus_axial_offset", "max_speed",
+    "centre_z", "nucleus_radial_position", "nucleus_axial_offset", "max_speed", "outline_fallback",
 )  # fmt: skip
 """Time-series columns: time (1/gdot_w); radial_position |r_c|/R_ch of the volume centroid; axial_velocity
 (u_max); local_capillary_number Ca_w r_c/R_ch; strain_axial l_x/(2R); strain_radial l_y/(2R);
 strain_transverse l_z/(2R); projected_area (R^2, side view along z); deformation 1 - circularity;
 volume_change V/V0 - 1; axial_position (R, distance travelled); centre_y, centre_z (R_ch, from the axis);
 nucleus_radial_position (R_ch) and nucleus_axial_offset (R, ahead of the cell centroid; NaN without a
-nucleus); max_speed (largest marker speed in the last step, dx/dt)."""
+nucleus); max_speed (largest marker speed in the last step, dx/dt); outline_fallback 1 where the side view of a
+linear-element cell is the nodes' hull because the smooth fit left its trusted band
+(:func:`~elastocell.body.observables.smooth_outline_checked`; D is then biased high by the mesh-scale roughness),
+else 0."""
 
 MAX_CAPILLARY_NUMBER_WALL = 50.0
 """Largest wall capillary number accepted (the RT-DC tables reach about 5)."""
@@ -768,8 +771,10 @@ class PipeRun(FlowRun):
         triangles = self._quadratic_surface()
         if triangles is not None:  # quadratic elements: their own curved surface
             area, perimeter = element_surface_outline(x / size, triangles)
+            fitted = True
         else:
-            area, perimeter = smooth_outline(x[self.cell.mesh.surface_nodes] / size, m.centre * units.radius / size)
+            area, perimeter, fitted = smooth_outline_checked(x[self.cell.mesh.surface_nodes] / size,
+                                                             m.centre * units.radius / size)
         circularity = 2.0 * math.sqrt(math.pi * area) / perimeter
         if self._nucleus_mask is not None:
             nc = moments(x / units.radius, elements, self._nucleus_mask).centre * units.radius
@@ -786,6 +791,7 @@ class PipeRun(FlowRun):
             "volume_change": m.volume * (units.radius / size) ** 3 / self.volume0 - 1.0,  # volume0 in marker radii
             "axial_position": (centre[0] - self._x0) / units.radius, "centre_y": cy, "centre_z": cz,
             "nucleus_radial_position": nucleus_r, "nucleus_axial_offset": nucleus_dx, "max_speed": max_speed,
+            "outline_fallback": 0.0 if fitted else 1.0,
         }  # fmt: skip
 
     def _check_walls(self) -> None:
@@ -832,6 +838,9 @@ class PipeRun(FlowRun):
             out[f"{name}_std"] = float(values.std()) if values.size else float("nan")
         out.update(window_verdict(s, keep, WINDOW_OBSERVABLES))
         out["radial_position_initial"] = float(s["radial_position"][0])
+        fallback = np.asarray(s["outline_fallback"], dtype=float)
+        out["outline_fallback_records"] = int((fallback[keep] > 0).sum())  # the window's, on the nodes' hull
+        out["outline_fallback_first_time"] = float(t[np.argmax(fallback > 0)]) if (fallback > 0).any() else None
         out["deformation_initial"] = float(s["deformation"][0])  # the outline's own at rest (p1 ~2.5e-5, p2 ~1.5e-5)
         out["projected_area_initial"] = float(s["projected_area"][0])
         out["reference_extent"] = [float(v) for v in self.reference_extent]

@@ -108,10 +108,11 @@ def stationary_summary(series: dict, transient: float) -> dict:
     out["volume_change_max_abs"] = float(np.abs(series["volume_change"]).max())
     return out
 
-CHECKPOINT_VERSION = 5
+CHECKPOINT_VERSION = 6
 """Version of the checkpoint layout and of what its fingerprint (:meth:`FlowRun.fingerprint`) hashes; raised when
 the state a checkpoint holds, or how a run continues from it, changes for the same parameters (5: a quadratic
-cell's pipe outline is its elements' own surface, so that a resumed series does not switch outline)."""
+cell's pipe outline is its elements' own surface, so that a resumed series does not switch outline; 6: the pipe's
+series has the column outline_fallback)."""
 
 
 class _StopAtRecord:
