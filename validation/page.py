@@ -107,6 +107,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                             "nice python validation/pipe_contour.py"),
         "pipe_sphere.py": ("Error sources: a rigid sphere's hydrodynamic radius in the pipe",
                            "nice python validation/pipe_sphere.py --page"),
+        "pipe_resolution.py": ("The cell under refinement and across meshes, with and without the radius correction",
+                               "nice python validation/pipe_resolution.py"),
     }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",
