@@ -186,7 +186,7 @@ def test_every_face_of_a_quadratic_tetrahedron_gets_its_own_edge_nodes():
 
 
 @pytest.mark.slow
-def test_a_run_reports_where_its_outline_is_the_nodes_hull(monkeypatch):
+def test_a_run_reports_where_its_outline_is_the_nodes_hull(monkeypatch, tmp_path):
     """The pipe's series marks each record whose side view fell back to the nodes' hull (outline_fallback 1),
     and its summary counts them in the averaging window and gives the first time, so that a user sees that D
     there is the hull's (biased high by the mesh-scale roughness): a fit that is trusted until time 0.15 and not
@@ -201,11 +201,20 @@ def test_a_run_reports_where_its_outline_is_the_nodes_hull(monkeypatch):
     def outline(*args, **kwargs):
         area, perimeter, _ = observables.smooth_outline_checked(*args, **kwargs)
         calls.append(None)
-        return area, perimeter, len(calls) <= 2  # records at t = 0 and 0.1 fitted, later ones on the hull
+        return area, perimeter, len(calls) not in (2, 4, 5)  # on the hull at t = 0.1 (the transient), 0.3, 0.4
 
     monkeypatch.setattr(pipe_module, "smooth_outline_checked", outline)
     run = run_pipe(cell, params, duration=0.4, record_interval=0.1)
-    assert list(run.series["outline_fallback"]) == [0.0, 0.0, 1.0, 1.0, 1.0]
+    assert list(run.series["outline_fallback"]) == [0.0, 1.0, 0.0, 1.0, 1.0]
     summary = run.summary
-    assert summary["outline_fallback_first_time"] == pytest.approx(0.2)
-    assert summary["outline_fallback_records"] == int((np.asarray(run.series["time"]) >= 0.2).sum())
+    assert summary["transient_time"] == pytest.approx(0.2)  # the window: t >= 0.2
+    assert summary["outline_fallback_first_time"] == pytest.approx(0.1)
+    assert summary["outline_fallback_records"] == 2  # the window's, not the transient's
+    # the look-up table's reading of the same series: the share over its final window (the last unit: all records)
+    import pandas as pd
+
+    from elastocell.inverse.lut import final_shape
+
+    path = tmp_path / "timeseries.csv"
+    pd.DataFrame({name: np.asarray(values) for name, values in run.series.items()}).to_csv(path, index=False)
+    assert final_shape(path)["outline_fallback"] == pytest.approx(3 / 5)

@@ -12,22 +12,26 @@ A centred homogeneous cell (neo-Hookean, nu = 0.48, linear tetrahedra: the pipe'
 LE-2D-FEM-19's own cylinder and flow (R_ch = 1.094 x 10 um, Q = 0.04 uL/s, eta = 15 mPa s; the reference and its
 reading as in pipe_dclab.py: D_t is the table's deformation on the isoelastic of the same shear modulus at
 elastocell's area, A_t the table's area at elastocell's deformation), one resolution per run (no
-extrapolation), ``--duration`` units of 1/gdot_w with no stationarity stop; D and the area are means over the last
+extrapolation), --duration units of 1/gdot_w with no stationarity stop; D and the area are means over the last
 unit, and the drift says what the run still changed at its end. At each resolution the cell runs on the flow
-scenarios' default mesh (uniform, edges of 2 dx) and on the other uniform meshes :data:`MESHES` lists (edges of
-1.8-2.2 dx: the same element and nearly the same marker spacing; what one unstructured mesh alone does to D),
-each with the markers at R and at R - c dx (``hydrodynamic_radius_correction`` c, ``--corrections``).
+scenarios' default mesh (uniform, edges of 2 dx) and on the other uniform meshes MESHES lists (edges of
+1.8-2.25 dx: the same element and nearly the same marker spacing; what one unstructured mesh alone does to D),
+each with the markers at R and at R - c dx (hydrodynamic_radius_correction c, --corrections).
 The summary gives, per resolution and correction, the mean error over the meshes and their spread, and the
-Richardson extrapolation (order 2) of the mean deformation from each pair of neighbouring resolutions. The other
+Richardson extrapolation (order 2) of the mean deformation from each pair of neighbouring resolutions (the means
+are over the meshes each resolution has: four at R/dx 6 and 8, three at 10, one at 12). The other
 points (the other pipe_dclab.py points: confinement 0.70 and a stiffer cell at 0.55) run on the default mesh with
-one correction (``--other-correction``) at ``--other-resolutions``. The default mesh at R/dx 8 also runs for
-``--long-duration`` with both corrections: how far the last unit of the shorter runs is from the stationary state;
+one correction (--other-correction) at --other-resolutions. The default mesh at R/dx 8 also runs for
+--long-duration with both corrections: how far the last unit of the shorter runs is from the stationary state;
 its last state is also read three ways (the degree-6 fit without its guard, the nodes' hull, and the ratio of their
-areas, :data:`elastocell.body.observables.OUTLINE_MAX_AREA_RATIO`): where the fit's area falls below the hull's, the
-run's outline switches to the hull.
+areas): where the fit's area leaves [1, 1.1] x the hull's (below it, or above 1.1 times it), the run's outline
+switches to the hull.
 
 Every run's record is appended to ``--out/runs.jsonl`` as it finishes (a run already there is not repeated);
-``--cached-only`` writes the page from that file alone. The section goes into docs/validation/pipe_dclab.md.
+``--cached-only`` writes the page from that file alone. The section goes into docs/validation/pipe_dclab.md. The runs on the page were made, with
+the same run function and record format, by a driver that ran them two at a time on the 2-core machine, one
+thread each (their wall times are those, not a benchmark); the cases the defaults list but the page lacks are
+listed as missing ("N of M runs").
 """
 
 from __future__ import annotations
@@ -145,7 +149,7 @@ def with_table(records: list[dict]) -> list[dict]:
 FORMATS = {"deform": ".4f", "D_t": ".4f", "D err %": "+.1f", "A err %": "+.1f", "D drift %/t": "+.2f",
            "dV/V end": "+.4f", "wall_s": ".0f", "edge [dx]": ".2f", "mean D err %": "+.1f",
            "min D err %": "+.1f", "max D err %": "+.1f", "mean A err %": "+.1f", "mean wall_s": ".0f",
-           "D": ".4f", "D err % (vs D_t of the finer)": "+.1f", "apparent order": ".2f"}
+           "D": ".4f", "D err % (vs D_t of the finer)": "+.1f"}
 
 
 def last_state_outlines(record: dict, out: Path) -> dict:

@@ -242,8 +242,8 @@ def _single(out, params, capillary_number_wall, cell, equivalent, duration, resu
         if summary.get("outline_fallback_records"):
             warnings.warn(f"{out / 'summary.json'}: the side view of {summary['outline_fallback_records']} of the "
                           f"{summary['stationary_records']} averaged records is the hull of the nodes, not the smooth "
-                          "outline (its fit left the trusted band, from time "
-                          f"{summary['outline_fallback_first_time']:.3g} on): deform there is biased high by the "
+                          "outline (its fit left the trusted band; first at time "
+                          f"{summary['outline_fallback_first_time']:.3g}): deform there is biased high by the "
                           "mesh-scale roughness (column outline_fallback of timeseries.csv)", stacklevel=2)
         if channel_length is None:
             warn_if_not_stationary(summary, out)

@@ -662,17 +662,23 @@ E = 2 kPa, 20 um channel, 0.04 uL/s: deformation 0.0365 over the second half aga
 def final_shape(timeseries: Path, channel_length: float | None = None) -> dict:
     """Means of ``deformation`` and ``projected_area`` (and the deformation's standard deviation) over the last
     :data:`FINAL_WINDOW` of a pipe run's time series; with ``channel_length`` (units of R) their values where the
-    cell had travelled that far (``api.pipe.transit_values``; the standard deviation is then 0)."""
+    cell had travelled that far (``api.pipe.transit_values``; the standard deviation is then 0).
+    ``outline_fallback``: the share of those records whose side view is the nodes' hull, not the smooth outline
+    (the pipe's column of that name; 0 for a series without it)."""
     import pandas as pd
 
     table = pd.read_csv(timeseries)
+    fallback = table["outline_fallback"] if "outline_fallback" in table else pd.Series(0.0, index=table.index)
     if channel_length is not None:
         values = transit_values({c: table[c].to_numpy() for c in table.columns}, channel_length)
+        i = min(int((table["axial_position"] < channel_length).sum()), len(table) - 1)  # the record at/after L
         return {"deformation": values["deformation"], "deformation_std": 0.0,
-                "projected_area": values["projected_area"]}
-    last = table[table["time"] > table["time"].iloc[-1] - FINAL_WINDOW]
+                "projected_area": values["projected_area"],
+                "outline_fallback": float(fallback.iloc[max(i - 1, 0):i + 1].max())}
+    window = table["time"] > table["time"].iloc[-1] - FINAL_WINDOW
+    last = table[window]
     return {"deformation": float(last["deformation"].mean()), "deformation_std": float(last["deformation"].std(ddof=0)),
-            "projected_area": float(last["projected_area"].mean())}
+            "projected_area": float(last["projected_area"].mean()), "outline_fallback": float(fallback[window].mean())}
 
 
 def point_shape(directory: Path, summary: dict) -> tuple[dict, str]:
@@ -698,6 +704,7 @@ def point_shape(directory: Path, summary: dict) -> tuple[dict, str]:
                                 fine_r, coarse_r)
     final = {k: v["value"] for k, v in values.items()}
     final["deformation_std"] = shapes[fine_r]["deformation_std"]
+    final["outline_fallback"] = max(shapes[r]["outline_fallback"] for r in (fine_r, coarse_r))
     final["extrapolation"] = {"fine_resolution": fine_r, "coarse_resolution": coarse_r, "values": values}
     return final, state
 
@@ -728,6 +735,7 @@ def run_point(task: tuple[dict, str]) -> dict:
         "key": point["key"], "radius_um": radius, "emodulus_kpa": point["emodulus_kpa"],
         "area_um": final["projected_area"] * radius**2,
         "deform": final["deformation"], "deform_std": final["deformation_std"],
+        "outline_fallback": final["outline_fallback"],
         "extrapolation": final.get("extrapolation"),
         "final_window": FINAL_WINDOW,
         "deformation_mean_second_half": summary["deformation_mean"],
@@ -912,7 +920,9 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     summary: paths, the finished records, the failed points (key and one-line error; left out of the table and
     rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion
     (kept in the table, listed in the metadata under ``elastocell.not_stationary``: their shape is a transient
-    mean, not a steady shape). ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
+    mean, not a steady shape); points whose final window holds records read through the nodes' hull rather than
+    the smooth outline (the pipe's ``outline_fallback``; their deform is biased high) are listed under
+    ``elastocell.outline_fallback`` and keep the share in their record. ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
     0.5): a table for the cell with a centred spherical nucleus (the metadata's ``elastocell.cell_model``; its
     ``emodulus`` column is the cytoplasm's E_c); without them the cell is homogeneous. ``channel_length`` (a
     quantity, bare number in um): each point is read at the end of a channel of that length, the cell started
@@ -949,11 +959,12 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
         records.sort(key=lambda r: (r["emodulus_kpa"], r["radius_um"]))
         metadata = lut_metadata(settings, identifier)
         not_stationary = [r["key"] for r in records if point_state(r) == "cap"]
+        hull_outline = [r["key"] for r in records if r.get("outline_fallback", 0.0) > 0]
         single = [p["key"] for p in points if settings["coarse_resolution"] is not None
                   and p["options"].get("extrapolate") is False]
         metadata["elastocell"] = {**settings, "points": len(points), "finished": len(records),
                                   "failed": [f["key"] for f in failures], "not_stationary": not_stationary,
-                                  "not_extrapolated": single,
+                                  "not_extrapolated": single, "outline_fallback": hull_outline,
                                   "point_states": {r["key"]: point_state(r) for r in records}}
         result = {"lut": str(out), "isoelastics": str(isoelastics_path(out)), "runs": str(runs),
                   "records": records, "failures": failures, "wall_time_s": time.perf_counter() - start,
