@@ -189,8 +189,8 @@ def test_every_face_of_a_quadratic_tetrahedron_gets_its_own_edge_nodes():
 def test_a_run_reports_where_its_outline_is_the_nodes_hull(monkeypatch, tmp_path):
     """The pipe's series marks each record whose side view fell back to the nodes' hull (outline_fallback 1),
     and its summary counts them in the averaging window and gives the first time, so that a user sees that D
-    there is the hull's (biased high by the mesh-scale roughness): a fit that is trusted until time 0.15 and not
-    after, forced on a short run."""
+    there is the hull's (biased high by the mesh-scale roughness): the hull forced at t = 0.1 (in the transient),
+    0.3 and 0.4 of a short run; the window (t >= 0.2) counts two of them."""
     from elastocell.body import observables
     from elastocell.scenarios import pipe as pipe_module
 
@@ -218,3 +218,29 @@ def test_a_run_reports_where_its_outline_is_the_nodes_hull(monkeypatch, tmp_path
     path = tmp_path / "timeseries.csv"
     pd.DataFrame({name: np.asarray(values) for name, values in run.series.items()}).to_csv(path, index=False)
     assert final_shape(path)["outline_fallback"] == pytest.approx(3 / 5)
+
+
+def test_the_lookup_table_reads_the_flag_where_it_reads_the_shape(tmp_path):
+    """final_shape takes the outline flag from the records it reads the shape from: the final window's share, or,
+    for a transit run, the two records around the channel's end (here L = 2.5 R between the records at 2 and 3 R:
+    the second is on the hull), or the last record when the run ended short of L; a series written before the
+    column existed gives NaN (unknown), not 0."""
+    import pandas as pd
+
+    from elastocell.api.pipe import TRANSIT_COLUMNS
+    from elastocell.inverse.lut import FINAL_WINDOW, final_shape
+
+    n = 11
+    table = pd.DataFrame({**{name: np.full(n, 1.0) for name in TRANSIT_COLUMNS},
+                          "time": 0.1 * np.arange(n), "axial_position": np.arange(n, dtype=float),
+                          "deformation": np.full(n, 0.02), "projected_area": np.full(n, 3.2),
+                          "outline_fallback": [0.0, 0.0, 0.0, 1.0] + [0.0] * (n - 5) + [1.0]})
+    path = tmp_path / "timeseries.csv"
+    table.to_csv(path, index=False)
+    assert FINAL_WINDOW == 1.0  # the final window: t > 0, the records 1-10, two of them on the hull
+    assert final_shape(path)["outline_fallback"] == pytest.approx(2 / 10)
+    assert final_shape(path, channel_length=2.5)["outline_fallback"] == 1.0
+    assert final_shape(path, channel_length=5.5)["outline_fallback"] == 0.0
+    assert final_shape(path, channel_length=50.0)["outline_fallback"] == 1.0  # short of L: the last record
+    table.drop(columns="outline_fallback").to_csv(path, index=False)
+    assert math.isnan(final_shape(path)["outline_fallback"])

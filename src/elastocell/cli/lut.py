@@ -79,6 +79,10 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
             typer.echo(f"warning: {len(result['not_stationary'])} point(s) reached the duration cap before "
                        f"their state ({settings['state']}; listed in the metadata, elastocell.not_stationary): "
                        "raise --duration", err=True)
+        if result.get("outline_fallback"):
+            typer.echo(f"warning: {len(result['outline_fallback'])} point(s) were read partly through the nodes' hull, "
+                       "not the smooth side-view outline (listed in the metadata, elastocell.outline_fallback): their "
+                       "deform is biased by the mesh-scale roughness", err=True)
         for failure in result["failures"]:
             typer.echo(f"failed {failure['key']}: {failure['error']}", err=True)
         if result["records"]:

@@ -664,17 +664,19 @@ def final_shape(timeseries: Path, channel_length: float | None = None) -> dict:
     :data:`FINAL_WINDOW` of a pipe run's time series; with ``channel_length`` (units of R) their values where the
     cell had travelled that far (``api.pipe.transit_values``; the standard deviation is then 0).
     ``outline_fallback``: the share of those records whose side view is the nodes' hull, not the smooth outline
-    (the pipe's column of that name; 0 for a series without it)."""
+    (the pipe's column of that name; for a transit run 0 or 1, from the two records :func:`transit_values` reads;
+    NaN, unknown, for a series written before the column existed)."""
     import pandas as pd
 
     table = pd.read_csv(timeseries)
-    fallback = table["outline_fallback"] if "outline_fallback" in table else pd.Series(0.0, index=table.index)
+    fallback = (table["outline_fallback"] if "outline_fallback" in table
+                else pd.Series(float("nan"), index=table.index))
     if channel_length is not None:
         values = transit_values({c: table[c].to_numpy() for c in table.columns}, channel_length)
-        i = min(int((table["axial_position"] < channel_length).sum()), len(table) - 1)  # the record at/after L
+        after = np.nonzero(table["axial_position"].to_numpy() >= channel_length)[0]  # as transit_values picks
+        rows = [len(table) - 1] if after.size == 0 or after[0] == 0 else [int(after[0]) - 1, int(after[0])]
         return {"deformation": values["deformation"], "deformation_std": 0.0,
-                "projected_area": values["projected_area"],
-                "outline_fallback": float(fallback.iloc[max(i - 1, 0):i + 1].max())}
+                "projected_area": values["projected_area"], "outline_fallback": float(fallback.iloc[rows].max())}
     window = table["time"] > table["time"].iloc[-1] - FINAL_WINDOW
     last = table[window]
     return {"deformation": float(last["deformation"].mean()), "deformation_std": float(last["deformation"].std(ddof=0)),
@@ -704,7 +706,8 @@ def point_shape(directory: Path, summary: dict) -> tuple[dict, str]:
                                 fine_r, coarse_r)
     final = {k: v["value"] for k, v in values.items()}
     final["deformation_std"] = shapes[fine_r]["deformation_std"]
-    final["outline_fallback"] = max(shapes[r]["outline_fallback"] for r in (fine_r, coarse_r))
+    final["outline_fallback"] = float(np.fmax(shapes[fine_r]["outline_fallback"],
+                                              shapes[coarse_r]["outline_fallback"]))  # NaN only if both unknown
     final["extrapolation"] = {"fine_resolution": fine_r, "coarse_resolution": coarse_r, "values": values}
     return final, state
 
@@ -721,7 +724,11 @@ def run_point(task: tuple[dict, str]) -> dict:
     directory = Path(runs_directory) / point["key"]
     marker = directory / POINT_FILE
     if marker.exists():
-        return json.loads(marker.read_text())
+        record = json.loads(marker.read_text())
+        if "outline_fallback" not in record and (directory / "summary.json").exists():  # a point of an older grid
+            summary = json.loads((directory / "summary.json").read_text())
+            record["outline_fallback"] = point_shape(directory, summary)[0]["outline_fallback"]
+        return record
 
     directory.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
@@ -921,8 +928,9 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion
     (kept in the table, listed in the metadata under ``elastocell.not_stationary``: their shape is a transient
     mean, not a steady shape); points whose final window holds records read through the nodes' hull rather than
-    the smooth outline (the pipe's ``outline_fallback``; their deform is biased high) are listed under
-    ``elastocell.outline_fallback`` and keep the share in their record. ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
+    the smooth outline (the pipe's ``outline_fallback``; the hull's deform is biased high, and an extrapolation
+    carries that bias either way) are listed under ``elastocell.outline_fallback`` (also in the returned summary)
+    and keep the share in their record. ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
     0.5): a table for the cell with a centred spherical nucleus (the metadata's ``elastocell.cell_model``; its
     ``emodulus`` column is the cytoplasm's E_c); without them the cell is homogeneous. ``channel_length`` (a
     quantity, bare number in um): each point is read at the end of a channel of that length, the cell started
@@ -968,7 +976,8 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                                   "point_states": {r["key"]: point_state(r) for r in records}}
         result = {"lut": str(out), "isoelastics": str(isoelastics_path(out)), "runs": str(runs),
                   "records": records, "failures": failures, "wall_time_s": time.perf_counter() - start,
-                  "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary}
+                  "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary,
+                  "outline_fallback": hull_outline}
         if records:
             write_lut(out, records, metadata)
             write_isoelastics(isoelastics_path(out), records, metadata)
