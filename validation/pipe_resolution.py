@@ -19,7 +19,7 @@ scenarios' default mesh (uniform, edges of 2 dx) and on the other uniform meshes
 each with the markers at R and at R - c dx (hydrodynamic_radius_correction c, --corrections).
 The summary gives, per resolution and correction, the mean error over the meshes and their spread, and the
 Richardson extrapolation (order 2) of the mean deformation from each pair of neighbouring resolutions (the means
-are over the meshes each resolution has: four at R/dx 6 and 8, three at 10, one at 12). The other
+are over the meshes each resolution has: four at R/dx 6 and 8, three at 10, two at 12). The other
 points (the other pipe_dclab.py points: confinement 0.70 and a stiffer cell at 0.55) run on the default mesh with
 one correction (--other-correction) at --other-resolutions. The default mesh at R/dx 8 also runs for
 --long-duration with both corrections: how far the last unit of the shorter runs is from the stationary state;
@@ -67,7 +67,7 @@ from elastocell.simulation.extrapolation import richardson
 POISSON_RATIO = 0.48
 CHANNEL_RADIUS_UM = SQUARE_CHANNEL_RADIUS_FACTOR * CHANNEL_WIDTH_UM / 2.0
 MESHES = {6.0: [None, 0.30, 0.32, 0.345], 8.0: [None, 0.235, 0.265, 0.28], 10.0: [None, 0.185, 0.215],
-          12.0: [None]}
+          12.0: [None, 0.18]}
 """Uniform mesh sizes (units of R) per resolution R/dx; None is the default edge of 2 dx."""
 
 
