@@ -87,6 +87,12 @@ def cases(point: tuple[float, float], resolutions: list[float], corrections: lis
             for mesh in (MESHES.get(float(resolution), [None]) if meshes else [None])]
 
 
+def mesh_options(case: dict) -> dict:
+    """The cell options of ``case``'s uniform mesh (none for the flow scenarios' default)."""
+    size = case["mesh_size"]
+    return {} if size is None else {"mesh_size": size, "pole_size": size, "interface_size": size}
+
+
 def run_case(case: dict, out: Path) -> dict:
     """One pipe run of ``case`` (in a worker process): the final-window means and the run's state."""
     import pandas as pd
@@ -95,15 +101,13 @@ def run_case(case: dict, out: Path) -> dict:
 
     ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
                                  case["emodulus_kpa"] * 1e3, POISSON_RATIO)
-    mesh = {} if case["mesh_size"] is None else {"mesh_size": case["mesh_size"], "pole_size": case["mesh_size"],
-                                                 "interface_size": case["mesh_size"]}
     flow = {"hydrodynamic_radius_correction": case["c"]} if case["c"] else None
     directory = out / key(case)
     start = time.perf_counter()
     summary = pipe(directory, capillary_number_wall=ca_w, channel_radius_ratio=CHANNEL_RADIUS_UM / case["radius_um"],
                    start_offset=0.0, resolution=case["resolution"], extrapolate=False, duration=case["duration"],
                    vtk_interval=None, progress=False, nucleus="none", element=case["element"],
-                   poisson_ratio=POISSON_RATIO, flow_options=flow, **mesh)
+                   poisson_ratio=POISSON_RATIO, flow_options=flow, **mesh_options(case))
     series = pd.read_csv(directory / "timeseries.csv")
     last = series[series["time"] > series["time"].iloc[-1] - 1.0]
     return {**case, "key": key(case), "nodes": int(summary["mesh"]["n_nodes"]),
@@ -158,22 +162,17 @@ def last_state_outlines(record: dict, out: Path) -> dict:
     from scipy.spatial import ConvexHull
 
     from elastocell.body.cell import Cell
-    from elastocell.body.observables import OUTLINE_DEGREE, grid_basis, harmonic_basis, moments, sphere_grid
+    from elastocell.body.observables import fitted_outline_hull, moments
     from elastocell.parameters.flow import flow_cell
 
-    mesh = {} if record["mesh_size"] is None else {"mesh_size": record["mesh_size"], "pole_size": record["mesh_size"],
-                                                   "interface_size": record["mesh_size"]}
     cell = Cell.from_parameters(flow_cell(None, {"nucleus": "none", "element": record["element"],
-                                                 "poisson_ratio": POISSON_RATIO, **mesh}, record["resolution"]))
+                                                 "poisson_ratio": POISSON_RATIO, **mesh_options(record)},
+                                                record["resolution"]))
     with np.load(out / record["key"] / "checkpoint.npz") as data:
         x = data["positions"] / record["resolution"]
-    centre = moments(x, cell.mesh.elements).centre
     surface = x[cell.mesh.surface_nodes]
-    offsets = surface - centre
-    radii = np.linalg.norm(offsets, axis=1)
-    coefficients = np.linalg.lstsq(harmonic_basis(offsets / radii[:, None], OUTLINE_DEGREE), radii, rcond=None)[0]
-    projected = (grid_basis(256, OUTLINE_DEGREE) @ coefficients)[:, None] * sphere_grid(256)[:, :2] + centre[:2]
-    fit, hull = ConvexHull(projected), ConvexHull(surface[:, :2])
+    fit = fitted_outline_hull(surface, moments(x, cell.mesh.elements).centre)
+    hull = ConvexHull(surface[:, :2])
 
     def deformation(h):
         return 1.0 - 2.0 * np.sqrt(np.pi * h.volume) / h.area

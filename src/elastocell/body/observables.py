@@ -235,6 +235,26 @@ def smooth_outline(x_surface: np.ndarray, centre: np.ndarray | None = None, plan
     return area, perimeter
 
 
+def fitted_outline_hull(x_surface: np.ndarray, centre: np.ndarray | None = None, plane: tuple[int, int] = (0, 1),
+                        degree: int = OUTLINE_DEGREE, samples: int = OUTLINE_SAMPLES):
+    """The convex hull (``scipy.spatial.ConvexHull``, 2D: ``volume`` is the area, ``area`` the perimeter) of the
+    projected radial fit of :func:`smooth_outline_checked`, without its guard: what the fit alone reads."""
+    from scipy.spatial import ConvexHull  # lazy: qhull only where an outline is measured
+
+    x = np.asarray(x_surface, dtype=np.float64)
+    centre = 0.5 * (x.min(axis=0) + x.max(axis=0)) if centre is None else np.asarray(centre, dtype=np.float64)
+    offsets = x - centre
+    radii = np.linalg.norm(offsets, axis=1)
+    degree = min(int(degree), int(math.isqrt(len(x) // 2)) - 1)
+    if degree < 1:
+        raise ValueError(f"{len(x)} surface nodes cannot fix a smooth surface (at least 8 are needed)")
+    basis = harmonic_basis(offsets / radii[:, None], degree)
+    coefficients = np.linalg.lstsq(basis, radii, rcond=None)[0]
+    directions = sphere_grid(samples)[:, list(plane)]
+    projected = (grid_basis(samples, degree) @ coefficients)[:, None] * directions + centre[list(plane)]
+    return ConvexHull(np.ascontiguousarray(projected))
+
+
 def smooth_outline_checked(x_surface: np.ndarray, centre: np.ndarray | None = None, plane: tuple[int, int] = (0, 1),
                            degree: int = OUTLINE_DEGREE, samples: int = OUTLINE_SAMPLES) -> tuple[float, float, bool]:
     """(area, perimeter) of the outline of a star-shaped surface projected on ``plane``, through a smooth surface
@@ -261,17 +281,7 @@ def smooth_outline_checked(x_surface: np.ndarray, centre: np.ndarray | None = No
     from scipy.spatial import ConvexHull  # lazy: qhull only where an outline is measured
 
     x = np.asarray(x_surface, dtype=np.float64)
-    centre = 0.5 * (x.min(axis=0) + x.max(axis=0)) if centre is None else np.asarray(centre, dtype=np.float64)
-    offsets = x - centre
-    radii = np.linalg.norm(offsets, axis=1)
-    degree = min(int(degree), int(math.isqrt(len(x) // 2)) - 1)
-    if degree < 1:
-        raise ValueError(f"{len(x)} surface nodes cannot fix a smooth surface (at least 8 are needed)")
-    basis = harmonic_basis(offsets / radii[:, None], degree)
-    coefficients = np.linalg.lstsq(basis, radii, rcond=None)[0]
-    directions = sphere_grid(samples)[:, list(plane)]
-    projected = (grid_basis(samples, degree) @ coefficients)[:, None] * directions + centre[list(plane)]
-    hull = ConvexHull(np.ascontiguousarray(projected))
+    hull = fitted_outline_hull(x, centre, plane, degree, samples)
     nodes = ConvexHull(np.ascontiguousarray(x[:, list(plane)]))
     if not nodes.volume <= hull.volume <= OUTLINE_MAX_AREA_RATIO * nodes.volume:
         return float(nodes.volume), float(nodes.area), False  # not star-shaped from the centre: the nodes' own hull
