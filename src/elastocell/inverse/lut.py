@@ -57,7 +57,6 @@ hash of every input of the run, so changing the flow rate or the resolution make
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 import time
@@ -70,7 +69,6 @@ from elastocell.api.pipe import pipe, run_state, transit_values
 from elastocell.api.resolved import resolved_parameters
 from elastocell.body.cell import Cell
 from elastocell.files import parameter_hash, replace_atomically, write_json
-from elastocell.lattice.rheology import PowerLaw, tube_flow_rate
 from elastocell.parameters.cell import cell_parameters, describe_cell
 from elastocell.parameters.flow import flow_cell
 from elastocell.parameters.medium import (
@@ -84,9 +82,8 @@ from elastocell.parameters.medium import (
 from elastocell.parameters.units import ParameterError, parse_quantity, parse_temperature
 from elastocell.scenarios.pipe import (
     PipeFlowParameters,
-    duct_flow_rate,
-    finite_difference_duct_flow_rate,
     pipe_lattice_units,
+    unit_flow_rate,
 )
 from elastocell.scenarios.shear import compile_kernels
 from elastocell.simulation.directory import output_directory
@@ -143,27 +140,9 @@ def wall_shear_rate(flow_rate: float, channel_radius: float, viscosity: float) -
 LUT_CHANNELS = ("cylinder", "square")
 """Channel shapes a table can be made for (a rectangle is a pipe option only)."""
 
-DUCT_CELLS = 64
-"""Finite-volume cells across the square duct for q1(n) of a power law. Measured at n = 1 against White's series:
-relative error 9.4e-4 (64 cells), 2.4e-4 (128); at n = 0.586 the 32, 64 and 128 cell values lie within 8.5e-5."""
-
 DCLAB_KOZICKI_B = 0.6671
 """b of the Kozicki wall shear rate as dclab's ``shear_rate_square_channel`` writes it (the literature's 0.6771 is
 :data:`elastocell.parameters.medium.KOZICKI_SQUARE`): the metadata's ``fluid_viscosity`` is dclab's own."""
-
-
-@functools.lru_cache(maxsize=16)
-def unit_flow_rate(channel: str, flow_index: float) -> float:
-    """q1(n): the flow rate at G = K = 1 through the cylinder of radius 1 or the square duct of half-width 1
-    (eta = K gdot^(n-1)); Q = q1 (G/K)^(1/n) a^(3+1/n) for any G, K and a."""
-    n = float(flow_index)
-    if channel == "cylinder":
-        return tube_flow_rate(1.0, 1.0, n, 1.0)
-    if n == 1.0:
-        return duct_flow_rate(1.0, 1.0, 1.0, 1.0)
-    # the tau clamp of the lattice law opened to nu in [1e-12, 1e9]: the continuum power law
-    law = PowerLaw(n, 1.0, relaxation_time_min=0.5 + 3e-12, relaxation_time_max=0.5 + 3e9)
-    return finite_difference_duct_flow_rate(law, 1.0, 1.0, 1.0, cells=DUCT_CELLS, tolerance=1e-12)
 
 
 def channel_driving(channel: str, half_width: float, flow_rate: float, fluid: Medium | None,

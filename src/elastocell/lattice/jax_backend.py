@@ -33,7 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from elastocell.body.materials import computes_in_float64
-from elastocell.lattice.params import LatticeParams
+from elastocell.lattice.params import LatticeParams, check_body_force
 from elastocell.lattice.rheology import LOG_TWO, ROOT_ITERATIONS, SMALLEST_STRESS
 from elastocell.lattice.solver import Lattice, step_count
 from elastocell.lattice.stencil import OPPOSITE, VELOCITIES, WEIGHTS, Q
@@ -61,8 +61,9 @@ class LatticeTables:
         nx, ny, nz = params.shape
         self.omega_plus = float(1.0 / params.relaxation_time_plus)
         self.omega_minus = float(1.0 / params.relaxation_time_minus)
-        self.body_force = tuple(float(g) for g in params.body_force)
-        self.has_body_force = any(g != 0.0 for g in self.body_force)
+        self.body_force = jnp.asarray(params.body_force, dtype=jnp.float64)
+        """A leaf, not a static: :meth:`JaxLattice.set_body_force` changes it without recompiling."""
+        self.has_body_force = any(float(g) != 0.0 for g in params.body_force)
         solid = params.solid
         self.has_solid = solid is not None and bool(solid.any())
         self.bounce = self.fluid = None
@@ -82,16 +83,16 @@ class LatticeTables:
             self.wall_bottom = tuple(6.0 * WEIGHTS * (VELOCITIES @ bottom))  # for c_iy = +1, entering y = 0
             self.wall_top = tuple(6.0 * WEIGHTS * (VELOCITIES @ top))  # for c_iy = -1, entering y = ny - 1
 
-    _STATIC = ("omega_plus", "omega_minus", "body_force", "has_body_force", "has_solid", "has_walls",
+    _STATIC = ("omega_plus", "omega_minus", "has_body_force", "has_solid", "has_walls",
                "wall_bottom", "wall_top", "has_rheology", "rheology")
 
     def tree_flatten(self):
-        return (self.bounce, self.fluid), tuple(getattr(self, name) for name in self._STATIC)
+        return (self.bounce, self.fluid, self.body_force), tuple(getattr(self, name) for name in self._STATIC)
 
     @classmethod
     def tree_unflatten(cls, static, arrays):
         tables = cls(None)
-        tables.bounce, tables.fluid = arrays
+        tables.bounce, tables.fluid, tables.body_force = arrays
         for name, value in zip(cls._STATIC, static, strict=True):
             setattr(tables, name, value)
         return tables
@@ -255,6 +256,12 @@ class JaxLattice(Lattice):
         if self._force_field is None:
             return g
         return g + np.asarray(self._force_field, dtype=np.float64)
+
+    def set_body_force(self, body_force) -> None:
+        """Replace the uniform body force (3 floats, rho0 dx/dt^2) from the next step on, without recompiling (the
+        compiled steps read it as an argument); a lattice built without one cannot be given one."""
+        g = check_body_force(self.params, body_force)
+        self._tables_jax.body_force = jnp.asarray(g, dtype=jnp.float64)
 
     # ------------------------------------------------------------------ stepping
     def step(self, n: int = 1) -> None:

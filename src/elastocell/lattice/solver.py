@@ -6,7 +6,7 @@ import numpy as np
 
 from elastocell.lattice import kernels
 from elastocell.lattice.geometry import build_line_geometry
-from elastocell.lattice.params import LatticeParams
+from elastocell.lattice.params import LatticeParams, check_body_force
 from elastocell.lattice.stability import StabilityReport, check_stability
 from elastocell.lattice.stencil import VELOCITIES, WEIGHTS, Q
 
@@ -213,6 +213,12 @@ class Lattice:
         if self._force_field is None:
             self._force_field = np.empty((3,) + self.shape, dtype=self.dtype)
         np.copyto(self._force_field, arr, casting="unsafe")
+
+    def set_body_force(self, body_force) -> None:
+        """Replace the uniform body force (3 floats, rho0 dx/dt^2) from the next step on (the kernels read it from
+        their constants; no recompilation)."""
+        g = check_body_force(self.params, body_force)
+        self._consts[kernels.K_GX], self._consts[kernels.K_GY], self._consts[kernels.K_GZ] = g
 
     def _total_force(self) -> np.ndarray:
         """F_total = body_force + field, float64, broadcastable to (3, nx, ny, nz)."""
