@@ -109,6 +109,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                            "nice python validation/pipe_sphere.py --page"),
         "pipe_resolution.py": ("The cell under refinement and across meshes, with and without the radius correction",
                                "nice python validation/pipe_resolution.py"),
+        "pipe_flow_rate.py": ("The flow rate held, as RT-DC's pump, against the pressure gradient held",
+                              "nice python validation/pipe_flow_rate.py"),
     }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",

@@ -13,7 +13,9 @@ LE-2D-FEM-19's own cylinder and flow (R_ch = 1.094 x 10 um, Q = 0.04 uL/s, eta =
 reading as in pipe_dclab.py: D_t is the table's deformation on the isoelastic of the same shear modulus at
 elastocell's area, A_t the table's area at elastocell's deformation), one resolution per run (no
 extrapolation), --duration units of 1/gdot_w with no stationarity stop; D and the area are means over the last
-unit, and the drift says what the run still changed at its end. At each resolution the cell runs on the flow
+unit, and the drift says what the run still changed at its end. These runs hold the pressure gradient G (the pipe's
+``hold_flow_rate=False``; validation/pipe_flow_rate.py compares it with the default, the flow rate held). At each
+resolution the cell runs on the flow
 scenarios' default mesh (uniform, edges of 2 dx) and on the other uniform meshes MESHES lists (edges of
 1.8-2.25 dx: the same element and nearly the same marker spacing; what one unstructured mesh alone does to D),
 each with the markers at R and at R - c dx (hydrodynamic_radius_correction c, --corrections).
@@ -72,9 +74,10 @@ MESHES = {6.0: [None, 0.30, 0.32, 0.345], 8.0: [None, 0.235, 0.265, 0.28], 10.0:
 
 
 def key(case: dict) -> str:
+    """The run's name: ``-Q`` ends that of a run holding the flow rate (``hold``; this page's own runs hold G)."""
     mesh = case["mesh_size"] or "default"
     return (f"{case['radius_um']:g}um-{case['emodulus_kpa']:g}kPa-{case['element']}-{mesh}-Rdx{case['resolution']:g}"
-            f"-c{case['c']:g}-t{case['duration']:g}")
+            f"-c{case['c']:g}-t{case['duration']:g}" + ("-Q" if case.get("hold") else ""))
 
 
 def cases(point: tuple[float, float], resolutions: list[float], corrections: list[float],
@@ -101,7 +104,9 @@ def run_case(case: dict, out: Path) -> dict:
 
     ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
                                  case["emodulus_kpa"] * 1e3, POISSON_RATIO)
-    flow = {"hydrodynamic_radius_correction": case["c"]} if case["c"] else None
+    flow = {"hold_flow_rate": bool(case.get("hold", False))}
+    if case["c"]:
+        flow["hydrodynamic_radius_correction"] = case["c"]
     directory = out / key(case)
     start = time.perf_counter()
     summary = pipe(directory, capillary_number_wall=ca_w, channel_radius_ratio=CHANNEL_RADIUS_UM / case["radius_um"],
@@ -113,7 +118,8 @@ def run_case(case: dict, out: Path) -> dict:
     return {**case, "key": key(case), "nodes": int(summary["mesh"]["n_nodes"]),
             "deform": float(last["deformation"].mean()), "area_r2": float(last["projected_area"].mean()),
             "end": float(series["time"].iloc[-1]), **drifts(directory / "timeseries.csv"),
-            "capillary_number_wall": ca_w, "wall_s": time.perf_counter() - start}
+            "capillary_number_wall": ca_w, "pressure_gradient_ratio": summary.get("pressure_gradient_ratio", 1.0),
+            "flow_rate_ratio": summary.get("flow_rate_ratio"), "wall_s": time.perf_counter() - start}
 
 
 def read(path: Path) -> list[dict]:
