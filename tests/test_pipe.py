@@ -376,3 +376,21 @@ def test_the_flow_rate_is_held_at_the_ideal_channels():
     assert held["pressure_gradient_ratio"] > 1.1
     assert fixed["flow_rate_ratio"] < 0.9 and fixed["pressure_gradient_ratio"] == 1.0
     assert held["deformation_mean"] > 1.1 * fixed["deformation_mean"]
+
+
+def test_cli_passes_the_flow_rate_hold_and_the_radius_correction(tmp_path):
+    """``--no-hold-flow-rate`` and ``--hydrodynamic-radius-correction`` reach the run: the summary records a held
+    pressure gradient (G/G_0 exactly 1) and the markers' correction."""
+    from typer.testing import CliRunner
+
+    from elastocell.cli.app import app
+
+    out = tmp_path / "run"
+    result = CliRunner().invoke(app, [
+        "pipe", "--nucleus", "none", "--mesh-size", "0.6", "--resolution", "4", "--channel-radius-ratio", "2.5",
+        "--capillary-number-wall", "0.2", "--duration", "0.5", "--no-extrapolate", "--no-hold-flow-rate",
+        "--hydrodynamic-radius-correction", "0.3", "--vtk-interval", "0.5", "--out", str(out)])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["hold_flow_rate"] is False and summary["pressure_gradient_ratio"] == 1.0
+    assert summary["flow"]["hydrodynamic_radius_correction"] == 0.3 and summary["flow"]["hold_flow_rate"] is False

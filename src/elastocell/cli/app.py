@@ -252,7 +252,8 @@ def equivalent_command(cell: dict, as_json: bool):
 @user_errors
 @takes("out", "capillary_number_wall", FLOW_CELL,
        opt("equivalent", help="Simulate the homogeneous equivalent (Ca_w with mu_eff)."),
-       "channel_radius_ratio", "start_offset", "resolution", "extrapolate", "coarse_resolution", "channel_shape",
+       "channel_radius_ratio", "start_offset", "resolution", "extrapolate", "coarse_resolution",
+       "hold_flow_rate", "hydrodynamic_radius_correction", "channel_shape",
        opt("channel_width", help="Width W of a square or rectangular channel, with a physical --radius: sets "
            "--channel-radius-ratio to W/(2R)."), "channel_height", "channel_aspect_ratio", "medium", "temperature",
        "flow_index", opt("channel_length", help="Length L of a finite channel, with a physical --radius (RT-DC chips: "
@@ -268,7 +269,9 @@ def equivalent_command(cell: dict, as_json: bool):
        opt("vtk_interval", help="Time between VTK snapshots.", units="1/gdot_w"),
        "resume", "backend", "quiet")
 def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent: bool, channel_radius_ratio: float,
-         start_offset: float, resolution: float, extrapolate: bool, coarse_resolution: float | None, channel_shape, channel_width: str | None, channel_height: str | None,
+         start_offset: float, resolution: float, extrapolate: bool, coarse_resolution: float | None,
+         hold_flow_rate: bool, hydrodynamic_radius_correction: float, channel_shape, channel_width: str | None,
+         channel_height: str | None,
          channel_aspect_ratio: float | None, medium: str, temperature: str | None, flow_index: float | None,
          channel_length: str | None, duration: float, pressure_gradient: str | None,
          wall_clock: float | None, stationary_tolerance: float | None, stationary_observable, record_interval: float,
@@ -317,7 +320,8 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
         raise ParameterError("capillary_number_wall", "required (or --pressure-gradient)")
     flow_options = {"channel_radius_ratio": channel_radius_ratio, "start_offset": start_offset, "resolution": resolution,
                     "backend": backend.value, "channel_shape": shape, "channel_aspect_ratio": channel_aspect_ratio,
-                    "medium": medium, "temperature": parse_temperature(temperature), "flow_index": flow_index}
+                    "medium": medium, "temperature": parse_temperature(temperature), "flow_index": flow_index,
+                    "hold_flow_rate": hold_flow_rate, "hydrodynamic_radius_correction": hydrodynamic_radius_correction}
     PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)  # validate early
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                  stationary_observable=stationary_observable.value, unit="units of 1/gdot_w")

@@ -217,6 +217,13 @@ OPTIONS: dict[str, Opt] = _declare(
         "DIR/resolution-<--resolution>/) and report the stationary values Richardson-extrapolated to dx -> 0 "
         "(order 2), with both resolutions' values and the size of the correction.",
         flag="--extrapolate/--no-extrapolate"),
+    Opt("hold_flow_rate", bool, True, "Hold the flow rate at that of the nominal pressure gradient in the ideal "
+        "channel (as RT-DC's syringe pump and dclab's tables), rescaling the body force after every record; "
+        "--no-hold-flow-rate holds the pressure gradient instead (a periodic channel then slows behind the cell).",
+        flag="--hold-flow-rate/--no-hold-flow-rate"),
+    Opt("hydrodynamic_radius_correction", float, 0.0, "Place the markers on a sphere of radius R - c dx, so that "
+        "the body the fluid sees (larger than the marker surface by about a kernel's reach) has radius R.",
+        units="dx"),
     Opt("coarse_resolution", float | None, None, "R/dx of the cheaper run of --extrapolate; below --resolution.",
         units="lattice nodes per R", shown="6, when --resolution is above 6 (else no extrapolation)"),
     Opt("duration", float, 6.0, "Run length.", units="strain, shear_rate*t"),
@@ -237,7 +244,7 @@ OPTIONS: dict[str, Opt] = _declare(
     Opt("channel_radius_ratio", float, 2.0, "R_ch/R, channel over cell radius (> 1).", units=_DIMENSIONLESS),
     Opt("start_offset", float, 0.0, "r0/R_ch, initial distance of the cell from the axis.", units="R_ch"),
     Opt("pressure_gradient", str | None, None, "G, with a physical --radius and --youngs-modulus instead of "
-        "--capillary-number-wall.", quantity="Pa/m", shown="none: give --capillary-number-wall"),
+        "--capillary-number-wall (with --hold-flow-rate, the flow rate G drives through the ideal channel is held).", quantity="Pa/m", shown="none: give --capillary-number-wall"),
     Opt("channel_shape", ChannelShape | None, None, "Cross-section: cylinder | square | rectangle (a duct of width "
         "W = 2 R_ch and height H, plane walls; RT-DC chips are square).",
         shown="square with --channel-width, rectangle with a different --channel-height, else cylinder"),
