@@ -786,8 +786,9 @@ def lut_metadata(settings: dict, identifier: str) -> dict:
         "software": f"elastocell {__version__}",
         "authors": "elastocell",
         "summary": (
-            f"{shape_read(settings)} of {channel}. {fluid}. Driving: the pressure gradient G that carries flow_rate, "
-            "wall shear stress tau_w = G A/P (cylinder G R_ch/2, square G W/4), Ca_w = tau_w/mu. "
+            f"{shape_read(settings)} of {channel}. {fluid}. Driving: flow_rate, held (the body force rescaled "
+            "after every record); the pressure gradient G that carries it through the ideal channel sets the wall "
+            "shear stress tau_w = G A/P (cylinder G R_ch/2, square G W/4), Ca_w = tau_w/mu. "
             "area_um and deform are the convex outline of the cell seen from the side (deform = 1 - "
             "circularity)."),
         "elastocell": settings,
