@@ -145,11 +145,14 @@ def grid_points(points, resolution: float, coarse_resolution: float | None, dura
 
 
 def case(record: dict) -> tuple:
-    """What identifies a run here: cell radius, modulus, resolution and duration cap (not lut's run key, which
-    hashes every option of the pipe run and changes when the pipe scenario gains one)."""
+    """What identifies a run here: cell radius, modulus, resolution, duration cap, radius correction and whether the
+    flow rate was held (not lut's run key, which hashes every option of the pipe run and changes when the pipe
+    scenario gains one). A record without ``hold_flow_rate`` was made before the pipe held the flow rate: G held;
+    a point still to run holds it (lut's pipe default)."""
     return (round(float(record["radius_um"]), 6), round(float(record["emodulus_kpa"]), 6),
             float(record["resolution"]), float(record["options"]["duration"]),
-            float(record["options"].get("flow_options", {}).get("hydrodynamic_radius_correction", 0.0)))
+            float(record["options"].get("flow_options", {}).get("hydrodynamic_radius_correction", 0.0)),
+            bool(record.get("hold_flow_rate", "parts" not in record)))
 
 
 def read_cache(path: Path) -> dict:
@@ -235,7 +238,8 @@ def run_missing(points: list[dict], out: Path, workers: int) -> list[dict]:
         if not outcome.get("extrapolation") and point["options"].get("extrapolate", True) and point["resolution"] > 6:
             failures.append({"key": point["key"], "error": "lut ran a single resolution, not an extrapolated point"})
             continue
-        record = {**outcome, "single": not outcome.get("extrapolation"), "resolution": point["resolution"],
+        record = {**outcome, "hold_flow_rate": True, "single": not outcome.get("extrapolation"),
+                  "resolution": point["resolution"],
                   "radius_um": point["radius_um"],
                   "emodulus_kpa": point["emodulus_kpa"], "parts": parts_of(out / "runs" / point["key"], outcome),
                   "parts_source": "run directories, wall time cumulative over resumed sessions"}

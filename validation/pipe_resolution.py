@@ -117,6 +117,7 @@ def run_case(case: dict, out: Path) -> dict:
     last = series[series["time"] > series["time"].iloc[-1] - 1.0]
     return {**case, "key": key(case), "nodes": int(summary["mesh"]["n_nodes"]),
             "deform": float(last["deformation"].mean()), "area_r2": float(last["projected_area"].mean()),
+            "fallback_last_unit": int((last["outline_fallback"] > 0).sum()),
             "end": float(series["time"].iloc[-1]), **drifts(directory / "timeseries.csv"),
             "capillary_number_wall": ca_w, "pressure_gradient_ratio": summary.get("pressure_gradient_ratio", 1.0),
             "flow_rate_ratio": summary.get("flow_rate_ratio"), "wall_s": time.perf_counter() - start}

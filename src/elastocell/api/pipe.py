@@ -106,6 +106,8 @@ def pipe(
     medium: str | None = None,
     temperature: float | str | None = None,
     flow_index: float | None = None,
+    hold_flow_rate: bool | None = None,
+    hydrodynamic_radius_correction: float | None = None,
     duration: float = 10.0,
     resume: bool = False,
     progress: bool = True,
@@ -130,13 +132,18 @@ def pipe(
     channel_shape: "cylinder" (default), "square" or "rectangle" (width 2 R_ch, height channel_aspect_ratio times
     the width). medium: "newtonian" (default), "0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS" (at ``temperature``:
     "23degC", "23°C", "296.15K" or a bare number in degC) or "power-law" (with ``flow_index``); see :class:`PipeFlowParameters`.
+    hold_flow_rate: hold the flow rate the nominal G drives through the ideal channel (default True, as RT-DC's
+    pump) or, False, hold G. hydrodynamic_radius_correction: the markers at R - c dx (default 0). Both as
+    :class:`PipeFlowParameters` (``elastocell pipe --hold-flow-rate/--no-hold-flow-rate``,
+    ``--hydrodynamic-radius-correction``).
     duration: units of 1/gdot_w. resume: continue from ``out/checkpoint.npz`` if it exists.
     stationary_tolerance: stop once the running mean of ``stationary_observable`` ("strain_axial" or
     "deformation") over the last unit of time changes by less than this fraction of it (see
     :class:`~elastocell.simulation.runner.StopCriteria`). flow_options: further :class:`PipeFlowParameters`.
     capillary_number_modulus: "reference" (Ca_w against the simulated cell's mu: mu_eff with ``equivalent``)
     or "mu_c" (against the described cell's mu_c; with ``equivalent`` the run uses Ca_w / gamma_eff, i.e. the
-    same pressure gradient G as the heterogeneous cell, as the paper compares them).
+    same nominal pressure gradient G as the heterogeneous cell, as the paper compares them; with
+    ``hold_flow_rate`` each run holds the flow rate that G drives through the ideal channel).
     extrapolate, coarse_resolution: run R/dx ``coarse_resolution`` (default 6, only when the resolution is above
     it) too, in ``out/resolution-<R/dx>/`` beside ``out/resolution-<resolution>/`` (each resumable, each with
     its own time series, checkpoint and VTK files), and report the stationary strains, deformation, projected
@@ -156,7 +163,9 @@ def pipe(
     for name, value in (("channel_radius_ratio", channel_radius_ratio), ("start_offset", start_offset),
                         ("resolution", resolution), ("channel_shape", channel_shape),
                         ("channel_aspect_ratio", channel_aspect_ratio), ("medium", medium),
-                        ("temperature", parse_temperature(temperature)), ("flow_index", flow_index)):
+                        ("temperature", parse_temperature(temperature)), ("flow_index", flow_index),
+                        ("hold_flow_rate", hold_flow_rate),
+                        ("hydrodynamic_radius_correction", hydrodynamic_radius_correction)):
         if value is not None:
             flow_options[name] = value
     params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)

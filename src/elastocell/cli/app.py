@@ -320,9 +320,9 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
         raise ParameterError("capillary_number_wall", "required (or --pressure-gradient)")
     flow_options = {"channel_radius_ratio": channel_radius_ratio, "start_offset": start_offset, "resolution": resolution,
                     "backend": backend.value, "channel_shape": shape, "channel_aspect_ratio": channel_aspect_ratio,
-                    "medium": medium, "temperature": parse_temperature(temperature), "flow_index": flow_index,
-                    "hold_flow_rate": hold_flow_rate, "hydrodynamic_radius_correction": hydrodynamic_radius_correction}
-    PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)  # validate early
+                    "medium": medium, "temperature": parse_temperature(temperature), "flow_index": flow_index}
+    PipeFlowParameters(capillary_number_wall=capillary_number_wall, hold_flow_rate=hold_flow_rate,
+                       hydrodynamic_radius_correction=hydrodynamic_radius_correction, **flow_options)  # validate early
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                  stationary_observable=stationary_observable.value, unit="units of 1/gdot_w")
     channel_length_of(channel_length, cell)  # refused in one line before anything runs
@@ -333,7 +333,8 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
                       progress=not quiet, wall_clock=wall_clock,
                       stationary_tolerance=stationary_tolerance, stationary_observable=stationary_observable.value,
                       record_interval=record_interval, checkpoint_every=checkpoint_every, vtk_interval=vtk_interval,
-                      flow_options=flow_options, channel_length=channel_length, **cell_options)
+                      flow_options=flow_options, channel_length=channel_length, hold_flow_rate=hold_flow_rate,
+                      hydrodynamic_radius_correction=hydrodynamic_radius_correction, **cell_options)
     except FlowError as error:
         typer.echo(f"elastocell: pipe flow failed: {error}", err=True)
         raise typer.Exit(code=1) from None

@@ -46,9 +46,10 @@ def default_device() -> str:
 
 @jax.tree_util.register_pytree_node_class
 class LatticeTables:
-    """Per-lattice data of a step: relaxation rates, body force and wall terms (static: part of the compiled
-    program, compared by value, so lattices with the same parameters share it) and the bounce-back masks
-    (device arrays passed to the compiled step, not baked into it)."""
+    """Per-lattice data of a step: relaxation rates and wall terms (static: part of the compiled program, compared
+    by value, so lattices with the same parameters share it), the bounce-back masks and the uniform body force
+    (device arrays passed to the compiled step, not baked into it: :meth:`JaxLattice.set_body_force` changes the
+    force without recompiling; whether there is one at all is static)."""
 
     def __init__(self, params: LatticeParams | None, dtype=None):
         if params is None:  # unflattening
@@ -260,8 +261,11 @@ class JaxLattice(Lattice):
     def set_body_force(self, body_force) -> None:
         """Replace the uniform body force (3 floats, rho0 dx/dt^2) from the next step on, without recompiling (the
         compiled steps read it as an argument); a lattice built without one cannot be given one."""
-        g = check_body_force(self.params, body_force)
-        self._tables_jax.body_force = jnp.asarray(g, dtype=jnp.float64)
+        if not self._tables_jax.has_body_force and any(float(c) != 0.0 for c in body_force):
+            raise ValueError("a JAX lattice built without a body force cannot be given one (its compiled steps "
+                             "leave it out)")
+        self.params = check_body_force(self.params, body_force)
+        self._tables_jax.body_force = jnp.asarray(self.params.body_force, dtype=jnp.float64)
 
     # ------------------------------------------------------------------ stepping
     def step(self, n: int = 1) -> None:

@@ -7,6 +7,7 @@ nu = (tau - 1/2) / 3 (dx^2/dt).
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from typing import Literal
@@ -212,15 +213,13 @@ class LatticeParams:
         return np.dtype(self.dtype)
 
 
-def check_body_force(params: LatticeParams, body_force) -> tuple[float, float, float]:
-    """Validate a new uniform body force (3 finite floats, rho0 dx/dt^2) for the lattice of ``params`` and record it
-    in ``params`` (the lattice's own; read by its velocity moments); a lattice built without a body force cannot
-    be given one (its compiled steps leave it out)."""
+def check_body_force(params: LatticeParams, body_force) -> LatticeParams:
+    """``params`` with a new uniform body force (3 finite floats, rho0 dx/dt^2): a copy, so that a lattice changing
+    its force mid-run leaves any other holder of the same parameters as it was (the solid mask is shared, not
+    copied)."""
     g = np.asarray(body_force, dtype=np.float64)
     if g.shape != (3,) or not np.all(np.isfinite(g)):
         raise ValueError(f"body_force must be three finite floats (gx, gy, gz), got {body_force!r}")
-    if not any(params.body_force) and g.any():
-        raise ValueError("a lattice built without a body force cannot be given one")
-    value = tuple(float(c) for c in g)
-    object.__setattr__(params, "body_force", value)
-    return value
+    changed = copy.copy(params)
+    object.__setattr__(changed, "body_force", tuple(float(c) for c in g))
+    return changed

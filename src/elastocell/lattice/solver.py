@@ -217,8 +217,8 @@ class Lattice:
     def set_body_force(self, body_force) -> None:
         """Replace the uniform body force (3 floats, rho0 dx/dt^2) from the next step on (the kernels read it from
         their constants; no recompilation)."""
-        g = check_body_force(self.params, body_force)
-        self._consts[kernels.K_GX], self._consts[kernels.K_GY], self._consts[kernels.K_GZ] = g
+        self.params = check_body_force(self.params, body_force)
+        self._consts[kernels.K_GX], self._consts[kernels.K_GY], self._consts[kernels.K_GZ] = self.params.body_force
 
     def _total_force(self) -> np.ndarray:
         """F_total = body_force + field, float64, broadcastable to (3, nx, ny, nz)."""

@@ -203,9 +203,23 @@ def unit_flow_rate(channel: str, flow_index: float, aspect_ratio: float = 1.0) -
         return tube_flow_rate(1.0, 1.0, n, 1.0)
     if n == 1.0:
         return duct_flow_rate(1.0, 1.0, 1.0, float(aspect_ratio))
-    # the tau clamp of the lattice law opened to nu in [1e-12, 1e9]: the continuum power law
-    law = PowerLaw(n, 1.0, relaxation_time_min=0.5 + 3e-12, relaxation_time_max=0.5 + 3e9)
-    return finite_difference_duct_flow_rate(law, 1.0, 1.0, float(aspect_ratio), cells=DUCT_CELLS, tolerance=1e-12)
+    return power_law_duct_unit_flow_rate(n, float(aspect_ratio))
+
+
+def duct_cells(aspect_ratio: float, cells: int = DUCT_CELLS) -> int:
+    """Finite volumes across the width of a duct of height/width ``aspect_ratio``: at least ``cells`` across its
+    shorter side, and as many as make the height a whole number of cells most nearly (the scheme rounds it)."""
+    base = cells if aspect_ratio >= 1 else math.ceil(cells / aspect_ratio)
+    return min(range(base, 2 * base + 1), key=lambda c: abs(c * aspect_ratio - round(c * aspect_ratio)) / c)
+
+
+def power_law_duct_unit_flow_rate(flow_index: float, aspect_ratio: float) -> float:
+    """q1(n) of the duct of half-width 1 and half-height ``aspect_ratio`` by finite volumes
+    (:func:`finite_difference_duct_flow_rate` on :func:`duct_cells`), the lattice law's tau clamp opened to nu in
+    [1e-12, 1e9]: the continuum power law."""
+    law = PowerLaw(flow_index, 1.0, relaxation_time_min=0.5 + 3e-12, relaxation_time_max=0.5 + 3e9)
+    return finite_difference_duct_flow_rate(law, 1.0, 1.0, aspect_ratio, cells=duct_cells(aspect_ratio),
+                                            tolerance=1e-12)
 
 
 def ideal_flow_rate(units: PipeUnits) -> float:
@@ -464,8 +478,9 @@ class PipeFlowParameters(FlowLatticeParameters):
         (a syringe pump, as RT-DC and dclab's tables: :func:`ideal_flow_rate`); the body force is rescaled after
         every record, G <- G (Q_ideal/Q)^n (n the flow index), so that the cell's own resistance in the periodic
         box and the staircase wall's error in Q do not slow the flow. False: G is held (a pressure-driven
-        periodic channel), and the flow rate falls below Q_ideal: by about a tenth for a cell of R/R_ch 0.70
-        in the default box at R/dx 8, which then deforms less (tests/test_pipe.py holds both at R/dx 4).
+        periodic channel; the field is then left out of the parameters' dump, as runs without it held G), and
+        the flow rate falls below Q_ideal: by about a tenth for a cell of R/R_ch 0.70 in the default box at
+        R/dx 8, which then deforms less (docs/validation/pipe_dclab.md, section "The flow rate held").
     medium: "newtonian" or a shear-thinning power law: "0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS" at
         ``temperature`` (degC, default 23; :mod:`elastocell.parameters.medium`), or "power-law" with ``flow_index``.
         The power law's consistency is set so that its viscosity at the nominal wall shear rate gdot_w is the
@@ -522,6 +537,8 @@ class PipeFlowParameters(FlowLatticeParameters):
         data = handler(self)
         if self.hydrodynamic_radius_correction == 0.0:
             data.pop("hydrodynamic_radius_correction", None)
+        if not self.hold_flow_rate:  # G held: what runs without the field always did (their keys stay valid)
+            data.pop("hold_flow_rate", None)
         return data
 
 
@@ -795,8 +812,9 @@ class PipeRun(FlowRun):
 
     def advance_record(self) -> dict:
         """One record (:meth:`FlowRun.advance_record`), then, with ``hold_flow_rate``, the body force rescaled to
-        carry the ideal channel's flow rate: G <- G (Q_ideal/Q)^n, the factor within [0.8, 1.25] per record (the
-        flow follows G within a record at these Reynolds numbers; the flow rate is held to 1e-4 after a few)."""
+        carry the ideal channel's flow rate: G <- G (Q_ideal/Q)^n, the factor within [0.8, 1.25] per record. An
+        integral control at full gain: the flow follows G with the channel's viscous lag, so it settles within
+        about ten records at R_ch/R 2 and takes longer (tens of records, a slight overshoot) in wide channels."""
         row = super().advance_record()
         if self.params.hold_flow_rate:
             lattice = self.system.lattice
@@ -813,7 +831,8 @@ class PipeRun(FlowRun):
 
     @property
     def pressure_gradient_ratio(self) -> float:
-        """G/G_nominal: the body force that holds the flow rate over the nominal one (1 without ``hold_flow_rate``)."""
+        """G/G_nominal: the body force after the last update (the next record's) over the nominal one (1 without
+        ``hold_flow_rate``)."""
         return self.system.lattice.params.body_force[0] / self.units.body_force
 
     def _extra_state(self) -> dict:

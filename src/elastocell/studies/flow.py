@@ -415,6 +415,6 @@ STUDIES = [
           shear_table, plot_shear_offset, claims_shear_offset),
     Study("pipe-centred", "Centred cell in pipe flow", "fig-pipeflow-centered-deformation",
           "Stationary eps_x and eps_r (std as error bars) for gamma 1, 2, 10 and the random cell beside their "
-          "equivalents (same pressure gradient), and their side views.", pipe_members, pipe_table, plot_pipe,
+          "equivalents (same nominal pressure gradient), and their side views.", pipe_members, pipe_table, plot_pipe,
           claims_pipe),
 ]

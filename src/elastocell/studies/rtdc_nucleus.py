@@ -20,8 +20,8 @@ homogeneous modulus whose whole stationary shape (D, eps_x - 1, eps_r - 1) comes
 
 The channel, flow and medium are LE-2D-FEM-19's (so that no scaling of the table enters): the cylinder of radius
 R_ch = 1.094 x 10 um standing for the 20 um square channel, Q = 0.04 uL/s, eta = 15 mPa s; a cell of radius
-6 um and E_c = 2 kPa (Ca_w = G R_ch/(2 mu_c) = 0.864, nu = 0.48). Every cell sees the same pressure gradient
-(``capillary_number_modulus="mu_c"``); the homogeneous cell of modulus s E_c runs at Ca_w/s. The table's
+6 um and E_c = 2 kPa (Ca_w = G R_ch/(2 mu_c) = 0.864, nu = 0.48). Every cell sees the same nominal pressure gradient
+(``capillary_number_modulus="mu_c"``; each run holds the flow rate G drives through the ideal channel, as RT-DC); the homogeneous cell of modulus s E_c runs at Ca_w/s. The table's
 moduli are of an incompressible solid (nu = 0.5): the modulus dclab reads is converted to the cell's Poisson
 ratio at equal shear modulus, E = E_t 2 (1 + nu)/3.
 
