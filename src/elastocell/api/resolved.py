@@ -71,7 +71,8 @@ def resolved_parameters(scenario: str, options: dict) -> dict:
         compression = CompressionParameters(delta_max=arguments.pop("delta_max"), steps=arguments.pop("steps"))
         return {"scenario": scenario, "cell": cell, "compression": compression, "options": arguments}
     flow_options = dict(arguments.pop("flow_options") or {})
-    names = ("resolution",) if scenario == "shear" else ("channel_radius_ratio", "start_offset", "resolution")
+    names = (("resolution",) if scenario == "shear" else
+             ("channel_radius_ratio", "start_offset", "resolution", "hold_flow_rate", "hydrodynamic_radius_correction"))
     for name in names:
         value = arguments.pop(name)
         if value is not None:
