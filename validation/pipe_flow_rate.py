@@ -117,12 +117,12 @@ def main() -> None:
                             for k in ("D_err", "A_err", "E_err")})
             rows.append(row)
     formats = {"R [um]": "g", "R/R_ch": ".3f", "E [kPa]": "g", "c [dx]": "g", "hull records (G 8, Q 8, Q 6)": None}
-    columns = list(rows[0]) if rows else []
+    columns = list(dict.fromkeys(name for row in rows for name in row))  # a row without the extrapolation lacks some
     formats.update({name: ".4f" if ("Q/Q" in name or "G/G" in name) else "+.1f" for name in columns
                     if name not in formats})
     page.table(rows, "R/dx 8 holding G and holding Q, R/dx 6 holding Q, and the Richardson extrapolation from "
                      "R/dx 6 and 8 (Q held; none where a run's last unit was read through the nodes' hull)",
-               formats=formats)
+               columns=columns, formats=formats)
     page.print("Wall time per run (s, two at a time on the 2-core machine, one thread each): " + ", ".join(
         f"{r['key']} {r['wall_s']:.0f}" for r in found))
     page.write()
