@@ -408,3 +408,16 @@ def test_the_power_law_duct_flow_rate_is_the_series_at_n_1(aspect_ratio):
 
     exact = duct_flow_rate(1.0, 1.0, 1.0, aspect_ratio)
     assert power_law_duct_unit_flow_rate(1.0, aspect_ratio) / exact - 1 == pytest.approx(0.0, abs=1.5e-3)
+
+
+def test_a_held_pressure_gradient_reaches_both_runs_of_an_extrapolated_pipe(tmp_path):
+    """``hold_flow_rate=False`` is left out of the parameters' dump (G-held runs keep their old keys), so a model
+    rebuilt from the dump would hold Q again: both resolutions of an extrapolated run must hold G."""
+    from elastocell.api.pipe import pipe
+
+    pipe(tmp_path / "run", 0.2, nucleus="none", mesh_size=0.6, pole_size=0.6, resolution=5, coarse_resolution=4,
+         channel_radius_ratio=2.5, duration=0.3, record_interval=0.1, hold_flow_rate=False, progress=False,
+         vtk_interval=None)
+    for part in ("resolution-5", "resolution-4"):
+        summary = json.loads((tmp_path / "run" / part / "summary.json").read_text())
+        assert summary["hold_flow_rate"] is False and summary["pressure_gradient_ratio"] == 1.0, part

@@ -27,6 +27,9 @@ D err and A err are the vertical and horizontal distances of elastocell's point 
 on (along an isoelastic d ln D / d ln A is about 1.5 here, so an area error is about two thirds of the deformation
 error). A/(pi R^2) is elastocell's own area over the undeformed cell's.
 
+The points run as lut's do, holding the flow rate (the pipe's default since section "The flow rate held" of the
+page); the section this script wrote before then was run with the pressure gradient held, and its records, kept
+in their cache, are told apart (:func:`case`), not reused for points that hold the flow rate.
 Every run's record is appended to ``--out/runs.jsonl`` as it finishes (and its run directory keeps the pipe run's
 files); ``--cached-only`` writes the page from that file alone, and lists the points it lacks. The section goes
 into docs/validation/pipe_dclab.md (``validation/page.py``).
@@ -50,6 +53,7 @@ except ImportError:  # a source checkout without installing
 
 from page import Page
 
+from elastocell.api.resolved import resolved_parameters
 from elastocell.inverse.lut import plan, point_key, run_point
 from elastocell.scenarios.pipe import PipeFlowParameters
 from elastocell.scenarios.shear import compile_kernels
@@ -139,7 +143,9 @@ def grid_points(points, resolution: float, coarse_resolution: float | None, dura
         if correction:
             options = {**point["options"], "flow_options": {"hydrodynamic_radius_correction": float(correction)}}
             point = {**point, "options": options, "key": point_key(radius, modulus, options)}
-        out.append({**point, "resolution": float(resolution), "radius_um": radius, "emodulus_kpa": modulus,
+        held = bool(resolved_parameters("pipe", point["options"])["flow"].hold_flow_rate)
+        out.append({**point, "hold_flow_rate": held, "resolution": float(resolution), "radius_um": radius,
+                    "emodulus_kpa": modulus,
                     "correction": float(correction)})
     return out
 
@@ -147,12 +153,12 @@ def grid_points(points, resolution: float, coarse_resolution: float | None, dura
 def case(record: dict) -> tuple:
     """What identifies a run here: cell radius, modulus, resolution, duration cap, radius correction and whether the
     flow rate was held (not lut's run key, which hashes every option of the pipe run and changes when the pipe
-    scenario gains one). A record without ``hold_flow_rate`` was made before the pipe held the flow rate: G held;
-    a point still to run holds it (lut's pipe default)."""
+    scenario gains one). A point carries the flow its pipe run holds (:func:`grid_points`) and its record keeps it;
+    a record without ``hold_flow_rate`` was made before the pipe held the flow rate: G held."""
     return (round(float(record["radius_um"]), 6), round(float(record["emodulus_kpa"]), 6),
             float(record["resolution"]), float(record["options"]["duration"]),
             float(record["options"].get("flow_options", {}).get("hydrodynamic_radius_correction", 0.0)),
-            bool(record.get("hold_flow_rate", "parts" not in record)))
+            bool(record.get("hold_flow_rate", False)))
 
 
 def read_cache(path: Path) -> dict:
@@ -238,7 +244,7 @@ def run_missing(points: list[dict], out: Path, workers: int) -> list[dict]:
         if not outcome.get("extrapolation") and point["options"].get("extrapolate", True) and point["resolution"] > 6:
             failures.append({"key": point["key"], "error": "lut ran a single resolution, not an extrapolated point"})
             continue
-        record = {**outcome, "hold_flow_rate": True, "single": not outcome.get("extrapolation"),
+        record = {**outcome, "hold_flow_rate": point["hold_flow_rate"], "single": not outcome.get("extrapolation"),
                   "resolution": point["resolution"],
                   "radius_um": point["radius_um"],
                   "emodulus_kpa": point["emodulus_kpa"], "parts": parts_of(out / "runs" / point["key"], outcome),

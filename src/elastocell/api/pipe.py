@@ -180,7 +180,7 @@ def pipe(
     def run_part(directory, r, label, wall_clock_left):
         part_arguments = list(arguments)
         part_arguments[6] = wall_clock_left  # the whole call's wall clock, less what the finer run used
-        return _single(directory, PipeFlowParameters(**{**params.model_dump(), "resolution": r}), *part_arguments,
+        return _single(directory, PipeFlowParameters(**{**dict(params), "resolution": r}), *part_arguments,
                        part=label)
 
     summary, fine, series = run_extrapolated(out, params.resolution, coarse, run_part, EXTRAPOLATED,
@@ -221,7 +221,7 @@ def _single(out, params, capillary_number_wall, cell, equivalent, duration, resu
         body = body.equivalent()
         if capillary_number_modulus == "mu_c":  # same G: Ca_w,eff = G R_ch / (2 mu_eff)
             capillary_number_wall = capillary_number_wall / body.effective_stiffness_ratio
-            params = PipeFlowParameters(**{**params.model_dump(), "capillary_number_wall": capillary_number_wall})
+            params = PipeFlowParameters(**{**dict(params), "capillary_number_wall": capillary_number_wall})
         else:
             capillary_number_mu_c = capillary_number_wall * body.effective_stiffness_ratio
     run = PipeRun(body, params, record_interval=record_interval)
