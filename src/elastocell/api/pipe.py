@@ -167,6 +167,8 @@ def pipe(
                         ("hold_flow_rate", hold_flow_rate),
                         ("hydrodynamic_radius_correction", hydrodynamic_radius_correction)):
         if value is not None:
+            if name in ("hold_flow_rate", "hydrodynamic_radius_correction") and flow_options.get(name, value) != value:
+                raise ParameterError(name, f"given twice, {value!r} and flow_options {flow_options[name]!r}")
             flow_options[name] = value
     params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)
     coarse = coarse_resolution_of(extrapolate, params.resolution, coarse_resolution)
