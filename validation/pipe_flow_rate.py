@@ -2,6 +2,7 @@
 gradient held (``hold_flow_rate=False``), against dclab's LE-2D-FEM-19.
 
     nice python validation/pipe_flow_rate.py [--points 7.66:3,7.66:4.5,6:2,6:3] [--corrections 0 0.3]
+                                             [--refinement-correction 0.3] [--finest-points 6:3]
                                              [--duration 16] [--workers 2] [--out results/pipe-flow-rate]
                                              [--cached-only]
 
@@ -14,7 +15,8 @@ stationarity stop, D and the area are means over the last unit). Per point (R um
 the second half of a run of 10 units). A run whose last unit has records read through the nodes' hull (the smooth
 outline's fallback, ``outline_fallback``: D then jumps) is flagged, and no extrapolation uses it. The flow-rate ratio
 Q/Q_ideal is the lattice's flow rate at the end over that of the nominal G in the ideal cylinder; G/G_0 is the
-body force that held Q at the end over the nominal one.
+body force that held Q at the end over the nominal one. A second table follows the Q-held cell with the markers
+at R - ``--refinement-correction`` dx through R/dx 6, 8, 10 (every point) and 12 (``--finest-points``).
 
 Every run's record is appended to ``--out/runs.jsonl`` (a run already there is not repeated); ``--cached-only``
 writes the page from that file alone. The section goes into docs/validation/pipe_dclab.md.
@@ -47,6 +49,15 @@ def all_cases(points, corrections, duration: float) -> list[dict]:
     return out
 
 
+def refinement_cases(points, finest_points, correction: float, duration: float) -> list[dict]:
+    """Q held, markers at R - ``correction`` dx: R/dx 10 at every point, and 12 at ``finest_points``."""
+    out = []
+    for point in points:
+        resolutions = [10.0, 12.0] if point in finest_points else [10.0]
+        out += [{**c, "hold": True} for c in cases(point, resolutions, [correction], duration, meshes=False)]
+    return out
+
+
 def extrapolated(fine: dict, coarse: dict) -> dict:
     """The default's reading: D and the area Richardson-extrapolated (order 2) from R/dx 6 and 8, against the table."""
     ratio = fine["resolution"] / coarse["resolution"]
@@ -73,10 +84,15 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=16.0)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("results/pipe-flow-rate"))
+    parser.add_argument("--refinement-correction", type=float, default=0.3,
+                        help="the correction of the refinement table (R/dx 6-12, Q held)")
+    parser.add_argument("--finest-points", default="6:3", help="R:E,... also run at R/dx 12; '' for none")
     parser.add_argument("--cached-only", action="store_true")
     args = parser.parse_args()
     points = parse_points(args.points)
+    finest = parse_points(args.finest_points) if args.finest_points else []
     todo = all_cases(points, args.corrections, args.duration)
+    todo += refinement_cases(points, finest, args.refinement_correction, args.duration)
     page = Page()
     if not args.cached_only:
         run_missing(todo, args.out, args.workers)
@@ -123,6 +139,23 @@ def main() -> None:
     page.table(rows, "R/dx 8 holding G and holding Q, R/dx 6 holding Q, and the Richardson extrapolation from "
                      "R/dx 6 and 8 (Q held; none where a run's last unit was read through the nodes' hull)",
                columns=columns, formats=formats)
+    refined = []
+    for radius, modulus in points:
+        row = {"R [um]": radius, "R/R_ch": radius / CHANNEL_RADIUS_UM, "E [kPa]": modulus}
+        for resolution in (6.0, 8.0, 10.0, 12.0):
+            record = records.get(key({"radius_um": radius, "emodulus_kpa": modulus, "element": "p1",
+                                      "mesh_size": None, "resolution": resolution, "c": args.refinement_correction,
+                                      "duration": args.duration, "hold": True}))
+            if record is None:
+                continue
+            hull = record.get("fallback_last_unit", "?")
+            row[f"R/dx {resolution:g}: D err %"] = record["D_err"] if hull == 0 else None
+            row[f"R/dx {resolution:g}: E err %"] = record["E_err"] if hull == 0 else None
+        refined.append(row)
+    names = list(dict.fromkeys(name for row in refined for name in row))
+    page.table(refined, f"Q held, markers at R - {args.refinement_correction:g} dx, under refinement (blank: not run, "
+                        "or its last unit read through the nodes' hull)", columns=names,
+               formats={name: formats.get(name, "+.1f") for name in names})
     page.print("Wall time per run (s, two at a time on the 2-core machine, one thread each): " + ", ".join(
         f"{r['key']} {r['wall_s']:.0f}" for r in found))
     page.write()
