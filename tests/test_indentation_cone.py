@@ -169,7 +169,7 @@ def test_fit_cone_refits_a_forward_curve():
 def test_fit_cone_refusals_are_one_line(tmp_path, args, option):
     x, f = np.linspace(0, 1e-6, 50), np.linspace(0, 1e-9, 50)
     path = tmp_path / "c.csv"
-    path.write_text("displacement,force\n" + "\n".join(f"{a},{b}" for a, b in zip(x, f)))
+    path.write_text("displacement,force\n" + "\n".join(f"{a},{b}" for a, b in zip(x, f, strict=True)))
     result = CliRunner().invoke(app, ["fit", "afm", str(path), "--geometry", "cone", "--cell-shape", "layer", *args,
                                       "--out", str(tmp_path / "fits")])
     assert result.exit_code == 2, result.output
@@ -228,7 +228,7 @@ def test_fit_pyramid_from_the_command_line(tmp_path):
 
     x, f = _forward_curve(2e3, 5e-6, 0.005)
     path = tmp_path / "p.csv"
-    path.write_text("displacement,force\n" + "\n".join(f"{a:.17g},{b:.17g}" for a, b in zip(x, f)))
+    path.write_text("displacement,force\n" + "\n".join(f"{a:.17g},{b:.17g}" for a, b in zip(x, f, strict=True)))
     out = tmp_path / "fits"
     result = CliRunner().invoke(app, ["fit", "afm", str(path), "--geometry", "pyramid", "--cell-shape", "layer",
                                       "--layer-thickness", "5um", "--half-angle", f"{PYRAMID_FACE!r}deg",

@@ -46,6 +46,7 @@ from elastocell.scenarios.axisymmetric import (
 from elastocell.scenarios.indentation import (
     CONE_AXISYMMETRIC,
     INDENTERS,
+    check_axisymmetric,
     check_depth,
     cone_body,
     cone_geometry,
@@ -53,7 +54,6 @@ from elastocell.scenarios.indentation import (
     cone_tip_radius,
     indent_body,
     indentation_cell_3d,
-    check_axisymmetric,
     indentation_geometry,
     indentation_solver,
 )

@@ -324,7 +324,7 @@ def _generate(nucleus: tuple[float, float, float] | None, parameters: MeridianMe
             interface = []
             if nucleus_tags:
                 for _, curve in gmsh.model.getBoundary([(2, t) for t in nucleus_tags], oriented=False):
-                    low, high = gmsh.model.getBoundingBox(1, curve)[0], gmsh.model.getBoundingBox(1, curve)[3]
+                    high = gmsh.model.getBoundingBox(1, curve)[3]
                     if high > 1e-9:  # not the axis segment
                         interface.append(curve)
             outer = [tag for _, tag in gmsh.model.getBoundary([(2, t) for t in surfaces], combined=True,

@@ -12,8 +12,8 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import ClassVar
 from pathlib import Path
+from typing import ClassVar
 
 # =========================================================================== shear flow
 import numpy as np
