@@ -52,6 +52,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                         "nice python validation/stiff_3d.py"),
         "stiff_volumetric.py": ("The stiff nucleus in 3D: the crushed layer's volumetric treatment",
                                 "nice python validation/stiff_volumetric.py"),
+        "stiff_mesh.py": ("The stiff nucleus in 3D: its refined mesh, the defaults against the truth",
+                          "nice python validation/stiff_mesh.py"),
     }),
     "indentation": ("A bead indenting a cell on a dish", {
         "indentation.py": ("Hertz limits and mesh refinement", "nice python validation/indentation.py"),

@@ -350,6 +350,30 @@ def outer_surface_triangles(elements: np.ndarray) -> np.ndarray:
     return np.concatenate([faces[boundary], edge_nodes[boundary]], axis=1)
 
 
+def surface_corner_edges(elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(corners, edge_nodes): for quadratic tetrahedra, one pair per end of every outer surface edge, the corner
+    node at that end and the edge's mid-side node (empty for linear ones). A 6-node triangle's corner takes no
+    share of a uniform pressure on it (the integral of its shape function over the triangle is zero), so that in a
+    contact the sign of a corner's force follows the curvature of the pressure, not the contact itself; the
+    mid-side nodes around it tell whether the surface there presses (``corners_surrounded``)."""
+    if elements.shape[1] != 10:
+        empty = np.zeros(0, dtype=elements.dtype)
+        return empty, empty
+    triangles = outer_surface_triangles(elements)
+    corner_pairs = np.array([(0, 3), (1, 3), (1, 4), (2, 4), (2, 5), (0, 5)])
+    pairs = np.unique(triangles[:, corner_pairs].reshape(-1, 2), axis=0)
+    return pairs[:, 0], pairs[:, 1]
+
+
+def corners_surrounded(pressed: np.ndarray, corners: np.ndarray, edge_nodes: np.ndarray) -> np.ndarray:
+    """Per node, True for a surface corner every one of whose surface edges has its mid-side node ``pressed``
+    (a boolean per node): a corner inside a region of contact (pairs of :func:`surface_corner_edges`)."""
+    size = len(pressed)
+    edges = np.bincount(corners, minlength=size)
+    pressed_edges = np.bincount(corners, weights=pressed[edge_nodes], minlength=size)
+    return (edges > 0) & (pressed_edges == edges)
+
+
 def _outer_surface(elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Boundary triangles (corners) and all nodes on them (edge nodes included)."""
     triangles = outer_surface_triangles(elements)

@@ -1,0 +1,96 @@
+"""The mesh a compression gives a stiff nucleus, and ``elastocell compress``'s defaults against the axisymmetric
+truth for every stiffness ratio.
+
+    nice python validation/stiff_mesh.py [--only screen defaults] [--cached-only]
+
+- screen: the nucleus surface's size and width, the bulk size and the polar layer, one mesh at a time, for
+  stiffness ratios 20 and 10 (size ratio 0.5), 14 load steps to delta 0.7 in this process; the first row of each
+  ratio is the mesh a compression used before ``compression.STIFF_NUCLEUS_MESHES`` (nucleus surface 0.15 over
+  0.25 R, bulk 0.35).
+- defaults: ``elastocell compress`` on its defaults (40 steps to delta 0.75) for stiffness ratios 1, 2, 5, 10 and
+  20, each in a new process: the wall time of the process and of the curve, and the error at delta 0.1-0.7.
+
+The truth is validation/axisymmetric.py's: ``compress_axisymmetric`` on the meridian mesh of scale 0.5 (within
+0.13 % of its Richardson limit at delta 0.1-0.7), from that script's cache. Every curve is cached (the cache
+directory, ``validation-stiff-3d/``, shared with validation/stiff_3d.py); ``--cached-only`` lists a curve not in
+the cache as not run, so that two invocations (``--only screen`` and ``--only defaults``) can compute in parallel
+and a third writes the page.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from axisymmetric import ERRORS
+from page import Page
+from stiff_3d import STEPS, default_curve, errors, screened_curve, truth
+
+BEFORE = {"interface_size": 0.15, "interface_width": 0.25, "mesh_size": 0.35}
+SCREEN = [  # (label, mesh of the compression with a stiff nucleus, ratios)
+    ("before: surface 0.15 over 0.25, bulk 0.35", BEFORE, [20, 10]),
+    ("surface 0.075 over 0.4 (the default to stiffness ratio 10)",
+     {"interface_size": 0.075, "interface_width": 0.4, "mesh_size": 0.35}, [20, 10]),
+    ("surface 0.075 over 0.4, bulk 0.25", {"interface_size": 0.075, "interface_width": 0.4, "mesh_size": 0.25}, [20]),
+    ("surface 0.075 over 0.4, bulk 0.25, polar layer 0.1 within 40 deg",
+     {"interface_size": 0.075, "interface_width": 0.4, "mesh_size": 0.25, "layer_size": 0.1, "layer_angle": 40}, [20]),
+    ("surface 0.06 over 0.4, bulk 0.25 (the default above 10)",
+     {"interface_size": 0.06, "interface_width": 0.4, "mesh_size": 0.25}, [20, 10]),
+]
+SCREEN_RATIOS = [20, 10]
+RATIOS = [1, 2, 5, 10, 20]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--only", nargs="+", choices=["screen", "defaults"], default=["screen", "defaults"])
+    parser.add_argument("--cached-only", action="store_true", help="list a curve not in the cache as not run")
+    parser.add_argument("--no-page", action="store_true", help="compute and print, write no page")
+    args = parser.parse_args()
+    page = Page("axisymmetric", "stiff_mesh.py", intro=(
+        "F/(E_c R^2) of the 3D solver (p2 tetrahedra, the rule with the nodes) against the axisymmetric truth "
+        "(meridian mesh of scale 0.5), neo-Hookean, nu 0.48, nucleus of size ratio 0.5; every error is "
+        "F/F_truth - 1 at the same delta. A compression gives a nucleus at least 7 times stiffer than the "
+        "cytoplasm a refined mesh (`compression.STIFF_NUCLEUS_MESHES`): the screen shows what each refinement "
+        "removes, the second table the defaults that result. Wall times are of a 2-core machine running two "
+        "curves at a time (load in the footer)."))
+    form = {"time_s": ".0f", "process_s": ".0f", "curve_s": ".0f", "delta_reached": ".3f",
+            **{name: "+.2%" for name in ERRORS}}
+    if "screen" in args.only:
+        rows = []
+        for ratio in SCREEN_RATIOS:
+            for label, mesh, ratios in SCREEN:
+                if ratio not in ratios:
+                    continue
+                record = screened_curve(ratio, {}, {"layer_size": None, **mesh}, cached_only=args.cached_only)
+                if record is None:
+                    rows.append({"gamma": ratio, "mesh": label, "nodes": "not run"})
+                    continue
+                rows.append({"gamma": ratio, "mesh": label, "nodes": record["nodes"], "time_s": record["seconds"],
+                             "delta_reached": record["delta"][-1], **errors(record, truth(ratio)),
+                             "stop": record["error"].split(":")[0] if record["error"] else ""})
+        page.table(rows, "Screen: one mesh at a time (14 steps to delta 0.7, in this process)",
+                   columns=["gamma", "mesh", "nodes", "time_s", "delta_reached", *ERRORS, "stop"], formats=form)
+    if "defaults" in args.only:
+        rows = []
+        for ratio in RATIOS:
+            record = default_curve(ratio, STEPS, cached_only=args.cached_only)
+            if record is None:
+                rows.append({"gamma": ratio, "nodes": "not run"})
+                continue
+            mesh = record["mesh"]
+            rows.append({"gamma": ratio, "nodes": record["nodes"], "surface": mesh.get("interface_size"),
+                         "width": mesh.get("interface_width"), "bulk": mesh["mesh_size"],
+                         "degree": mesh["quadrature_degree"] or 2, "process_s": record["process_s"],
+                         "curve_s": record["curve_s"], "exit": record.get("returncode"),
+                         "delta_reached": record["delta"][-1], **errors(record, truth(ratio))})
+        page.table(rows, f"`elastocell compress` on its defaults ({STEPS} steps to delta 0.75), each in a new "
+                   "process, against the axisymmetric truth (surface, width, bulk: the resolved mesh's nucleus "
+                   "surface size, its grading width and the bulk size, units of R)",
+                   columns=["gamma", "nodes", "surface", "width", "bulk", "degree", "process_s", "curve_s", "exit",
+                            "delta_reached", *ERRORS], formats={**form, "surface": "g", "width": "g", "bulk": "g"})
+    if not args.no_page:
+        page.write()
+
+
+if __name__ == "__main__":
+    main()
