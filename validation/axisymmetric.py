@@ -56,7 +56,8 @@ ERRORS = [f"err@{d:g}" for d in DELTAS]
 RATIOS = [1, 2, 5, 10, 20]
 STEPS = 40
 DELTA_MAX = 0.75
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2
+"""Version of the cached 3D curves (2: a p2 surface corner among pressed mid-side nodes stays in contact)."""
 AXISYMMETRIC_CACHE_FORMAT = 2
 """Version of the cached axisymmetric curves (2: a pole on a plate stays in contact while its neighbour is)."""
 BUDGET_RATIOS = [10, 20]

@@ -46,12 +46,14 @@ from elastocell.scenarios.compression import (
     compression_parameters_for,
 )
 
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2
+"""Version of the cached 3D curves (2: a p2 surface corner among pressed mid-side nodes stays in contact)."""
 TRUTH_SCALE, VARIED_TRUTH_SCALE = 0.5, 0.7
 SCREEN_STEPS, SCREEN_DELTA = 14, 0.7
 STEPS, DELTA_MAX = 40, 0.75
-BASE = {"layer_size": None}
-"""The default mesh has no polar layer (kept explicit, so that the budget's rows stay those of this mesh)."""
+BASE = {"layer_size": None, "interface_size": 0.15, "interface_width": 0.25, "mesh_size": 0.35}
+"""The default p2 mesh (no polar layer; the nucleus surface and bulk a stiff nucleus had before
+``compression.STIFF_NUCLEUS_MESHES``), kept explicit so that the budget's rows stay changes of this mesh."""
 BUDGET = [  # (factor, label, cell changes, mesh changes from the default, truth changes)
     ("", "default", {}, {}, {}),
     ("a", "poles 0.04", {}, {"pole_size": 0.04}, {}),
@@ -130,8 +132,8 @@ def default_curve(ratio: float, steps: int = STEPS, fresh: bool = False, cached_
                 "mesh": cell.mesh.model_dump(mode="json"), "run": "axisymmetric.py"}
     if cached_only:
         return None
-    options = ["--nucleus", "none"] if ratio == 1 else ["--stiffness-ratio", f"{ratio:g}", "--size-ratio", "0.5"]
-    options += [item for name, value in changes.items() for item in (f"--{name.replace('_', '-')}", f"{value}")]
+    options = [item for name, value in cell_options(ratio, **changes).items()
+               for item in (f"--{name.replace('_', '-')}", str(value))]
     with tempfile.TemporaryDirectory() as out:
         from elastocell.body.mesh import mesh_cache_path, mesh_parameters  # lazy: only when a curve is computed
 

@@ -1,7 +1,7 @@
 """The mesh a compression gives a stiff nucleus, and ``elastocell compress``'s defaults against the axisymmetric
 truth for every stiffness ratio.
 
-    nice python validation/stiff_mesh.py [--only screen defaults] [--cached-only]
+    nice python validation/stiff_mesh.py [--only screen defaults sizes] [--cached-only]
 
 - screen: the nucleus surface's size and width, the bulk size and the polar layer, one mesh at a time, for
   stiffness ratios 20 and 10 (size ratio 0.5), 14 load steps to delta 0.7 in this process; the first row of each
@@ -9,6 +9,8 @@ truth for every stiffness ratio.
   0.25 R, bulk 0.35).
 - defaults: ``elastocell compress`` on its defaults (40 steps to delta 0.75) for stiffness ratios 1, 2, 5, 10 and
   20, each in a new process: the wall time of the process and of the curve, and the error at delta 0.1-0.7.
+- sizes: the same for the size ratios 0.3 and 0.7 at stiffness ratio 2 (the truth on the meridian mesh of scale
+  0.7, within 0.13 % of scale 0.5 for size ratio 0.5).
 
 The truth is validation/axisymmetric.py's: ``compress_axisymmetric`` on the meridian mesh of scale 0.5 (within
 0.13 % of its Richardson limit at delta 0.1-0.7), from that script's cache. Every curve is cached (the cache
@@ -21,13 +23,12 @@ from __future__ import annotations
 
 import argparse
 
-from axisymmetric import ERRORS
+from axisymmetric import ERRORS, axisymmetric_curve, cell_options
 from page import Page
-from stiff_3d import STEPS, default_curve, errors, screened_curve, truth
+from stiff_3d import BASE, STEPS, VARIED_TRUTH_SCALE, default_curve, errors, screened_curve, truth
 
-BEFORE = {"interface_size": 0.15, "interface_width": 0.25, "mesh_size": 0.35}
 SCREEN = [  # (label, mesh of the compression with a stiff nucleus, ratios)
-    ("before: surface 0.15 over 0.25, bulk 0.35", BEFORE, [20, 10]),
+    ("before: surface 0.15 over 0.25, bulk 0.35", BASE, [20, 10]),
     ("surface 0.075 over 0.4 (the default to stiffness ratio 10)",
      {"interface_size": 0.075, "interface_width": 0.4, "mesh_size": 0.35}, [20, 10]),
     ("surface 0.075 over 0.4, bulk 0.25", {"interface_size": 0.075, "interface_width": 0.4, "mesh_size": 0.25}, [20]),
@@ -38,11 +39,13 @@ SCREEN = [  # (label, mesh of the compression with a stiff nucleus, ratios)
 ]
 SCREEN_RATIOS = [20, 10]
 RATIOS = [1, 2, 5, 10, 20]
+SIZES = [0.3, 0.7]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("--only", nargs="+", choices=["screen", "defaults"], default=["screen", "defaults"])
+    parser.add_argument("--only", nargs="+", choices=["screen", "defaults", "sizes"],
+                        default=["screen", "defaults", "sizes"])
     parser.add_argument("--cached-only", action="store_true", help="list a curve not in the cache as not run")
     parser.add_argument("--no-page", action="store_true", help="compute and print, write no page")
     args = parser.parse_args()
@@ -88,6 +91,23 @@ def main() -> None:
                    "surface size, its grading width and the bulk size, units of R)",
                    columns=["gamma", "nodes", "surface", "width", "bulk", "degree", "process_s", "curve_s", "exit",
                             "delta_reached", *ERRORS], formats={**form, "surface": "g", "width": "g", "bulk": "g"})
+    if "sizes" in args.only:
+        rows = []
+        for size in SIZES:
+            changes = {"size_ratio": size}
+            if axisymmetric_curve(cell_options(2, **changes), VARIED_TRUTH_SCALE, cached_only=args.cached_only) is None:
+                rows.append({"lambda": size, "nodes": "not run (truth)"})
+                continue
+            record = default_curve(2, STEPS, cached_only=args.cached_only, changes=changes)
+            if record is None:
+                rows.append({"lambda": size, "nodes": "not run"})
+                continue
+            rows.append({"lambda": size, "nodes": record["nodes"], "process_s": record["process_s"],
+                         "curve_s": record["curve_s"], "exit": record.get("returncode"),
+                         "delta_reached": record["delta"][-1], **errors(record, truth(2, changes))})
+        page.table(rows, f"The size series at stiffness ratio 2: `elastocell compress --size-ratio LAMBDA` ({STEPS} "
+                   "steps, new process) against the truth on the meridian mesh of scale 0.7",
+                   columns=["lambda", "nodes", "process_s", "curve_s", "exit", "delta_reached", *ERRORS], formats=form)
     if not args.no_page:
         page.write()
 

@@ -132,9 +132,11 @@ def compress(
     return summary
 
 
-CHECKPOINT_FORMAT = 2
+CHECKPOINT_FORMAT = 3
 """Layout of a compression ``checkpoint.npz`` (the rows of :class:`CompressionResult` and a fingerprint) and of
-what the fingerprint hashes; raised when either changes."""
+what the fingerprint hashes; raised when either changes, and when the solver's rows for the same inputs do (3: a
+p2 surface corner among mid-side nodes pressed by a plate stays in contact), so that no curve continues or is
+reused across such a change."""
 
 CHECKPOINT_ARRAYS = ("delta", "force", "force_lower", "positions", "contact_nodes_upper", "unstable",
                      "min_nodal_jacobian", "min_volume_ratio")

@@ -42,7 +42,7 @@ from elastocell.body.elements import (
     quadrature_rule,
 )
 from elastocell.body.mesh import corners_surrounded, surface_corner_edges
-from elastocell.parameters.cell import CellParameters, ParameterModel, require
+from elastocell.parameters.cell import CellParameters, MeshParameters, ParameterModel, require
 from elastocell.solvers.sparse import NotPositiveDefinite, SparseSolver
 
 DEBUG = bool(os.environ.get('ELASTOCELL_DEBUG'))
@@ -159,8 +159,8 @@ def _setup(cell: Cell) -> _Problem:
 
 def _surrounded(problem: _Problem, x: np.ndarray, gradient: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(lower, upper): per dof, True at the z dof of a surface corner node (p2) every one of whose surface edges
-    has its mid-side node on that plate, pushed by it. Such a corner is in contact whatever the sign of its own
-    force: a 6-node triangle's corner takes no share of a uniform pressure, so that its force follows the
+    has its mid-side node on that plate, pushed by it, and whose own force with half its neighbours' pushes (the
+    patch it shares with them) pushes too. Such a corner is in contact whatever the sign of its own force: a 6-node triangle's corner takes no share of a uniform pressure, so that its force follows the
     pressure's curvature, and a corner released for that lifts into a dimple (measured on the default mesh with a
     stiff nucleus: some 40 % of the corners inside the contact, gaps to 5e-3 R), the same fault the axisymmetric
     solver's pole rule mends (docs/theory.md, 'Contact of quadratic surfaces')."""
@@ -170,8 +170,11 @@ def _surrounded(problem: _Problem, x: np.ndarray, gradient: np.ndarray) -> tuple
         return lower, upper
     pressed_lower = (x <= problem.lower) & (gradient > 0)
     pressed_upper = (x >= problem.upper) & (gradient < 0)
-    lower[2::3] = corners_surrounded(pressed_lower[2::3], problem.corners, problem.edge_nodes)
-    upper[2::3] = corners_surrounded(pressed_upper[2::3], problem.corners, problem.edge_nodes)
+    # the corner's force with half of each of its mid-side neighbours' (the patch it shares) must push
+    force = gradient[2::3]
+    patch = force + np.bincount(problem.corners, weights=0.5 * force[problem.edge_nodes], minlength=len(force))
+    lower[2::3] = corners_surrounded(pressed_lower[2::3], problem.corners, problem.edge_nodes) & (patch > 0)
+    upper[2::3] = corners_surrounded(pressed_upper[2::3], problem.corners, problem.edge_nodes) & (patch < 0)
     return lower, upper
 
 
@@ -185,11 +188,11 @@ def _in_contact(problem: _Problem, x: np.ndarray, gradient: np.ndarray) -> tuple
 
 
 def _place_surrounded(problem: _Problem, x: np.ndarray, gradient: np.ndarray) -> np.ndarray | None:
-    """``x`` with every surrounded corner (:func:`_surrounded`) not yet on its plate placed on it (a dimple
-    closed), or None when there is none."""
+    """``x`` with every surrounded corner (:func:`_surrounded`) not yet on its plate but within
+    :data:`MAX_NODE_STEP` of it placed on it (a dimple closed), or None when there is none."""
     lower, upper = _surrounded(problem, x, gradient)
-    lower &= x > problem.lower
-    upper &= x < problem.upper
+    lower &= (x > problem.lower) & (x - problem.lower <= MAX_NODE_STEP)
+    upper &= (x < problem.upper) & (problem.upper - x <= MAX_NODE_STEP)
     if not (lower.any() or upper.any()):
         return None
     placed = x.copy()
@@ -199,16 +202,16 @@ def _place_surrounded(problem: _Problem, x: np.ndarray, gradient: np.ndarray) ->
 
 
 def _active_set(problem: _Problem, x: np.ndarray, gradient: np.ndarray, pinned: np.ndarray):
-    """(active dofs, largest free force, force scale): a dof is active when pinned or in contact with a plate
-    (:func:`_in_contact`)."""
+    """(active dofs, at_lower, at_upper, largest free force, plate force): a dof is active when pinned or in contact
+    with a plate (:func:`_in_contact`); the plate force is the mean of the two plates' (signed: a held corner's
+    pull counts against the pushes)."""
     at_lower = x <= problem.lower
     at_upper = x >= problem.upper
     contact_lower, contact_upper = _in_contact(problem, x, gradient)
     active = contact_lower | contact_upper | pinned
     residual = float(np.abs(gradient[~active]).max())
-    # unbalanced force relative to the plate force (with a floor before the plates carry any)
-    force_scale = max(FORCE_FLOOR, float(np.abs(gradient[(at_lower | at_upper) & active]).sum()) / 2)
-    return active, at_lower, at_upper, residual, force_scale
+    plate_force = float(gradient[contact_lower].sum() - gradient[contact_upper].sum()) / 2
+    return active, at_lower, at_upper, residual, plate_force
 
 
 FOLDED = ("the mesh folded: a node lies beyond a plate although every surface node is within them (curved "
@@ -342,12 +345,12 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
             if np.isfinite(placed_energy):
                 x, energy = placed, placed_energy
                 gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
-        active, at_lower, at_upper, residual, force_scale = _active_set(problem, x, gradient, pinned)
+        active, at_lower, at_upper, residual, plate_force = _active_set(problem, x, gradient, pinned)
         if DEBUG:
             print(f"  it {iteration} residual {residual:.3e} dof {np.argmax(np.where(active, 0, np.abs(gradient)))} "
                   f"active {active.sum()} energy {energy:.12e}")
-        # relative to the plate force itself (force_scale has a floor for the convergence test)
-        plate_force = float(np.abs(gradient[(at_lower | at_upper) & active]).sum()) / 2
+        # unbalanced force relative to the plate force (with a floor before the plates carry any)
+        force_scale = max(FORCE_FLOOR, plate_force)
         residuals.append(residual / max(plate_force, 1e-300))
         if residual < parameters.tolerance * force_scale or stagnated(residuals):
             if _folded(problem, x):
@@ -634,37 +637,38 @@ NODAL_RULE_FROM_STIFFNESS_RATIO = 7.0
 with the 4-point rule. Stiffness ratio 5: smallest nodal det ratio 0.205; 6: 0.064; 7: folded at delta = 0.75;
 10: folded from 0.694; 20: stops at 0.600. With the rule with the nodes 7, 10 and 20 reach 0.75 unfolded."""
 
-STIFF_NUCLEUS_MESHES = (  # (up to stiffness ratio, nucleus surface size / default's, its width, bulk size / default's)
-    (10.0, 0.5, 0.4, 1.0),
-    (np.inf, 0.4, 0.4, 0.25 / 0.35),
+STIFF_NUCLEUS_MESHES = (  # (up to stiffness ratio, nucleus surface size, its width, bulk size; units of R)
+    (10.0, 0.075, 0.4, 0.35),
+    (np.inf, 0.06, 0.4, 0.25),
 )
-"""The meshes a compression gives a nucleus at least :data:`NODAL_RULE_FROM_STIFFNESS_RATIO` times stiffer than
-the cytoplasm (p2, neo-Hookean), the first whose stiffness ratio is not exceeded: sizes relative to the cell's own (the default's 0.15 at the nucleus surface, 0.35 in the bulk), the nucleus
-surface graded over the width given (units of R). The soft layer a stiff nucleus crushes against a plate is
-where the default mesh errs (validation/stiff_mesh.py, against the axisymmetric truth at delta 0.7, 14 load
-steps): stiffness ratio 10, +5.2 % on the default mesh, +2.8 % with the nucleus surface at 0.075 over 0.4 R
-(11,684 nodes); stiffness ratio 20, +7.4 % on the default mesh, +4.2 % with that surface, +2.7 % with the surface
-at 0.06 and the bulk at 0.25 (21,178 nodes). Applied where the nucleus surface keeps its default width (0.25 R),
-so that a mesh given with another width is taken as it is."""
-DEFAULT_INTERFACE_WIDTH = 0.25
+"""The default mesh of a compression of a nucleus at least :data:`NODAL_RULE_FROM_STIFFNESS_RATIO` times stiffer
+than the cytoplasm (p2, neo-Hookean), the first whose stiffness ratio is not exceeded; the poles keep the default
+0.08 over 1.4 R. The soft layer a stiff nucleus crushes against a plate is where the default p2 mesh (nucleus
+surface 0.15 over 0.25 R, bulk 0.35) errs (validation/stiff_mesh.py, against the axisymmetric truth at delta 0.7,
+14 load steps): stiffness ratio 10, +5.2 % on the default mesh, +2.8 % with the nucleus surface at 0.075 over
+0.4 R (11,684 nodes); stiffness ratio 20, +7.4 % on the default mesh, +4.2 % with that surface, +2.7 % with the
+surface at 0.06 and the bulk at 0.25 (21,178 nodes). It replaces the default p2 mesh only: a mesh given by any of
+its sizes is used as given."""
 
 
 def stiff_nucleus_mesh(cell: CellParameters) -> CellParameters:
-    """``cell`` with the mesh a compression gives its nucleus (:data:`STIFF_NUCLEUS_MESHES`): unchanged below
-    stiffness ratio 7 (:data:`NODAL_RULE_FROM_STIFFNESS_RATIO`), for linear elements, a law other than neo-Hookean, a random cell, or a nucleus surface
-    whose width is not the default."""
+    """``cell`` with the default mesh a compression gives its nucleus (:data:`STIFF_NUCLEUS_MESHES`) where its mesh
+    is the default p2 mesh; unchanged below stiffness ratio 7 (:data:`NODAL_RULE_FROM_STIFFNESS_RATIO`), for a law
+    other than neo-Hookean, a random cell or any other mesh."""
     mesh, nucleus = cell.mesh, cell.nucleus
-    if (mesh.element != "p2" or cell.random is not None or nucleus.shape == "none" or cell.material.law != "neo-hookean"
-            or mesh.interface_size is None or mesh.interface_width != DEFAULT_INTERFACE_WIDTH):
-        return cell
-    if nucleus.stiffness_ratio < NODAL_RULE_FROM_STIFFNESS_RATIO:
+    if (cell.random is not None or nucleus.shape == "none" or cell.material.law != "neo-hookean"
+            or nucleus.stiffness_ratio < NODAL_RULE_FROM_STIFFNESS_RATIO or mesh != _default_p2_mesh(mesh)):
         return cell
     _, surface, width, bulk = next(entry for entry in STIFF_NUCLEUS_MESHES if nucleus.stiffness_ratio <= entry[0])
-    mesh_size = mesh.mesh_size * bulk
-    changes = {"interface_size": mesh.interface_size * surface, "interface_width": width, "mesh_size": mesh_size}
-    if mesh.pole_size is not None and mesh.pole_size >= mesh_size:  # the bulk now finer than the poles
-        changes["pole_size"] = None
-    return cell.model_copy(update={"mesh": mesh.model_copy(update=changes)})
+    refined = MeshParameters(**{**mesh.model_dump(), "interface_size": surface, "interface_width": width,
+                                "mesh_size": bulk})
+    return cell.model_copy(update={"mesh": refined})
+
+
+def _default_p2_mesh(mesh: MeshParameters) -> MeshParameters:
+    """The default p2 mesh with ``mesh``'s quadrature and volumetric treatment (what the sizes are compared with)."""
+    return MeshParameters.default_for("p2").model_copy(
+        update={"quadrature_degree": mesh.quadrature_degree, "volumetric": mesh.volumetric})
 
 
 def compression_parameters_for(cell: CellParameters) -> CellParameters:
