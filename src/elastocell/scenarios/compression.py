@@ -5,7 +5,8 @@ Geometry (units of R): the lower plate rests at z = -1, the upper plate at z = 1
 minimised subject to the unilateral constraints ``-1 <= z_i <= 1 - 2 delta`` on every surface node (exact
 frictionless node-to-plate contact: the plates push only along z, tangential motion is free). This is a
 bound-constrained minimisation, solved by a projected Newton method (Bertsekas 1982): the active set is the
-set of surface nodes on a plate whose force pushes into it, Newton steps on the rest with the sparse
+set of surface nodes on a plate whose force pushes into it, and of p2 surface corners among such nodes whose patch
+pushes (a 6-node triangle's corner takes no share of a uniform pressure; see :func:`_surrounded`), Newton steps on the rest with the sparse
 stiffness, a projected Armijo line search on the energy. The contact force on a plate is the sum of the
 Lagrange multipliers, i.e. the internal forces of its active nodes, so ``F`` is exact at convergence.
 
