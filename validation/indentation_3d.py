@@ -54,7 +54,8 @@ BEAD = 0.5
 DEPTH, STEPS = 0.3, 6
 COMPARED = np.array([0.05, 0.1, 0.2, 0.3])
 NUCLEUS = {"nucleus": "sphere", "stiffness_ratio": 5.0, "size_ratio": 0.5}
-FORMAT = 1
+FORMAT = 2
+"""Version of the cached curves (2: a p2 surface corner among pressed mid-side nodes stays in contact)."""
 POLES = POLE_SIZE_FACTOR_3D  # the 3D indentation's default: compression's mesh with the poles this much finer
 POLE_RADIUS = POLE_RADIUS_3D  # and its pole refinement reaching this far (compression's: 1.4)
 EVEN = 0.8  # compression's mesh this much finer, poles as the default's: about the default's node count

@@ -255,7 +255,9 @@ def _indent_cone(out, cell: CellParameters, indenter: str, indenter_radius, half
     return summary
 
 
-CHECKPOINT_FORMAT = 1
+CHECKPOINT_FORMAT = 2
+"""Version of what a 3D indentation checkpoint's fingerprint covers; raised when the solver's rows for the same
+inputs change (2: a p2 surface corner among pressed mid-side nodes stays in contact)."""
 
 
 def _fingerprint(body: Cell, cell: CellParameters, bead: float, depth: float, steps: int, linear_solver: str) -> str:

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from elastocell.body.cell import Cell
+from elastocell.body.mesh import corners_surrounded, surface_corner_edges
 from elastocell.scenarios.axisymmetric import AxisymmetricError, AxisymmetricInterrupted
 from elastocell.scenarios.compression import (
     MAX_NODE_STEP,
@@ -134,6 +135,10 @@ class _Problem:
         self.noise = 1e-13 * float(np.sum(cell.element_volumes * cell.youngs_moduli))
         self.start = 1.0 + indenter_radius  # the sphere's centre at depth 0: touching the pole z = 1
         self.level = self.start
+        corners, edge_nodes = surface_corner_edges(cell.mesh.elements)
+        position = np.full(self.n_nodes, -1)
+        position[self.candidates] = np.arange(len(self.candidates))
+        self.corners, self.edge_nodes = position[corners], position[edge_nodes]  # as positions among the candidates
 
     def set_depth(self, depth: float) -> None:
         self.level = self.start - depth
@@ -167,6 +172,36 @@ class _Problem:
         x[nodes] = np.array([0.0, 0.0, self.level]) + self.radius * offset / np.linalg.norm(offset, axis=1)[:, None]
         return x
 
+    def surrounded(self, pressed: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
+        """Per candidate: a p2 surface corner every one of whose surface edges has its mid-side node ``pressed``
+        and whose multiplier with half of each of theirs pushes. A 6-node triangle's corner takes no share of a
+        uniform pressure, so that its own multiplier follows the pressure's curvature and, released for that,
+        it lifts into a dimple (docs/theory.md, 'Contact of quadratic surfaces')."""
+        if not len(self.corners):
+            return np.zeros(len(pressed), dtype=bool)
+        patch = multipliers + np.bincount(self.corners, weights=0.5 * multipliers[self.edge_nodes],
+                                          minlength=len(multipliers))
+        return corners_surrounded(pressed, self.corners, self.edge_nodes) & (patch > 0)
+
+    def place_surrounded(self, x: np.ndarray, contact: _Contact) -> np.ndarray | None:
+        """``x`` with the surrounded corners (:meth:`surrounded`) that lie off their obstacle by at most
+        :data:`MAX_NODE_STEP` placed on it (a dimple closed), or None when there is none."""
+        if not len(self.corners):
+            return None
+        points = x[self.candidates]
+        dish, sphere, normal, _ = self.gaps_and_normals(points)
+        placed = x.copy()
+        moved = False
+        for k, gap in ((0, dish), (1, sphere)):
+            pressed = contact.active & (contact.obstacle == k)
+            off = self.surrounded(pressed, contact.multipliers) & (gap > GAP_TOLERANCE) & (gap <= MAX_NODE_STEP)
+            off &= contact.obstacle < 0
+            if off.any():
+                nodes = self.candidates[off]
+                placed[nodes] -= gap[off, None] * (normal[off] if k == 1 else np.array([0.0, 0.0, 1.0]))
+                moved = True
+        return placed if moved else None
+
     def violated(self, x: np.ndarray) -> bool:
         """True when any node (interior ones included) lies inside an obstacle: a folded element."""
         dish, sphere, _, _ = self.gaps_and_normals(x)
@@ -183,6 +218,8 @@ class _Problem:
         normals[obstacle == 1] = sphere_normal[obstacle == 1]
         multipliers = np.where(obstacle >= 0, np.einsum("ij,ij->i", gradient[self.candidates], normals), 0.0)
         active = (obstacle >= 0) & (multipliers > 0)
+        for k in (0, 1):  # a p2 corner among pressed mid-side nodes whose patch pushes (compression._surrounded)
+            active |= (obstacle == k) & self.surrounded(active & (obstacle == k), multipliers)
         rotations = np.broadcast_to(np.eye(3), (self.n_nodes, 3, 3)).copy()
         on = obstacle >= 0
         rotated = self.candidates[on]
@@ -268,6 +305,11 @@ def _newton(problem: _Problem, x: np.ndarray, tolerance: float, max_iterations: 
     for iteration in range(1, max_iterations + 1):
         gradient = cell.internal_forces(x)
         contact = problem.contact(x, gradient)
+        placed = problem.place_surrounded(x, contact)
+        if placed is not None and np.isfinite(placed_energy := cell.energy(placed)):
+            x, energy = placed, placed_energy
+            gradient = cell.internal_forces(x)
+            contact = problem.contact(x, gradient)
         local_gradient = problem.local(gradient, contact)
         residual = float(np.abs(local_gradient[~contact.held]).max())
         force = max(float(contact.multipliers[contact.active].sum()) / 2, 0.0)
