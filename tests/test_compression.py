@@ -183,6 +183,32 @@ def test_no_surface_corner_lifts_into_a_dimple_inside_the_contact(homogeneous_sm
         assert np.abs(x[inside, 2] - plate).max() < 1e-12
 
 
+def test_a_surrounded_corner_is_held_while_its_patch_pushes_and_its_pull_counts_in_the_plate_force():
+    """_surrounded and _active_set on a synthetic state: a surface corner whose mid-side neighbours all lie on the
+    upper plate pushed by it (force -1 each, k of them) is held while its own force plus half of theirs pushes
+    (a pull of 0.1 against k/2); a pull above k/2 releases it. The plate force is the signed mean of the plates':
+    the held corner's pull is subtracted from the pushes."""
+    from elastocell.scenarios.compression import _active_set, _setup, _surrounded
+
+    cell = Cell.from_parameters(cell_parameters(nucleus="none", mesh_size=0.6, pole_size=0.6))
+    problem = _setup(cell)
+    problem.set_delta(0.1)
+    corner = problem.corners[0]
+    neighbours = problem.edge_nodes[problem.corners == corner]
+    x = cell.mesh.nodes.ravel().copy()
+    x[3 * np.concatenate([[corner], neighbours]) + 2] = problem.upper[3 * corner + 2]  # all on the upper plate
+    gradient = np.zeros_like(x)
+    gradient[3 * neighbours + 2] = -1.0
+    pinned = np.zeros(x.size, dtype=bool)
+    for pull, held in ((0.1, True), (0.5 * len(neighbours) + 0.1, False)):
+        gradient[3 * corner + 2] = pull
+        lower, upper = _surrounded(problem, x, gradient)
+        assert upper[3 * corner + 2] == held and not lower.any()
+        active, _, _, _, plate_force = _active_set(problem, x, gradient, pinned)
+        assert active[3 * corner + 2] == held
+        assert plate_force == pytest.approx((len(neighbours) - (pull if held else 0.0)) / 2)
+
+
 def test_folded_mesh_is_detected():
     """An interior node beyond a plate while the surface nodes are within them is a folded (non one-to-one)
     state; the solver refuses it instead of reporting its force."""

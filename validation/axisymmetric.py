@@ -1,9 +1,13 @@
-"""The axisymmetric solver as the truth for compression between plates: its own mesh refinement, the 3D
-defaults against it for every stiffness ratio and the error budget of the 3D defaults for a stiff nucleus
-(FElupe's axisymmetric mode on the same problem: validation/felupe_axisymmetric.py).
+"""The axisymmetric solver as the truth for compression between plates: its own mesh refinement, and the 3D
+defaults against it for every stiffness ratio (FElupe's axisymmetric mode on the same problem:
+validation/felupe_axisymmetric.py).
 
-    python validation/axisymmetric.py [--only refinement three-d budget peer] [--ratios 1 2 5 10 20]
+    python validation/axisymmetric.py [--only refinement peer three-d] [--ratios 1 2 5 10 20]
         [--fill-cache] [--fresh]
+
+By default the page section holds the refinement and the peer line; the 3D defaults against this truth are
+validation/stiff_mesh.py's section (each in a new process), the error budget of the earlier default mesh for a
+stiff nucleus validation/stiff_3d.py's.
 
 - refinement: ``compress_axisymmetric`` on the default meridian mesh with every size times each of ``--scales``
   (default 2, 1, 0.7, 0.5), for the homogeneous cell and the concentric nucleus of size ratio 0.5 and stiffness
@@ -12,9 +16,6 @@ defaults against it for every stiffness ratio and the error budget of the 3D def
   mesh's own error (the order observed on the three finest).
 - three-d: ``elastocell.compress`` on its defaults (``compression_parameters_for``: p2, and the rule with the
   nodes for a stiffness ratio >= 7) against the finest axisymmetric curve, per stiffness ratio.
-- budget: one factor of the 3D default changed at a time (interface size, pole size, quadrature degree, Poisson
-  ratio, the last also in the truth), stiffness ratios 10 and 20; a variation not in the cache is listed as not
-  run unless ``--fresh``.
 - peer: a pointer to validation/felupe_axisymmetric.py, which runs FElupe's axisymmetric mode beside
   ``compress_axisymmetric`` (its own section of the page).
 
@@ -60,16 +61,6 @@ CACHE_FORMAT = 2
 """Version of the cached 3D curves (2: a p2 surface corner among pressed mid-side nodes stays in contact)."""
 AXISYMMETRIC_CACHE_FORMAT = 2
 """Version of the cached axisymmetric curves (2: a pole on a plate stays in contact while its neighbour is)."""
-BUDGET_RATIOS = [10, 20]
-BUDGET = [  # (label, 3D cell options changed from the default, the same change of the axisymmetric truth)
-    ("default", {}, {}),
-    ("interface 0.075", {"interface_size": 0.075}, {}),
-    ("poles 0.04", {"pole_size": 0.04}, {}),
-    ("quadrature degree 2", {"quadrature_degree": 2}, {}),
-    ("nu 0.45", {"poisson_ratio": 0.45}, {"poisson_ratio": 0.45}),
-]
-
-
 def cell_options(ratio: float, **changes) -> dict:
     """The options of the cell of stiffness ratio ``ratio`` (1: the homogeneous cell) with size ratio 0.5."""
     options = {"nucleus": "none"} if ratio == 1 else {"stiffness_ratio": ratio, "size_ratio": 0.5}
@@ -176,19 +167,16 @@ def observed_order(forces: list[np.ndarray], scales: list[float]) -> np.ndarray:
 
 
 def three_d_jobs(ratios: list[float]) -> list[dict]:
-    """Every 3D cell the page needs, the most needed first: the defaults of the stiff cells, the other defaults,
-    the budget's variations (gamma 10 before 20)."""
-    stiff = [ratio for ratio in BUDGET_RATIOS if ratio in ratios]
-    variations = [cell_options(ratio, **changes) for ratio in stiff for _, changes, _ in BUDGET if changes]
-    jobs = [cell_options(ratio) for ratio in stiff]
-    jobs += [cell_options(ratio) for ratio in ratios if ratio not in stiff] + variations
-    return jobs
+    """Every 3D cell the three-d table needs, the stiffest first."""
+    return [cell_options(ratio) for ratio in sorted(ratios, reverse=True)]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("--only", nargs="+", choices=["refinement", "three-d", "budget", "peer"],
-                        default=["refinement", "three-d", "budget", "peer"])
+    parser.add_argument("--only", nargs="+", choices=["refinement", "three-d", "peer"],
+                        default=["refinement", "peer"],
+                        help="three-d: the 3D defaults in this process (validation/stiff_mesh.py runs them from a new "
+                             "process, its section of the page)")
     parser.add_argument("--ratios", nargs="+", type=float, default=RATIOS)
     parser.add_argument("--fill-cache", action="store_true", help="compute the missing 3D curves, no page")
     parser.add_argument("--fresh", action="store_true", help="recompute every curve")
@@ -214,7 +202,7 @@ def main() -> None:
                    "machine: time_s is the wall time of the run that computed each, on a machine shared with other "
                    "jobs, so it is not a cost of the solver alone; this run's wall time and load are in the footer.")
     truth, estimates = {}, []
-    if "refinement" in args.only or "three-d" in args.only or "budget" in args.only:
+    if "refinement" in args.only or "three-d" in args.only:
         rows = []
         for ratio in args.ratios:
             curves = [axisymmetric_curve(cell_options(ratio), scale, args.fresh, cached_only=args.cached_only)
@@ -267,29 +255,10 @@ def main() -> None:
         page.table(rows, "3D defaults (`elastocell.compress`) against the axisymmetric truth (nan: the truth "
                    "stopped before this delta)", columns=["gamma", "nodes", "degree", "time_s", "delta_reached", *ERRORS],
                    formats={"time_s": ".0f", "delta_reached": ".3f", **{f"err@{d:g}": "+.2%" for d in DELTAS}})
-    if "budget" in args.only:
-        rows = []
-        for ratio in [r for r in BUDGET_RATIOS if r in args.ratios]:
-            for label, changes, truth_changes in BUDGET:
-                options = cell_options(ratio, **changes)
-                record = three_d_curve(options, args.fresh, cached_only=not args.fresh)
-                if record is None:
-                    rows.append({"gamma": ratio, "variation": label, "nodes": "not run"})
-                    continue
-                changed = (axisymmetric_curve(cell_options(ratio, **truth_changes), args.scales[-1], args.fresh,
-                                              cached_only=args.cached_only) if truth_changes else None)
-                reference = (truth[ratio] if not truth_changes else
-                             at_deltas(changed) if changed is not None else np.full(len(DELTAS), np.nan))
-                errors = at_deltas(record) / reference - 1
-                rows.append({"gamma": ratio, "variation": label, "nodes": record["nodes"],
-                             "time_s": record["seconds"], "delta_reached": record["delta"][-1],
-                             **{f"err@{d:g}": e for d, e in zip(DELTAS, errors, strict=True)}})
-        page.table(rows, "Error budget of the 3D default, one factor changed at a time (the Poisson ratio also "
-                   "in the truth)", columns=["gamma", "variation", "nodes", "time_s", "delta_reached", *ERRORS],
-                   formats={"time_s": ".0f", "delta_reached": ".3f", **{f"err@{d:g}": "+.2%" for d in DELTAS}})
     if "peer" in args.only:
         page.print("FElupe's axisymmetric mode: run beside compress_axisymmetric by validation/felupe_axisymmetric.py "
-                   "(its section of this page: error against this truth and time per curve).")
+                   "(its section of this page: error against this truth and time per curve). The 3D defaults against "
+                   "this truth: validation/stiff_mesh.py's section.")
     page.write()
 
 

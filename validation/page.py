@@ -44,7 +44,7 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "compression_reach.py": ("Reach of a full curve for every cell", "python validation/compression_reach.py"),
     }),
     "axisymmetric": ("Axisymmetric solver as the truth for compression", {
-        "axisymmetric.py": ("Its refinement, the 3D defaults against it, and their error budget",
+        "axisymmetric.py": ("Its refinement",
                              "nice python validation/axisymmetric.py"),
         "felupe_axisymmetric.py": ("FElupe's axisymmetric mode beside it: error and time per curve",
                                    "nice python validation/felupe_axisymmetric.py"),
@@ -52,7 +52,7 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                         "nice python validation/stiff_3d.py"),
         "stiff_volumetric.py": ("The stiff nucleus in 3D: the crushed layer's volumetric treatment",
                                 "nice python validation/stiff_volumetric.py"),
-        "stiff_mesh.py": ("The stiff nucleus in 3D: its refined mesh, the defaults against the truth",
+        "stiff_mesh.py": ("The stiff nucleus in 3D: its refined mesh, the defaults and the size series against the truth",
                           "nice python validation/stiff_mesh.py"),
     }),
     "indentation": ("A bead indenting a cell on a dish", {

@@ -21,7 +21,7 @@ from stiff_3d import BASE, SCREEN_DELTA, SCREEN_STEPS, STEPS, default_curve, err
 
 from axisymmetric import ERRORS  # isort: skip
 
-VARIANTS = [("standard (the default)", {}), ("projected J (P1)", {"volumetric": "projected"}),
+VARIANTS = [("standard (the mesh before the stiff nucleus's refinement)", {}), ("projected J (P1)", {"volumetric": "projected"}),
             ("mean dilatation (P0)", {"volumetric": "mean"}),
             ("standard, polar layer 0.1 within 40 deg, nucleus surface 0.075",
              {"layer_size": 0.1, "layer_angle": 40, "interface_size": 0.075})]

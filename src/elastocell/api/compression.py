@@ -84,7 +84,7 @@ def compress(
 
     Unless the cell sets ``quadrature_degree``, a p2 neo-Hookean cell whose nucleus is at least 7 times stiffer
     than the cytoplasm uses the rule with the nodes (degree 5, see ``compression.compression_parameters_for``),
-    and so does its equivalent; ``metadata.json`` records the degree. Such a cell on the default mesh is
+    and so does its equivalent; ``metadata.json`` records the degree. Such a cell on the default mesh sizes is
     compressed on the refined mesh of ``compression.STIFF_NUCLEUS_MESHES`` (a finer nucleus surface, and above
     stiffness ratio 10 a finer bulk), its equivalent on the same; ``metadata.json`` records the mesh. ``volumetric="projected"`` (or ``"mean"``)
     evaluates the law on F-bar with J projected per element (``MeshParameters.volumetric``, docs/theory.md), at

@@ -189,8 +189,8 @@ class MeshParameters(ParameterModel):
     interface_size: edge length on the nucleus surface (units of R); ``None`` (or >= ``mesh_size``) = no interface
     refinement.
     interface_width: distance from the nucleus surface over which the size grows from ``interface_size`` to
-    ``mesh_size``. A compression of a stiff nucleus refines a mesh that keeps the default 0.25
-    (``compression.STIFF_NUCLEUS_MESHES``); any other width leaves the sizes as given.
+    ``mesh_size``. A compression of a stiff nucleus on the default mesh takes a refined one
+    (``compression.STIFF_NUCLEUS_MESHES``); a mesh whose sizes differ from the default's is used as given.
     quadrature_degree: polynomial degree the p2 elements' quadrature rule integrates exactly, 2 to 9 (None: 2, the
     4-point rule, exact for the small-strain stiffness). Higher degrees cost more per assembly (25 points for 4-5,
     64 for 6-7) and see more of a quadratic element folding at large strain. The rule of degree 4-5 contains the

@@ -188,18 +188,34 @@ def _in_contact(problem: _Problem, x: np.ndarray, gradient: np.ndarray) -> tuple
     return at_lower & ((gradient > 0) | surrounded_lower), at_upper & ((gradient < 0) | surrounded_upper)
 
 
-def _place_surrounded(problem: _Problem, x: np.ndarray, gradient: np.ndarray) -> np.ndarray | None:
-    """``x`` with every surrounded corner (:func:`_surrounded`) not yet on its plate but within
-    :data:`MAX_NODE_STEP` of it placed on it (a dimple closed), or None when there is none."""
+PLACE_DISTANCE = 0.02
+"""Farthest a surrounded corner is placed onto its plate from (units of R): four times the deepest dimple measured
+(5e-3 R, stiffness ratio 20 on the default mesh); a corner farther off among touching mid-side nodes belongs to a
+distorted element, which the Newton step is left to settle."""
+
+
+def _place_surrounded(problem: _Problem, x: np.ndarray, gradient: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(x, its gradient) with every surrounded corner (:func:`_surrounded`) not yet on its plate but within
+    :data:`PLACE_DISTANCE` of it placed on it (a dimple closed), keeping only the corners the new state still holds
+    (a corner whose own pull, once placed, turns its patch's force would be released and lift again); None when
+    none is placed."""
     lower, upper = _surrounded(problem, x, gradient)
-    lower &= (x > problem.lower) & (x - problem.lower <= MAX_NODE_STEP)
-    upper &= (x < problem.upper) & (problem.upper - x <= MAX_NODE_STEP)
+    lower &= (x > problem.lower) & (x - problem.lower <= PLACE_DISTANCE)
+    upper &= (x < problem.upper) & (problem.upper - x <= PLACE_DISTANCE)
     if not (lower.any() or upper.any()):
         return None
     placed = x.copy()
     placed[lower] = problem.lower[lower]
     placed[upper] = problem.upper[upper]
-    return placed
+    forces = problem.cell.internal_forces(placed.reshape(-1, 3)).ravel()
+    held_lower, held_upper = _surrounded(problem, placed, forces)
+    released = (lower & ~held_lower) | (upper & ~held_upper)
+    if not ((lower | upper) & ~released).any():
+        return None
+    if released.any():
+        placed[released] = x[released]
+        forces = problem.cell.internal_forces(placed.reshape(-1, 3)).ravel()
+    return placed, forces
 
 
 def _active_set(problem: _Problem, x: np.ndarray, gradient: np.ndarray, pinned: np.ndarray):
@@ -340,12 +356,9 @@ def _newton(problem: _Problem, x: np.ndarray, solver: SparseSolver, parameters: 
     residuals: list[float] = []
     gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
     for iteration in range(1, parameters.max_newton_iterations + 1):
-        placed = _place_surrounded(problem, x, gradient)
-        if placed is not None:
-            placed_energy = cell.energy(placed.reshape(-1, 3))
-            if np.isfinite(placed_energy):
-                x, energy = placed, placed_energy
-                gradient = cell.internal_forces(x.reshape(-1, 3)).ravel()
+        placement = _place_surrounded(problem, x, gradient)
+        if placement is not None and np.isfinite(placed_energy := cell.energy(placement[0].reshape(-1, 3))):
+            (x, gradient), energy = placement, placed_energy
         active, at_lower, at_upper, residual, plate_force = _active_set(problem, x, gradient, pinned)
         if DEBUG:
             print(f"  it {iteration} residual {residual:.3e} dof {np.argmax(np.where(active, 0, np.abs(gradient)))} "
@@ -648,8 +661,9 @@ than the cytoplasm (p2, neo-Hookean), the first whose stiffness ratio is not exc
 surface 0.15 over 0.25 R, bulk 0.35) errs (validation/stiff_mesh.py, against the axisymmetric truth at delta 0.7,
 14 load steps): stiffness ratio 10, +5.2 % on the default mesh, +2.8 % with the nucleus surface at 0.075 over
 0.4 R (11,684 nodes); stiffness ratio 20, +7.4 % on the default mesh, +4.2 % with that surface, +2.7 % with the
-surface at 0.06 and the bulk at 0.25 (21,178 nodes). It replaces the default p2 mesh only: a mesh given by any of
-its sizes is used as given."""
+surface at 0.06 and the bulk at 0.25 (21,178 nodes). It replaces the default p2 mesh only: a mesh whose sizes
+differ from the default's (compared by value: the default sizes given explicitly are the default mesh) is used as
+given."""
 
 
 def stiff_nucleus_mesh(cell: CellParameters) -> CellParameters:
@@ -658,7 +672,7 @@ def stiff_nucleus_mesh(cell: CellParameters) -> CellParameters:
     other than neo-Hookean, a random cell or any other mesh."""
     mesh, nucleus = cell.mesh, cell.nucleus
     if (cell.random is not None or nucleus.shape == "none" or cell.material.law != "neo-hookean"
-            or nucleus.stiffness_ratio < NODAL_RULE_FROM_STIFFNESS_RATIO or mesh != _default_p2_mesh(mesh)):
+            or nucleus.stiffness_ratio < NODAL_RULE_FROM_STIFFNESS_RATIO or _sizes(mesh) != _sizes(MeshParameters.default_for("p2"))):
         return cell
     _, surface, width, bulk = next(entry for entry in STIFF_NUCLEUS_MESHES if nucleus.stiffness_ratio <= entry[0])
     refined = MeshParameters(**{**mesh.model_dump(), "interface_size": surface, "interface_width": width,
@@ -666,10 +680,13 @@ def stiff_nucleus_mesh(cell: CellParameters) -> CellParameters:
     return cell.model_copy(update={"mesh": refined})
 
 
-def _default_p2_mesh(mesh: MeshParameters) -> MeshParameters:
-    """The default p2 mesh with ``mesh``'s quadrature and volumetric treatment (what the sizes are compared with)."""
-    return MeshParameters.default_for("p2").model_copy(
-        update={"quadrature_degree": mesh.quadrature_degree, "volumetric": mesh.volumetric})
+def _sizes(mesh: MeshParameters) -> dict:
+    """What of ``mesh`` makes its geometry: its data without the quadrature and the volumetric treatment (the
+    polar layer's fields are left out of the data when it has none)."""
+    data = mesh.model_dump()
+    data.pop("quadrature_degree", None)
+    data.pop("volumetric", None)
+    return data
 
 
 def compression_parameters_for(cell: CellParameters) -> CellParameters:

@@ -10,7 +10,9 @@ includes the cell's deformation at the dish), as in :func:`elastocell.scenarios.
 Contact is exact and frictionless, node to rigid surface: every surface node stays outside both obstacles
 (gap z + 1 >= 0 at the dish, g = |x - c| - R_b >= 0 at the sphere). Each row is a minimum of the elastic energy
 under those constraints, by a projected Newton method with an active set, the 3D form of the axisymmetric
-solver's: a surface node on an obstacle whose energy gradient pushes into it is active; the dofs of every node
+solver's: a surface node on an obstacle whose energy gradient pushes into it is active, and so is a p2 corner among
+such mid-side nodes whose patch pushes (its own pull then counts in the force: docs/theory.md, 'Contact of
+quadratic surfaces'); the dofs of every node
 lying on an obstacle are turned into its local frame (normal n, two tangents) and an active node's normal dof is
 held (the linearised gap), its tangent dofs free. The Newton matrix is the Hessian of the Lagrangian: the
 stiffness minus lambda_i / |x_i - c| on the two tangent dofs of each active node on the sphere (the constraint's
@@ -44,6 +46,7 @@ from elastocell.scenarios.compression import (
     MAX_NODE_STEP,
     MAX_SHIFT,
     MIN_SHIFT,
+    PLACE_DISTANCE,
     RETRY_SHIFT,
     min_volume_ratio,
     rigid_mode_pins,
@@ -138,6 +141,7 @@ class _Problem:
         corners, edge_nodes = surface_corner_edges(cell.mesh.elements)
         position = np.full(self.n_nodes, -1)
         position[self.candidates] = np.arange(len(self.candidates))
+        assert (position[corners] >= 0).all() and (position[edge_nodes] >= 0).all()  # surface nodes, all of them
         self.corners, self.edge_nodes = position[corners], position[edge_nodes]  # as positions among the candidates
 
     def set_depth(self, depth: float) -> None:
@@ -183,24 +187,35 @@ class _Problem:
                                           minlength=len(multipliers))
         return corners_surrounded(pressed, self.corners, self.edge_nodes) & (patch > 0)
 
-    def place_surrounded(self, x: np.ndarray, contact: _Contact) -> np.ndarray | None:
-        """``x`` with the surrounded corners (:meth:`surrounded`) that lie off their obstacle by at most
-        :data:`MAX_NODE_STEP` placed on it (a dimple closed), or None when there is none."""
+    def place_surrounded(self, x: np.ndarray, contact: _Contact) -> tuple[np.ndarray, np.ndarray, _Contact] | None:
+        """(x, its gradient, its contact) with the surrounded corners (:meth:`surrounded`) that lie off their
+        obstacle by at most :data:`~elastocell.scenarios.compression.PLACE_DISTANCE` placed on it (a dimple
+        closed), keeping only those the new state holds (as compression's ``_place_surrounded``); None when none
+        is placed."""
         if not len(self.corners):
             return None
         points = x[self.candidates]
         dish, sphere, normal, _ = self.gaps_and_normals(points)
         placed = x.copy()
-        moved = False
+        moved = np.zeros(len(self.candidates), dtype=bool)
         for k, gap in ((0, dish), (1, sphere)):
             pressed = contact.active & (contact.obstacle == k)
-            off = self.surrounded(pressed, contact.multipliers) & (gap > GAP_TOLERANCE) & (gap <= MAX_NODE_STEP)
+            off = self.surrounded(pressed, contact.multipliers) & (gap > GAP_TOLERANCE) & (gap <= PLACE_DISTANCE)
             off &= contact.obstacle < 0
-            if off.any():
-                nodes = self.candidates[off]
-                placed[nodes] -= gap[off, None] * (normal[off] if k == 1 else np.array([0.0, 0.0, 1.0]))
-                moved = True
-        return placed if moved else None
+            placed[self.candidates[off]] -= gap[off, None] * (normal[off] if k == 1 else np.array([0.0, 0.0, 1.0]))
+            moved |= off
+        if not moved.any():
+            return None
+        gradient = self.cell.internal_forces(placed)
+        placed_contact = self.contact(placed, gradient)
+        released = moved & ~placed_contact.active
+        if not (moved & ~released).any():
+            return None
+        if released.any():
+            placed[self.candidates[released]] = x[self.candidates[released]]
+            gradient = self.cell.internal_forces(placed)
+            placed_contact = self.contact(placed, gradient)
+        return placed, gradient, placed_contact
 
     def violated(self, x: np.ndarray) -> bool:
         """True when any node (interior ones included) lies inside an obstacle: a folded element."""
@@ -305,11 +320,9 @@ def _newton(problem: _Problem, x: np.ndarray, tolerance: float, max_iterations: 
     for iteration in range(1, max_iterations + 1):
         gradient = cell.internal_forces(x)
         contact = problem.contact(x, gradient)
-        placed = problem.place_surrounded(x, contact)
-        if placed is not None and np.isfinite(placed_energy := cell.energy(placed)):
-            x, energy = placed, placed_energy
-            gradient = cell.internal_forces(x)
-            contact = problem.contact(x, gradient)
+        placement = problem.place_surrounded(x, contact)
+        if placement is not None and np.isfinite(placed_energy := cell.energy(placement[0])):
+            (x, gradient, contact), energy = placement, placed_energy
         local_gradient = problem.local(gradient, contact)
         residual = float(np.abs(local_gradient[~contact.held]).max())
         force = max(float(contact.multipliers[contact.active].sum()) / 2, 0.0)
