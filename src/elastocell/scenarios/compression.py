@@ -660,7 +660,7 @@ than the cytoplasm (p2, neo-Hookean), the first whose stiffness ratio is not exc
 0.08 over 1.4 R. The soft layer a stiff nucleus crushes against a plate is where the default p2 mesh (nucleus
 surface 0.15 over 0.25 R, bulk 0.35) errs (validation/stiff_mesh.py, against the axisymmetric truth at delta 0.7,
 14 load steps): stiffness ratio 10, +5.2 % on the default mesh, +2.8 % with the nucleus surface at 0.075 over
-0.4 R (11,684 nodes); stiffness ratio 20, +7.4 % on the default mesh, +4.2 % with that surface, +2.7 % with the
+0.4 R (11,684 nodes); stiffness ratio 20, +7.4 % on the default mesh, +4.2 % with that surface, +2.65 % with the
 surface at 0.06 and the bulk at 0.25 (21,178 nodes). It replaces the default p2 mesh only: a mesh whose sizes
 differ from the default's (compared by value: the default sizes given explicitly are the default mesh) is used as
 given."""
