@@ -363,6 +363,18 @@ def test_set_body_force_changes_the_flow_without_a_new_lattice(backend):
     assert lattice.params.body_force == (2e-6, 0.0, 0.0)
 
 
+def test_a_jax_lattice_built_without_a_body_force_refuses_one():
+    """The JAX lattice compiles its steps without the body-force term when built without one: giving it a force
+    later would be silently ignored, so it is refused (a zero force is still accepted)."""
+    from elastocell.lattice.jax_backend import JaxLattice
+
+    lattice = JaxLattice(empty_channel(6.0, 2, 1.0, 0.0).params)
+    lattice.set_body_force((0.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="built without a body force"):
+        lattice.set_body_force((1e-6, 0.0, 0.0))
+    assert lattice.params.body_force == (0.0, 0.0, 0.0)
+
+
 @pytest.mark.parametrize("backend", ["numba", "jax"])
 def test_the_flow_rate_is_held_at_the_ideal_channels(backend):
     """A cell of R/R_ch 0.67 slows a periodic channel driven by a fixed G: the flow rate falls to 0.88 of

@@ -286,9 +286,10 @@ def steady_profile(shape, solid: np.ndarray, body_force: float, relaxation_time:
     return np.where(solid[0], 0.0, lattice.velocity()[0, 0])
 
 
-def flow_rate(lattice: Lattice) -> float:
-    """Volumetric flow rate along x (dx^3/dt): the mean over x of the sum of u_x over a cross-section."""
-    u = lattice.velocity()[0]
+def flow_rate(lattice: Lattice, velocity: np.ndarray | None = None) -> float:
+    """Volumetric flow rate along x (dx^3/dt): the mean over x of the sum of u_x over a cross-section; from
+    ``velocity`` (the lattice's velocity field, (3, nx, ny, nz) in dx/dt) where the caller already has it."""
+    u = (lattice.velocity() if velocity is None else velocity)[0]
     if lattice.solid is not None:
         u = np.where(lattice.solid, 0.0, u)
     return float(u.sum(axis=(1, 2)).mean())
@@ -820,7 +821,7 @@ class PipeRun(FlowRun):
         if self.params.hold_flow_rate:
             lattice = self.system.lattice
             n = 1.0 if self.units.rheology is None else self.units.rheology.flow_index
-            ratio = flow_rate(lattice) / self._ideal_flow_rate()
+            ratio = flow_rate(lattice, self.record_velocity) / self._ideal_flow_rate()
             factor = min(1.25, max(0.8, ratio ** -n))
             lattice.set_body_force((lattice.params.body_force[0] * factor, 0.0, 0.0))
         return row

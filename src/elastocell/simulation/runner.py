@@ -232,6 +232,7 @@ class FlowRun:
         self._nucleus_mask = (mesh.region == 1) if bool((mesh.region == 1).any()) else None
         self.series: dict[str, list] = {name: [] for name in self.COLUMNS}
         self.elapsed = 0.0  # wall seconds spent advancing, over all sessions (checkpointed)
+        self.record_velocity = None  # the fluid velocity (3, nx, ny, nz; dx/dt) read by the last record's guards
         self.session_elapsed = 0.0  # the same in this session only
         self.wall_time_before = 0.0  # wall seconds of the earlier sessions, up to their last checkpoint
         self._session_start = time.perf_counter()
@@ -305,7 +306,7 @@ class FlowRun:
         """Guards between chunks: the cell near a wall, non-finite fluid, Mach number above its limit."""
         self._check_walls()
         lattice = self.system.lattice
-        velocity = lattice.velocity()
+        velocity = self.record_velocity = lattice.velocity()
         speed = float(np.sqrt(np.einsum("a...,a...->...", velocity, velocity)).max())
         when = self.WHEN.format(self.time)
         if not math.isfinite(speed):
