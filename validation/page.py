@@ -54,6 +54,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                                 "nice python validation/stiff_volumetric.py"),
         "stiff_mesh.py": ("The stiff nucleus in 3D: its refined mesh, the defaults and the size series against the truth",
                           "nice python validation/stiff_mesh.py"),
+        "stiff_cost.py": ("The cost of a curve on the defaults, by stiffness ratio",
+                          "nice python validation/stiff_cost.py"),
     }),
     "indentation": ("A bead indenting a cell on a dish", {
         "indentation.py": ("Hertz limits and mesh refinement", "nice python validation/indentation.py"),
@@ -144,9 +146,11 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "nucleated_fit.py": ("A cell with a nucleus: E_c from its own curve against the conversions",
                              "nice python validation/nucleated_fit.py"),
     }),
-    "studies": ("Studies on Dask", {
+    "studies": ("Studies: their cost on Dask and their claims", {
         "studies.py": ("Wall time of the studies", "python validation/studies.py --run --workers 2"),
         "dask_scaling.py": ("Speed-up of a sweep through Dask", "python validation/dask_scaling.py --duration 10"),
+        "claims.py": ("The paper's compression claims on the converged defaults",
+                      "nice python validation/claims.py --dir paper"),
     }),
 }
 

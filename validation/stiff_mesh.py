@@ -7,9 +7,11 @@ truth for every stiffness ratio.
   stiffness ratios 20 and 10 (size ratio 0.5), 14 load steps to delta 0.7 in this process; the first row of each
   ratio is the mesh a compression used before ``compression.STIFF_NUCLEUS_MESHES`` (nucleus surface 0.15 over
   0.25 R, bulk 0.35).
-- defaults: ``elastocell compress`` on its defaults (40 steps to delta 0.75) for stiffness ratios 1, 2, 5, 10 and
-  20, each in a new process: the wall time of the process and of the curve, and the error at delta 0.1-0.7.
-- sizes: the same for the size ratios 0.3 and 0.7 at stiffness ratio 2 (the truth on the meridian mesh of scale
+- defaults: ``elastocell compress`` on its defaults (40 steps to delta 0.75) for stiffness ratios 1, 2, 5, 6.9, 7,
+  10, 15 and 20 (``--ratios``; 6.9 and 7 either side of the refined meshes' threshold, 15 inside the finer band),
+  each in a new process: the wall time of the process and of the curve, and the error at delta 0.1-0.7; a truth
+  not in the cache is computed (about two minutes).
+- sizes: the same for the size ratios 0.1, 0.3, 0.7 and 0.9 (``--sizes``) at stiffness ratio 2 (the truth on the meridian mesh of scale
   0.7, within 0.13 % of scale 0.5 for size ratio 0.5).
 
 The truth is validation/axisymmetric.py's: ``compress_axisymmetric`` on the meridian mesh of scale 0.5 (within
@@ -25,7 +27,7 @@ import argparse
 
 from axisymmetric import ERRORS, axisymmetric_curve, cell_options
 from page import Page
-from stiff_3d import BASE, STEPS, VARIED_TRUTH_SCALE, default_curve, errors, screened_curve, truth
+from stiff_3d import BASE, STEPS, TRUTH_SCALE, VARIED_TRUTH_SCALE, default_curve, errors, screened_curve, truth
 
 SCREEN = [  # (label, mesh of the compression with a stiff nucleus, ratios)
     ("before: surface 0.15 over 0.25, bulk 0.35", BASE, [20, 10]),
@@ -38,8 +40,9 @@ SCREEN = [  # (label, mesh of the compression with a stiff nucleus, ratios)
      {"interface_size": 0.06, "interface_width": 0.4, "mesh_size": 0.25}, [20]),
 ]
 SCREEN_RATIOS = [20, 10]
-RATIOS = [1, 2, 5, 10, 20]
-SIZES = [0.3, 0.7]
+RATIOS = [1, 2, 5, 6.9, 7, 10, 15, 20]  # 6.9 and 7: either side of the refined mesh's threshold (the earlier
+# mesh's error grows with the ratio, so 6.9 is its worst); 15: inside the band of the finer mesh above 10
+SIZES = [0.1, 0.3, 0.7, 0.9]
 
 
 def main() -> None:
@@ -47,6 +50,8 @@ def main() -> None:
     parser.add_argument("--only", nargs="+", choices=["screen", "defaults", "sizes"],
                         default=["screen", "defaults", "sizes"])
     parser.add_argument("--cached-only", action="store_true", help="list a curve not in the cache as not run")
+    parser.add_argument("--ratios", type=float, nargs="+", default=RATIOS, help="stiffness ratios of the defaults")
+    parser.add_argument("--sizes", type=float, nargs="+", default=SIZES, help="size ratios of the size series")
     parser.add_argument("--no-page", action="store_true", help="compute and print, write no page")
     args = parser.parse_args()
     page = Page("axisymmetric", "stiff_mesh.py", intro=(
@@ -76,7 +81,10 @@ def main() -> None:
                    columns=["gamma", "mesh", "nodes", "time_s", "delta_reached", *ERRORS, "stop"], formats=form)
     if "defaults" in args.only:
         rows = []
-        for ratio in RATIOS:
+        for ratio in args.ratios:
+            if axisymmetric_curve(cell_options(ratio), TRUTH_SCALE, cached_only=args.cached_only) is None:
+                rows.append({"gamma": ratio, "nodes": "not run (truth)"})
+                continue
             record = default_curve(ratio, STEPS, cached_only=args.cached_only)
             if record is None:
                 rows.append({"gamma": ratio, "nodes": "not run"})
@@ -94,7 +102,7 @@ def main() -> None:
                             "delta_reached", *ERRORS], formats={**form, "surface": "g", "width": "g", "bulk": "g"})
     if "sizes" in args.only:
         rows = []
-        for size in SIZES:
+        for size in args.sizes:
             changes = {"size_ratio": size}
             if axisymmetric_curve(cell_options(2, **changes), VARIED_TRUTH_SCALE, cached_only=args.cached_only) is None:
                 rows.append({"lambda": size, "nodes": "not run (truth)"})
