@@ -312,14 +312,15 @@ def test_compression_uses_the_nodal_rule_for_a_stiff_neo_hookean_nucleus_unless_
         return compression_parameters_for(cell_parameters(**options)).mesh.quadrature_degree
 
     assert degree(stiffness_ratio=10) == 5 and degree(stiffness_ratio=20, nucleus="ellipsoid") == 5
-    assert degree(stiffness_ratio=6.9) is None and degree() is None  # the reference cell keeps the default
+    assert degree(stiffness_ratio=5.4) is None and degree() is None  # the reference cell keeps the default
+    assert degree(stiffness_ratio=5.5) == 5
     assert degree(stiffness_ratio=20, quadrature_degree=2) == 2  # a given degree is kept
     assert degree(stiffness_ratio=20, material="mooney-rivlin") is None
     assert degree(stiffness_ratio=20, element="p1") is None and degree(random=True) is None
 
 
 def test_a_stiff_nucleus_replaces_the_default_mesh_only_once_and_never_a_mesh_given_by_its_sizes():
-    """compression.STIFF_NUCLEUS_MESHES (measured in validation/stiff_mesh.py): from stiffness ratio 7 to 10 the
+    """compression.STIFF_NUCLEUS_MESHES (measured in validation/stiff_mesh.py): from stiffness ratio 5.5 to 10 the
     nucleus surface at 0.075 over 0.4 R; above 10 at 0.06, with the bulk at 0.25; nothing for softer nuclei, another
     law, the random cell, or a mesh given by any of its sizes (which is used as given), and not in the 3D
     indentation's mesh (its poles are not compression's)."""
@@ -330,8 +331,8 @@ def test_a_stiff_nucleus_replaces_the_default_mesh_only_once_and_never_a_mesh_gi
         return compression_parameters_for(cell_parameters(**options)).mesh
 
     default = cell_parameters().mesh
-    assert mesh(stiffness_ratio=6.9) == default and mesh() == default
-    for ratio in (7, 10):
+    assert mesh(stiffness_ratio=5.4) == default and mesh() == default
+    for ratio in (5.5, 7, 10):
         refined = mesh(stiffness_ratio=ratio)
         assert (refined.interface_size, refined.interface_width) == (0.075, 0.4)
         assert (refined.mesh_size, refined.pole_size, refined.pole_radius) == (0.35, 0.08, 1.4)

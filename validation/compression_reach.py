@@ -4,7 +4,7 @@
         [--out results/reach.csv]
 
 Without --quadrature-degree each p2 cell uses the degree of ``elastocell compress`` (5 for a neo-Hookean nucleus
-at least 7 times stiffer, the rule with the nodes; 2 otherwise).
+at least 5.5 times stiffer, the rule with the nodes; 2 otherwise).
 
 One row per cell: the delta reached, F/(E_c R^2) there, the rows whose equilibrium is a saddle of the discrete
 energy (the symmetric branch lost stability), Newton iterations, substeps and wall time. A curve that stops

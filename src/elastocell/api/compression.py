@@ -82,7 +82,7 @@ def compress(
     """Compress a cell between two plates and write ``out/compression.csv``, ``metadata.json``,
     ``compression.png`` and VTK files (``out/vtk/compression.pvd``).
 
-    Unless the cell sets ``quadrature_degree``, a p2 neo-Hookean cell whose nucleus is at least 7 times stiffer
+    Unless the cell sets ``quadrature_degree``, a p2 neo-Hookean cell whose nucleus is at least 5.5 times stiffer
     than the cytoplasm uses the rule with the nodes (degree 5, see ``compression.compression_parameters_for``),
     and so does its equivalent; ``metadata.json`` records the degree. Such a cell on the default mesh sizes is
     compressed on the refined mesh of ``compression.STIFF_NUCLEUS_MESHES`` (a finer nucleus surface, and above

@@ -197,7 +197,7 @@ OPTIONS: dict[str, Opt] = _declare(
     Opt("quadrature_degree", int | None, None, "p2 only: degree of the quadrature rule, 2 (4 points) to 9. 5: 25 "
         "points that include the nodes, so that no element folds at a node in a crushed soft layer, at about "
         "twice the time of a degree-2 curve.",
-        shown="5 for a neo-Hookean cell whose nucleus is at least 7 times stiffer than the cytoplasm, else 2"),
+        shown="5 for a neo-Hookean cell whose nucleus is at least 5.5 times stiffer than the cytoplasm, else 2"),
     Opt("volumetric", str, "standard", "p2 only: how J = det F enters the law. standard: at each quadrature point; "
         "projected: L2-projected onto linear polynomials per element and the law evaluated on "
         "(J_bar/J)^(1/3) F (F-bar, relieves the volumetric locking of a crushed soft layer; needs a quadrature "

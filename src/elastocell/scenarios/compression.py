@@ -645,11 +645,14 @@ def _compress(cell: Cell, parameters: CompressionParameters | None, solver: str,
     return result
 
 
-NODAL_RULE_FROM_STIFFNESS_RATIO = 7.0
-"""Nucleus stiffness ratio from which a compression with p2 elements uses the quadrature rule with the nodes
-(degree 5) unless a degree is given: the smallest one measured (default mesh, README) whose curve folds at a node
-with the 4-point rule. Stiffness ratio 5: smallest nodal det ratio 0.205; 6: 0.064; 7: folded at delta = 0.75;
-10: folded from 0.694; 20: stops at 0.600. With the rule with the nodes 7, 10 and 20 reach 0.75 unfolded."""
+NODAL_RULE_FROM_STIFFNESS_RATIO = 5.5
+"""Nucleus stiffness ratio from which a compression with p2 elements (neo-Hookean, default sizes) uses the refined
+mesh of :data:`STIFF_NUCLEUS_MESHES` and, unless a degree is given, the quadrature rule with the nodes (degree 5).
+The rule: on the default mesh the 4-point rule's smallest nodal det ratio is 0.205 at stiffness ratio 5 and 0.064
+at 6; 7 folds at delta = 0.75, 10 from 0.694, and 20 stops at 0.600 (README); with the rule with the nodes they
+reach 0.75 unfolded. The threshold is where the default mesh's error grows past 3 % (validation/stiff_mesh.py,
+against the axisymmetric truth at delta 0.7, 40 steps): +2.44 % at stiffness ratio 5, +3.39 % at 6.9, about
+0.5 % per unit of ratio in between; refined, 7 errs +2.18 %."""
 
 STIFF_NUCLEUS_MESHES = (  # (up to stiffness ratio, nucleus surface size, its width, bulk size; units of R)
     (10.0, 0.075, 0.4, 0.35),
@@ -668,7 +671,7 @@ given."""
 
 def stiff_nucleus_mesh(cell: CellParameters) -> CellParameters:
     """``cell`` with the default mesh a compression gives its nucleus (:data:`STIFF_NUCLEUS_MESHES`) where its mesh
-    is the default p2 mesh; unchanged below stiffness ratio 7 (:data:`NODAL_RULE_FROM_STIFFNESS_RATIO`), for a law
+    is the default p2 mesh; unchanged below stiffness ratio 5.5 (:data:`NODAL_RULE_FROM_STIFFNESS_RATIO`), for a law
     other than neo-Hookean, a random cell or any other mesh."""
     mesh, nucleus = cell.mesh, cell.nucleus
     if (cell.random is not None or nucleus.shape == "none" or cell.material.law != "neo-hookean"
