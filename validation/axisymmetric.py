@@ -14,8 +14,8 @@ stiff nucleus validation/stiff_3d.py's.
   ratio 2, 5, 10, 20; F at delta 0.1, 0.3, 0.5, 0.7 against the finest mesh, and where a curve stopped, the
   smallest J of its last row and where it is; with three meshes or more, Richardson's estimate of the finest
   mesh's own error (the order observed on the three finest).
-- three-d: ``elastocell.compress`` on its defaults (``compression_parameters_for``: p2, and the rule with the
-  nodes for a stiffness ratio >= 7) against the finest axisymmetric curve, per stiffness ratio.
+- three-d: ``elastocell.compress`` on its defaults (``compression_parameters_for``: p2, and the refined mesh
+  and the rule with the nodes from ``NODAL_RULE_FROM_STIFFNESS_RATIO``, 5.5) against the finest axisymmetric curve, per stiffness ratio.
 - peer: a pointer to validation/felupe_axisymmetric.py, which runs FElupe's axisymmetric mode beside
   ``compress_axisymmetric`` (its own section of the page).
 

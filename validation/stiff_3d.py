@@ -10,7 +10,7 @@ meridian mesh of scale 0.7 (within 0.13 % of scale 0.5 at nu 0.48).
 
 - budget: one factor of the mesh a stiff nucleus had before ``compression.STIFF_NUCLEUS_MESHES`` (p2; bulk 0.35,
   poles 0.08 over 1.4 R, nucleus surface 0.15 over 0.25 R, no polar layer; the 25-point rule with the nodes for a
-  stiffness ratio >= 7) changed at a time, stiffness ratios 20 and
+  stiffness ratio >= 7, the threshold then) changed at a time, stiffness ratios 20 and
   10, 14 load steps to delta 0.7 (the four deltas are rows; the page gives how far the default's 14-step curve is
   from its 40-step one): (a) the cytoplasm between nucleus and plates (poles, the polar layer), (b) the
   nucleus surface, (c) the quadrature rule, (d) the Poisson ratio in both solvers (the crushed layer's volumetric

@@ -650,9 +650,10 @@ NODAL_RULE_FROM_STIFFNESS_RATIO = 5.5
 mesh of :data:`STIFF_NUCLEUS_MESHES` and, unless a degree is given, the quadrature rule with the nodes (degree 5).
 The rule: on the default mesh the 4-point rule's smallest nodal det ratio is 0.205 at stiffness ratio 5 and 0.064
 at 6; 7 folds at delta = 0.75, 10 from 0.694, and 20 stops at 0.600 (README); with the rule with the nodes they
-reach 0.75 unfolded. The threshold is where the default mesh's error grows past 3 % (validation/stiff_mesh.py,
-against the axisymmetric truth at delta 0.7, 40 steps): +2.44 % at stiffness ratio 5, +3.39 % at 6.9, about
-0.5 % per unit of ratio in between; refined, 7 errs +2.18 %."""
+reach 0.75 unfolded. The threshold lies below where the default mesh's error crosses 3 % (validation/stiff_mesh.py, against the
+axisymmetric truth at delta 0.7, 40 steps): +2.44 % at stiffness ratio 5, +2.67 % at 5.4, +3.39 % at 6.9 (the
+crossing near 6.1 by interpolation); refined, 5.5 errs +1.72 % and 7 +2.18 %. 3D indentation
+(``indentation_cell_3d``) takes the degree from here too (its own mesh is never the refined one)."""
 
 STIFF_NUCLEUS_MESHES = (  # (up to stiffness ratio, nucleus surface size, its width, bulk size; units of R)
     (10.0, 0.075, 0.4, 0.35),
