@@ -28,12 +28,23 @@ except ImportError:  # a source checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from page import Page
-from pipe_dclab import parse_points
+from pipe_dclab import DRIFT_WINDOW, parse_points
 from pipe_flow_rate import e_errors
 from pipe_resolution import CHANNEL_RADIUS_UM, FORMATS, cases, key, read, run_missing, with_table
 
 TARGET_PERCENT = 10.0
 """Issue 24's target for the RT-DC deformation and area against LE-2D-FEM-19, %."""
+
+
+def last_unit_records(record: dict, out: Path) -> int | str:
+    """The number of records in the run's last unit of 1/gdot_w, from its time series ('' where it is not at hand)."""
+    import pandas as pd
+
+    path = out / record["key"] / "timeseries.csv"
+    if not path.exists():
+        return ""
+    times = pd.read_csv(path, usecols=["time"])["time"]
+    return int((times > times.iloc[-1] - 1.0).sum())
 
 
 def main() -> None:
@@ -49,32 +60,40 @@ def main() -> None:
     points = parse_points(args.points)
     todo = [{**c, "hold": True} for point in points
             for c in cases(point, [args.resolution], args.corrections, args.duration, meshes=False)]
-    page = Page("pipe_dclab", "pipe_stationary.py", versions=("dclab", "numba"))  # its clock counts the runs
+    page = Page("pipe_dclab", "pipe_stationary.py", versions=("dclab", "numba"))
     if not args.cached_only:
         run_missing(todo, args.out, args.workers)
     cached = {r["key"]: r for r in read(args.out / "runs.jsonl")}
     records = with_table([cached[key(c)] for c in todo if key(c) in cached])
     moduli = e_errors(records) if records else []
     rows = [{"R [um]": r["radius_um"], "R/R_ch": r["radius_um"] / CHANNEL_RADIUS_UM, "E [kPa]": r["emodulus_kpa"],
-             "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"], "deform": r["deform"],
+             "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"],
+             "reading": "hull" if r["fallback_last_unit"] else "outline", "deform": r["deform"],
              "D_t": r["D_t"], "D err %": r["D_err"], "A err %": r["A_err"], "E err %": e_err,
              "D drift %/t": 100 * r["drift_deformation"], "A drift %/t": 100 * r["drift_projected_area"],
-             "hull records": r["fallback_last_unit"], "G/G_0": r["pressure_gradient_ratio"],
-             "dV/V end": r["volume_change_end"], "nodes": r["nodes"], "wall_s": r["wall_s"],
+             "hull records": f"{r['fallback_last_unit']} of {last_unit_records(r, args.out)}",
+             "G/G_0": r["pressure_gradient_ratio"], "dV/V end": r["volume_change_end"], "nodes": r["nodes"],
+             "wall_s": r["wall_s"],
              "target met": "yes" if abs(r["D_err"]) <= TARGET_PERCENT and abs(r["A_err"]) <= TARGET_PERCENT else "no"}
             for r, e_err in zip(records, moduli, strict=True)]
     page.intro = (
         f"A centred homogeneous cell (neo-Hookean, nu 0.48, linear tetrahedra on the default mesh) in LE-2D-FEM-19's "
         f"cylinder (R_ch = {CHANNEL_RADIUS_UM:.2f} um, Q = 0.04 uL/s, eta = 15 mPa s), the flow rate held, R/dx "
         f"{args.resolution:g} alone (no extrapolation), the markers at R - c dx, {args.duration:g} units of "
-        "1/gdot_w; D and the area are means over the last unit. Against the table (validation/pipe_dclab.py's "
-        "reading): D err at elastocell's area on the isoelastic of the same shear modulus, A err at elastocell's D, "
-        "E err the table's modulus at elastocell's (area, D) over the run's shear-equivalent modulus. D and A "
-        "drift: relative change per unit of 1/gdot_w over the last units (0 at a stationary shape); hull records: "
-        "records of the last unit read through the nodes' hull (the smooth outline's fallback); `target met`: D "
-        f"and A within {TARGET_PERCENT:g} % (issue 24). Wall times are of runs two at a time on the 2-core machine, "
-        f"one thread each. {len(records)} of {len(todo)} runs.")
-    page.table(rows, "Stationary shapes against LE-2D-FEM-19", formats={
+        "1/gdot_w; D and the area are means over the last unit. Ca_w = G R_ch/(2 mu) is the wall capillary number of "
+        "the nominal flow (mu the cell's shear modulus). Against the table (validation/pipe_dclab.py's reading): D "
+        "err at elastocell's area on the isoelastic of the same shear modulus, A err at elastocell's D, E err the "
+        "table's modulus at elastocell's (area, D) over the run's shear-equivalent modulus. D and A drift: the "
+        f"least-squares slope of D and of the area over the last {DRIFT_WINDOW:g} units of 1/gdot_w over their mean, "
+        "per unit (0 at a stationary shape). `reading`: `outline` where every record of the last unit is the smooth "
+        "outline fitted through the surface nodes, `hull` where some are its fallback, the convex hull of the nodes "
+        "(`hull records`: how many of the unit's records): D jumps there with the change of reading, not with the "
+        "cell, so a `hull` row is not the cell's shape. G/G_0: the pressure gradient that held Q at the end over the "
+        "nominal one; dV/V end: the volume the immersed boundary let the cell gain by the end. `target met`: D and "
+        f"A within {TARGET_PERCENT:g} % (issue 24). wall_s is each run's own wall time (runs two at a time on the "
+        f"2-core machine; {sum(r['wall_s'] for r in records):.0f} s in all); the footer's wall time is that of the "
+        f"command that wrote the page, which reads runs found in the cache. {len(records)} of {len(todo)} runs.")
+    page.table(rows, f"The shape at t = {args.duration:g}/gdot_w against LE-2D-FEM-19", formats={
         **FORMATS, "R/R_ch": ".3f", "Ca_w": ".3f", "t [1/gdot_w]": ".1f", "E err %": "+.1f", "A drift %/t": "+.2f",
         "G/G_0": ".4f"})
     missing = [key(c) for c in todo if key(c) not in cached]
