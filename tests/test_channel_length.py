@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from elastocell.api.pipe import TransitStop, channel_length_of, pipe, run_state, transit_values
 from elastocell.cli.app import app
-from elastocell.inverse.lut import lut_metadata, plan, point_state
+from elastocell.inverse.lut import lut_metadata, plan, point_key, point_state
 from elastocell.parameters.cell import cell_parameters
 from elastocell.parameters.units import ParameterError
 
@@ -82,10 +82,14 @@ def test_a_duration_too_short_for_the_length_is_refused(tmp_path):
 # =========================================================================== the look-up table
 def test_a_stationary_table_keeps_its_keys_and_a_transit_table_says_its_state():
     stationary, settings = plan("10.94um", "0.04uL/s", "15mPa*s", quick=True)
-    # the keys of points holding the flow rate (the pipe's default); those of a table made when the pipe held G are
+    # the keys of points holding the flow rate with the markers at R (made before the markers' default moved to
+    # R - 0.3 dx) stay theirs; those of the defaults are new; those of a table made when the pipe held G are
     # tests/test_rtdc_nucleus.py's
-    assert [p["key"] for p in stationary] == ["R5um_E1kPa_06a997ed5d", "R5um_E2kPa_ab4f69e493",
-                                              "R6um_E1kPa_f0243abf7b", "R6um_E2kPa_e3eb218077"]
+    assert [point_key(p["radius_um"], p["emodulus_kpa"], {**p["options"], "hydrodynamic_radius_correction": 0.0})
+            for p in stationary] == ["R5um_E1kPa_06a997ed5d", "R5um_E2kPa_ab4f69e493", "R6um_E1kPa_f0243abf7b",
+                                     "R6um_E2kPa_e3eb218077"]
+    assert [p["key"] for p in stationary] == ["R5um_E1kPa_c72d4ad82e", "R5um_E2kPa_6ae5a507cd",
+                                              "R6um_E1kPa_2d6ad0df5c", "R6um_E2kPa_7b80bac60c"]
     assert settings["state"] == "stationary" and "channel_length" not in stationary[0]["options"]
     transit, settings = plan("10.94um", "0.04uL/s", "15mPa*s", quick=True, channel_length="300um")
     assert {p["key"] for p in transit}.isdisjoint({p["key"] for p in stationary})

@@ -194,7 +194,7 @@ EXPECTED_OPTIONS = {
            '--out! --radii=None '
            '--moduli=None --quick=False --stiffness-ratio=None --size-ratio=None --poisson-ratio=0.48 '
            '--material=neo-hookean --resolution=None '
-           '--extrapolate=True --coarse-resolution=None --duration=None --stationary-tolerance=None '
+           '--extrapolate=False --coarse-resolution=None --duration=None --stationary-tolerance=None '
            '--identifier=None --scheduler=None --workers=None --quiet=False',
     'mastercurve compression': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False '
                                '--quiet=False',
@@ -205,8 +205,8 @@ EXPECTED_OPTIONS = {
             '--offset=0.0 --offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None '
             '--mesh-size=None --pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 '
             '--radius=1 --material=neo-hookean --element=p1 --equivalent=False --channel-radius-ratio=2.0 '
-            '--start-offset=0.0 --resolution=8.0 --extrapolate=True --coarse-resolution=None '
-            '--hold-flow-rate=True --hydrodynamic-radius-correction=0.0 --channel-shape=None '
+            '--start-offset=0.0 --resolution=8.0 --extrapolate=False --coarse-resolution=None '
+            '--hold-flow-rate=True --hydrodynamic-radius-correction=0.3 --channel-shape=None '
             '--channel-width=None --channel-height=None '
             '--channel-aspect-ratio=None --medium=newtonian --temperature=None --flow-index=None '
             '--channel-length=None --duration=10.0 --pressure-gradient=None --wall-clock=None '

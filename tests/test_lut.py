@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from elastocell.api.resolved import resolved_parameters
 from elastocell.cli.app import app
 from elastocell.inverse.lut import (
     capillary_number_wall,
@@ -60,13 +61,22 @@ def test_plan_units_and_grid():
     other, _ = plan(10, 0.08, 15, radii=[5, 6], moduli=[1000, 2000], quick=True)
     assert other[0]["key"] != points[0]["key"]
     full, settings = plan("10um", "0.04uL/s", "15mPa*s")
-    assert len(full) == 48 and settings["resolution"] == 8 and settings["coarse_resolution"] == 6
-    # a cell above R_ch/(1 + 2/6) = 7.5 um in R_ch = 10 um keeps the kernel's reach + 1 dx from the wall at R/dx 8,
-    # not at the coarse R/dx 6: its points run at one resolution; the others are extrapolated (pipe's default, no
-    # option added); the default grid's largest cell is the largest R/dx 8 takes (R_ch/R >= 1.25)
+    assert len(full) == 48 and settings["resolution"] == 8 and settings["coarse_resolution"] is None
+    # the default: one run per point at R/dx 8, the markers at R - 0.3 dx, both said in the point's options (so no
+    # point made before, extrapolated or at c = 0, is taken for one of these)
+    assert all(p["options"]["extrapolate"] is False for p in full)
+    assert all(p["options"]["hydrodynamic_radius_correction"] == 0.3 for p in full)
+    assert settings["hydrodynamic_radius_correction"] == 0.3
+    # extrapolated: a cell above R_ch/(1 + 2/6) = 7.5 um in R_ch = 10 um keeps the kernel's reach + 1 dx from the
+    # wall at R/dx 8, not at the coarse R/dx 6: its points run at one resolution; the others are extrapolated; the
+    # default grid's largest cell is the largest R/dx 8 takes (R_ch/R >= 1.25)
+    full, settings = plan("10um", "0.04uL/s", "15mPa*s", extrapolate=True)
+    assert settings["coarse_resolution"] == 6
     assert max(p["radius_um"] for p in full) > 7.5
-    assert all(p["options"].get("extrapolate") is False for p in full if p["radius_um"] > 7.5)
-    assert all("extrapolate" not in p["options"] for p in full if p["radius_um"] < 7.5)
+    assert all(p["options"]["extrapolate"] is False for p in full if p["radius_um"] > 7.5)
+    assert all(p["options"]["extrapolate"] is True for p in full if p["radius_um"] < 7.5)
+    assert all(resolved_parameters("pipe", p["options"])["options"]["extrapolation"]["coarse_resolution"] == 6
+               for p in full if p["radius_um"] < 7.5)
     # a square channel of width W stands for the cylinder R_ch = 1.094 W/2 (Mietke et al. 2015; dclab LE-2D-FEM-19)
     square, settings = plan(None, 0.04, 15, radii=[5], moduli=[1000], quick=True, channel_width="20um")
     assert settings["channel_radius_um"] == pytest.approx(10.94)
@@ -291,14 +301,18 @@ def test_plan_square_channel_in_mc_pbs():
     assert meta["fluid_flow_behaviour_index"] == pytest.approx(settings["flow_index"])
     assert meta["fluid_temperature"] == 23.0 and meta["medium"] == "0.59%MC-PBS"
     assert "square" in meta["summary"].lower() and "G W/4" in meta["summary"]
-    # pipe's extrapolation options pass through (its defaults add nothing)
-    assert "extrapolate" not in options and settings["coarse_resolution"] is None  # --quick: R/dx 4, one run
+    # pipe's extrapolation options pass through (one run per point by default)
+    assert options["extrapolate"] is False and settings["coarse_resolution"] is None  # --quick: R/dx 4, one run
     single, _ = plan(None, 0.04, None, radii=[5], moduli=[1000], resolution=8, channel_width="20um",
                      channel_shape="square", medium="0.59%MC-PBS", extrapolate=False)
     assert single[0]["options"]["extrapolate"] is False
     coarse, settings = plan(None, 0.04, None, radii=[5], moduli=[1000], resolution=8, channel_width="20um",
-                            channel_shape="square", medium="0.59%MC-PBS", coarse_resolution=5)
+                            channel_shape="square", medium="0.59%MC-PBS", extrapolate=True, coarse_resolution=5)
     assert coarse[0]["options"]["coarse_resolution"] == 5 and settings["coarse_resolution"] == 5
+    # a coarse resolution without the extrapolation it belongs to is refused, naming the option
+    with pytest.raises(ParameterError, match="coarse_resolution.*extrapolat"):
+        plan(None, 0.04, None, radii=[5], moduli=[1000], resolution=8, channel_width="20um", medium="0.59%MC-PBS",
+             coarse_resolution=5)
     assert len({single[0]["key"], coarse[0]["key"], points[0]["key"]}) == 3
     # the Newtonian cylinder's points keep their keys (no channel or medium options added)
     cylinder, _ = plan("10um", "0.04uL/s", "15mPa*s", radii="5", moduli="1kPa", quick=True)

@@ -325,7 +325,8 @@ def test_cli_extrapolates_two_resolutions_by_richardson(tmp_path):
 
     out = tmp_path / "run"
     result = CliRunner().invoke(app, [
-        "pipe", "--nucleus", "none", "--resolution", "4", "--coarse-resolution", "3", "--channel-radius-ratio", "2.5",
+        "pipe", "--nucleus", "none", "--resolution", "4", "--extrapolate", "--coarse-resolution", "3",
+        "--channel-radius-ratio", "2.5",
         "--capillary-number-wall", "0.2", "--duration", "0.5", "--record-interval", "0.25", "--vtk-interval", "0.5",
         "--out", str(out)])  # fmt: skip
     assert result.exit_code == 0, result.output
@@ -383,7 +384,8 @@ def test_the_flow_rate_is_held_at_the_ideal_channels(backend):
     deforms more (D 0.0179 against 0.0152; the same on both backends)."""
     cell = Cell.from_parameters(flow_cell(None, {"nucleus": "none"}, 4))
     held, fixed = (run_pipe(cell, PipeFlowParameters(capillary_number_wall=0.5, channel_radius_ratio=1.5,
-                                                     resolution=4, hold_flow_rate=hold, backend=backend),
+                                                     resolution=4, hold_flow_rate=hold, backend=backend,
+                                                     hydrodynamic_radius_correction=0.0),  # the markers at R, as measured
                             duration=2.0).summary
                    for hold in (True, False))
     assert abs(held["flow_rate_ratio"] - 1.0) < 3e-3
@@ -403,12 +405,33 @@ def test_cli_passes_the_flow_rate_hold_and_the_radius_correction(tmp_path):
     result = CliRunner().invoke(app, [
         "pipe", "--nucleus", "none", "--mesh-size", "0.6", "--resolution", "4", "--channel-radius-ratio", "2.5",
         "--capillary-number-wall", "0.2", "--duration", "0.5", "--no-extrapolate", "--no-hold-flow-rate",
-        "--hydrodynamic-radius-correction", "0.3", "--vtk-interval", "0.5", "--out", str(out)])  # fmt: skip
+        "--hydrodynamic-radius-correction", "0.2", "--vtk-interval", "0.5", "--out", str(out)])  # fmt: skip
     assert result.exit_code == 0, result.output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["hold_flow_rate"] is False and summary["pressure_gradient_ratio"] == 1.0
     # G held is what a run without the field always did: left out of the dump, so old run keys stay valid
-    assert summary["flow"]["hydrodynamic_radius_correction"] == 0.3 and "hold_flow_rate" not in summary["flow"]
+    assert summary["flow"]["hydrodynamic_radius_correction"] == 0.2 and "hold_flow_rate" not in summary["flow"]
+
+
+def test_the_command_line_and_the_api_share_the_pipe_defaults():
+    """One run per point with the markers at R - 0.3 dx, whichever way the pipe (or a LUT) is asked for: the
+    command line's defaults are the API's (the CLI declares them without importing the scenario)."""
+    import inspect
+
+    import typer
+
+    from elastocell.api.pipe import pipe
+    from elastocell.cli.app import app
+    from elastocell.inverse.lut import compute_lut
+    from elastocell.scenarios.pipe import PIPE_HYDRODYNAMIC_RADIUS_CORRECTION, PipeFlowParameters
+
+    commands = typer.main.get_command(app).commands
+    cli = {param.name: param.default for param in commands["pipe"].params}
+    assert PipeFlowParameters.model_fields["hydrodynamic_radius_correction"].default == 0.3
+    assert cli["hydrodynamic_radius_correction"] == PIPE_HYDRODYNAMIC_RADIUS_CORRECTION
+    assert cli["extrapolate"] is inspect.signature(pipe).parameters["extrapolate"].default is False
+    lut = {param.name: param.default for param in commands["lut"].params}
+    assert lut["extrapolate"] is inspect.signature(compute_lut).parameters["extrapolate"].default is False
 
 
 @pytest.mark.parametrize("aspect_ratio", [7 / 23, 0.2, 0.5, 1.0, 2.0])
@@ -427,9 +450,11 @@ def test_a_held_pressure_gradient_reaches_both_runs_of_an_extrapolated_pipe(tmp_
     rebuilt from the dump would hold Q again: both resolutions of an extrapolated run must hold G."""
     from elastocell.api.pipe import pipe
 
-    pipe(tmp_path / "run", 0.2, nucleus="none", mesh_size=0.6, pole_size=0.6, resolution=5, coarse_resolution=4,
-         channel_radius_ratio=2.5, duration=0.3, record_interval=0.1, hold_flow_rate=False, progress=False,
-         vtk_interval=None)
+    pipe(tmp_path / "run", 0.2, nucleus="none", mesh_size=0.6, pole_size=0.6, resolution=5, extrapolate=True,
+         coarse_resolution=4, channel_radius_ratio=2.5, duration=0.3, record_interval=0.1, hold_flow_rate=False,
+         hydrodynamic_radius_correction=0.0, progress=False, vtk_interval=None)
     for part in ("resolution-5", "resolution-4"):
         summary = json.loads((tmp_path / "run" / part / "summary.json").read_text())
         assert summary["hold_flow_rate"] is False and summary["pressure_gradient_ratio"] == 1.0, part
+        # c = 0 is left out of the dump too, and the default is 0.3: both runs keep the markers at R
+        assert "hydrodynamic_radius_correction" not in summary["flow"], part

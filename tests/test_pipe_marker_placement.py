@@ -52,10 +52,11 @@ def test_markers_at_the_corrected_radius_and_the_observables_of_the_nominal_body
 
 
 def test_the_correction_is_left_out_of_the_dump_at_zero_and_refused_out_of_range():
-    plain = pipe.PipeFlowParameters(capillary_number_wall=0.5, resolution=4, channel_radius_ratio=1.8)
-    assert "hydrodynamic_radius_correction" not in plain.model_dump()  # run keys and records as without the field
-    shifted = pipe.PipeFlowParameters(capillary_number_wall=0.5, resolution=4, channel_radius_ratio=1.8,
-                                      hydrodynamic_radius_correction=0.3)
+    at_r = pipe.PipeFlowParameters(capillary_number_wall=0.5, resolution=4, channel_radius_ratio=1.8,
+                                   hydrodynamic_radius_correction=0.0)
+    assert "hydrodynamic_radius_correction" not in at_r.model_dump()  # run keys and records as without the field
+    shifted = pipe.PipeFlowParameters(capillary_number_wall=0.5, resolution=4, channel_radius_ratio=1.8)
+    assert shifted.hydrodynamic_radius_correction == pipe.PIPE_HYDRODYNAMIC_RADIUS_CORRECTION == 0.3  # the default
     assert shifted.model_dump()["hydrodynamic_radius_correction"] == 0.3
     assert pipe.PipeFlowParameters(**shifted.model_dump()) == shifted
     for value in (-0.1, 2.0, float("nan")):

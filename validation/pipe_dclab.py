@@ -133,16 +133,17 @@ def grid_points(points, resolution: float, coarse_resolution: float | None, dura
     ``hydrodynamic_radius_correction``, passed as a flow option, which changes the run key)."""
     out = []
     for radius, modulus in points:
-        extra = {} if coarse_resolution is None else {"coarse_resolution": coarse_resolution}
-        if single:
-            extra = {"extrapolate": False}
+        extra = {} if coarse_resolution is None or single else {"coarse_resolution": coarse_resolution}
         planned, _ = plan(None, f"{FLOW_RATE_UL_S}uL/s", f"{VISCOSITY_MPA_S}mPa*s", radii=[f"{radius}um"],
                           moduli=[f"{modulus}kPa"], resolution=resolution, duration=duration,
-                          channel_width=f"{CHANNEL_WIDTH_UM}um", **extra)
+                          channel_width=f"{CHANNEL_WIDTH_UM}um", extrapolate=not single, **extra)
         point = planned[0]
+        # the correction said in full (lut's points carry the pipe's default, 0.3): c = 0 resolves as the runs made
+        # before that default, so their keys and this page's cache stay
+        options = {**point["options"], "hydrodynamic_radius_correction": float(correction)}
         if correction:
-            options = {**point["options"], "flow_options": {"hydrodynamic_radius_correction": float(correction)}}
-            point = {**point, "options": options, "key": point_key(radius, modulus, options)}
+            options["flow_options"] = {"hydrodynamic_radius_correction": float(correction)}
+        point = {**point, "options": options, "key": point_key(radius, modulus, options)}
         held = bool(resolved_parameters("pipe", point["options"])["flow"].hold_flow_rate)
         out.append({**point, "hold_flow_rate": held, "resolution": float(resolution), "radius_um": radius,
                     "emodulus_kpa": modulus,

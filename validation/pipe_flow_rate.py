@@ -35,7 +35,16 @@ except ImportError:  # a source checkout without installing
 
 from page import Page
 from pipe_dclab import parse_points, percent, table_readings
-from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO, cases, key, read, run_missing, with_table
+from pipe_resolution import (
+    CHANNEL_RADIUS_UM,
+    POISSON_RATIO,
+    cases,
+    key,
+    read,
+    run_missing,
+    shear_equivalent_modulus,
+    with_table,
+)
 
 from elastocell.simulation.extrapolation import richardson
 
@@ -71,7 +80,7 @@ def extrapolated(fine: dict, coarse: dict) -> dict:
 
 def e_errors(records: list[dict]) -> list[float]:
     """The table's modulus at each record's (area, D) against the shear-equivalent modulus of the run, %."""
-    moduli = [3 * r["emodulus_kpa"] / (2 * (1 + POISSON_RATIO)) for r in records]
+    moduli = [shear_equivalent_modulus(r) for r in records]
     readings = table_readings([(r["area_r2"] * r["radius_um"] ** 2, r["deform"], e)
                                for r, e in zip(records, moduli, strict=True)])
     return [percent(e_read, e) for (_, _, e_read), e in zip(readings, moduli, strict=True)]

@@ -73,11 +73,23 @@ MESHES = {6.0: [None, 0.30, 0.32, 0.345], 8.0: [None, 0.235, 0.265, 0.28], 10.0:
 """Uniform mesh sizes (units of R) per resolution R/dx; None is the default edge of 2 dx."""
 
 
+def poisson_ratio(case: dict) -> float:
+    """The cell's nu in ``case`` (:data:`POISSON_RATIO` where it says none)."""
+    return float(case.get("poisson_ratio", POISSON_RATIO))
+
+
+def shear_equivalent_modulus(case: dict) -> float:
+    """E_t = 3 mu (kPa): the incompressible table's modulus of the same shear modulus as the case's cell."""
+    return 3 * case["emodulus_kpa"] / (2 * (1 + poisson_ratio(case)))
+
+
 def key(case: dict) -> str:
-    """The run's name: ``-Q`` ends that of a run holding the flow rate (``hold``; this page's own runs hold G)."""
+    """The run's name: ``-Q`` ends that of a run holding the flow rate (``hold``; this page's own runs hold G),
+    ``-nu<nu>`` precedes it for a cell of another nu than :data:`POISSON_RATIO`."""
     mesh = case["mesh_size"] or "default"
+    nu = "" if poisson_ratio(case) == POISSON_RATIO else f"-nu{poisson_ratio(case):g}"
     return (f"{case['radius_um']:g}um-{case['emodulus_kpa']:g}kPa-{case['element']}-{mesh}-Rdx{case['resolution']:g}"
-            f"-c{case['c']:g}-t{case['duration']:g}" + ("-Q" if case.get("hold") else ""))
+            f"-c{case['c']:g}-t{case['duration']:g}" + nu + ("-Q" if case.get("hold") else ""))
 
 
 def cases(point: tuple[float, float], resolutions: list[float], corrections: list[float],
@@ -103,16 +115,14 @@ def run_case(case: dict, out: Path) -> dict:
     from elastocell.api.pipe import pipe
 
     ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
-                                 case["emodulus_kpa"] * 1e3, POISSON_RATIO)
-    flow = {"hold_flow_rate": bool(case.get("hold", False))}
-    if case["c"]:
-        flow["hydrodynamic_radius_correction"] = case["c"]
+                                 case["emodulus_kpa"] * 1e3, poisson_ratio(case))
+    flow = {"hold_flow_rate": bool(case.get("hold", False)), "hydrodynamic_radius_correction": float(case["c"])}
     directory = out / key(case)
     start = time.perf_counter()
     summary = pipe(directory, capillary_number_wall=ca_w, channel_radius_ratio=CHANNEL_RADIUS_UM / case["radius_um"],
                    start_offset=0.0, resolution=case["resolution"], extrapolate=False, duration=case["duration"],
                    vtk_interval=None, progress=False, nucleus="none", element=case["element"],
-                   poisson_ratio=POISSON_RATIO, flow_options=flow, **mesh_options(case))
+                   poisson_ratio=poisson_ratio(case), flow_options=flow, **mesh_options(case))
     series = pd.read_csv(directory / "timeseries.csv")
     last = series[series["time"] > series["time"].iloc[-1] - 1.0]
     return {**case, "key": key(case), "nodes": int(summary["mesh"]["n_nodes"]),
@@ -150,8 +160,8 @@ def with_table(records: list[dict]) -> list[dict]:
     """Each record with D_t, A_t and the errors against LE-2D-FEM-19."""
     if not records:
         return []
-    readings = table_readings([(r["area_r2"] * r["radius_um"] ** 2, r["deform"],
-                                3 * r["emodulus_kpa"] / (2 * (1 + POISSON_RATIO))) for r in records])
+    readings = table_readings([(r["area_r2"] * r["radius_um"] ** 2, r["deform"], shear_equivalent_modulus(r))
+                               for r in records])
     return [{**r, "D_t": d_t, "A_t": a_t, "D_err": percent(r["deform"], d_t),
              "A_err": percent(r["area_r2"] * r["radius_um"] ** 2, a_t)}
             for r, (d_t, a_t, _) in zip(records, readings, strict=True)]

@@ -4,6 +4,7 @@ read where the runs of 16 units of 1/gdot_w had not settled, and at cells outsid
 
     nice python validation/pipe_stationary.py [--points 7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5]
                                               [--resolution 8] [--corrections 0.3] [--duration 40]
+                                              [--poisson-ratios 0.48 0.49]
                                               [--workers 2] [--out results/pipe-stationary] [--cached-only]
 
 The cell, channel, flow, reading of the table and record format are validation/pipe_resolution.py's (its
@@ -12,6 +13,10 @@ mesh, LE-2D-FEM-19's cylinder R_ch = 1.094 x 10 um, Q = 0.04 uL/s, eta = 15 mPa 
 stationarity stop, D and the area are means over the last unit of 1/gdot_w), here with the flow rate held (the
 pipe's default, as RT-DC's pump and the table) for --duration units. The drift of D and of the area over the last
 units says whether the shape is stationary; dV/V end is the volume the immersed boundary let the cell gain.
+``--poisson-ratios``: the same cells at other nu, each with the shear modulus mu = E/(2 (1 + 0.48)) of the point's
+E at nu 0.48 (its E scaled by (1 + nu)/1.48), so that Ca_w and the table's isoelastic stay those of the point: in the
+immersed-boundary model the incompressible fluid inside the cell holds its volume whatever nu, so in the continuum
+D does not depend on nu, and any change of D with nu is the discrete body's.
 Every run's record is appended to ``--out/runs.jsonl`` (a run already there is not repeated); ``--cached-only``
 writes the page from that file alone. The section goes into docs/validation/pipe_dclab.md.
 """
@@ -30,7 +35,18 @@ except ImportError:  # a source checkout without installing
 from page import Page
 from pipe_dclab import DRIFT_WINDOW, parse_points
 from pipe_flow_rate import e_errors
-from pipe_resolution import CHANNEL_RADIUS_UM, FORMATS, cases, key, read, run_missing, with_table
+from pipe_resolution import (
+    CHANNEL_RADIUS_UM,
+    FORMATS,
+    POISSON_RATIO,
+    cases,
+    key,
+    poisson_ratio,
+    read,
+    run_missing,
+    shear_equivalent_modulus,
+    with_table,
+)
 
 TARGET_PERCENT = 10.0
 """Issue 24's target for the RT-DC deformation and area against LE-2D-FEM-19, %."""
@@ -53,13 +69,18 @@ def main() -> None:
     parser.add_argument("--resolution", type=float, default=8.0, help="R/dx")
     parser.add_argument("--corrections", type=float, nargs="+", default=[0.3], help="c: markers at R - c dx")
     parser.add_argument("--duration", type=float, default=40.0, help="units of 1/gdot_w")
+    parser.add_argument("--poisson-ratios", type=float, nargs="+", default=[POISSON_RATIO],
+                        help="nu of the cell, each at the shear modulus of the point's E at nu 0.48")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("results/pipe-stationary"))
     parser.add_argument("--cached-only", action="store_true")
     args = parser.parse_args()
     points = parse_points(args.points)
-    todo = [{**c, "hold": True} for point in points
-            for c in cases(point, [args.resolution], args.corrections, args.duration, meshes=False)]
+    todo = [{**c, "hold": True, **({} if nu == POISSON_RATIO else {"poisson_ratio": nu})}
+            for nu in args.poisson_ratios
+            for point in points
+            for c in cases((point[0], round(point[1] * (1 + nu) / (1 + POISSON_RATIO), 6)), [args.resolution],
+                           args.corrections, args.duration, meshes=False)]
     page = Page("pipe_dclab", "pipe_stationary.py", versions=("dclab", "numba"))
     if not args.cached_only:
         run_missing(todo, args.out, args.workers)
@@ -67,7 +88,7 @@ def main() -> None:
     records = with_table([cached[key(c)] for c in todo if key(c) in cached])
     moduli = e_errors(records) if records else []
     rows = [{"R [um]": r["radius_um"], "R/R_ch": r["radius_um"] / CHANNEL_RADIUS_UM, "E [kPa]": r["emodulus_kpa"],
-             "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"],
+             "nu": poisson_ratio(r), "mu [kPa]": shear_equivalent_modulus(r) / 3, "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"],
              "reading": "hull" if r["fallback_last_unit"] else "outline", "deform": r["deform"],
              "D_t": r["D_t"], "D err %": r["D_err"], "A err %": r["A_err"], "E err %": e_err,
              "D drift %/t": 100 * r["drift_deformation"], "A drift %/t": 100 * r["drift_projected_area"],
@@ -77,10 +98,14 @@ def main() -> None:
              "target met": "yes" if abs(r["D_err"]) <= TARGET_PERCENT and abs(r["A_err"]) <= TARGET_PERCENT else "no"}
             for r, e_err in zip(records, moduli, strict=True)]
     page.intro = (
-        f"A centred homogeneous cell (neo-Hookean, nu 0.48, linear tetrahedra on the default mesh) in LE-2D-FEM-19's "
+        f"A centred homogeneous cell (neo-Hookean, nu 0.48 unless the row says, linear tetrahedra on the default mesh) in LE-2D-FEM-19's "
         f"cylinder (R_ch = {CHANNEL_RADIUS_UM:.2f} um, Q = 0.04 uL/s, eta = 15 mPa s), the flow rate held, R/dx "
         f"{args.resolution:g} alone (no extrapolation), the markers at R - c dx, {args.duration:g} units of "
-        "1/gdot_w; D and the area are means over the last unit. Ca_w = G R_ch/(2 mu) is the wall capillary number of "
+        "1/gdot_w; D and the area are means over the last unit. A row at another nu has the shear modulus mu of its "
+        "point at nu 0.48 (E scaled by (1 + nu)/1.48): the same Ca_w and the same isoelastic of the table; in the "
+        "immersed-boundary model the incompressible fluid inside the cell holds its volume whatever nu, so in the "
+        "continuum D does not depend on nu and a change of D with nu is the discrete body's (its tetrahedra's "
+        "volumetric stiffness). Ca_w = G R_ch/(2 mu) is the wall capillary number of "
         "the nominal flow (mu the cell's shear modulus). Against the table (validation/pipe_dclab.py's reading): D "
         "err at elastocell's area on the isoelastic of the same shear modulus, A err at elastocell's D, E err the "
         "table's modulus at elastocell's (area, D) over the run's shear-equivalent modulus. D and A drift: the "
@@ -94,7 +119,7 @@ def main() -> None:
         f"2-core machine; {sum(r['wall_s'] for r in records):.0f} s in all); the footer's wall time is that of the "
         f"command that wrote the page, which reads runs found in the cache. {len(records)} of {len(todo)} runs.")
     page.table(rows, f"The shape at t = {args.duration:g}/gdot_w against LE-2D-FEM-19", formats={
-        **FORMATS, "R/R_ch": ".3f", "Ca_w": ".3f", "t [1/gdot_w]": ".1f", "E err %": "+.1f", "A drift %/t": "+.2f",
+        **FORMATS, "R/R_ch": ".3f", "Ca_w": ".3f", "E [kPa]": ".4g", "mu [kPa]": ".4f", "nu": "g", "t [1/gdot_w]": ".1f", "E err %": "+.1f", "A drift %/t": "+.2f",
         "G/G_0": ".4f"})
     missing = [key(c) for c in todo if key(c) not in cached]
     if missing:

@@ -1,6 +1,7 @@
 """``elastocell.pipe``, the API behind ``elastocell pipe``: writes ``timeseries.csv``, ``summary.json``, a plot
-and VTK files to a directory, and resumes from its checkpoint. By default a run at R/dx above 6 is two runs, at
-R/dx 6 and at the resolution, whose stationary values are Richardson-extrapolated
+and VTK files to a directory, and resumes from its checkpoint. By default a run is one resolution (R/dx 8) with the markers at R - 0.3 dx
+(:data:`~elastocell.scenarios.pipe.PIPE_HYDRODYNAMIC_RADIUS_CORRECTION`, which says why); ``extrapolate`` makes it
+two runs, at R/dx 6 and at the resolution, whose stationary values are Richardson-extrapolated
 (``elastocell.simulation.extrapolation``).
 
 A finite channel (``channel_length``, RT-DC's measurement region near the outlet): the cell starts undeformed on its
@@ -27,7 +28,10 @@ from elastocell.parameters.flow import flow_cell
 from elastocell.parameters.units import ParameterError, parse_quantity, parse_temperature
 from elastocell.scenarios.pipe import STATIONARY_OBSERVABLES, PipeFlowParameters, PipeRun, plot_pipe
 from elastocell.simulation.directory import interruptible, output_directory
-from elastocell.simulation.extrapolation import coarse_resolution_of, run_extrapolated
+from elastocell.simulation.extrapolation import (
+    requested_coarse_resolution,
+    run_extrapolated,
+)
 from elastocell.simulation.output import directory_summary, run_in_directory, warn_if_not_stationary
 from elastocell.simulation.runner import StopCriteria, check_run_cost
 
@@ -119,7 +123,7 @@ def pipe(
     vtk_interval: float | None = 1.0,
     flow_options: dict | None = None,
     capillary_number_modulus: str = "reference",
-    extrapolate: bool = True,
+    extrapolate: bool = False,
     coarse_resolution: float | None = None,
     channel_length: float | str | None = None,
     **cell_options,
@@ -133,7 +137,7 @@ def pipe(
     the width). medium: "newtonian" (default), "0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS" (at ``temperature``:
     "23degC", "23°C", "296.15K" or a bare number in degC) or "power-law" (with ``flow_index``); see :class:`PipeFlowParameters`.
     hold_flow_rate: hold the flow rate the nominal G drives through the ideal channel (default True, as RT-DC's
-    pump) or, False, hold G. hydrodynamic_radius_correction: the markers at R - c dx (default 0). Both as
+    pump) or, False, hold G. hydrodynamic_radius_correction: the markers at R - c dx (default 0.3). Both as
     :class:`PipeFlowParameters` (``elastocell pipe --hold-flow-rate/--no-hold-flow-rate``,
     ``--hydrodynamic-radius-correction``).
     duration: units of 1/gdot_w. resume: continue from ``out/checkpoint.npz`` if it exists.
@@ -144,8 +148,8 @@ def pipe(
     or "mu_c" (against the described cell's mu_c; with ``equivalent`` the run uses Ca_w / gamma_eff, i.e. the
     same nominal pressure gradient G as the heterogeneous cell, as the paper compares them; with
     ``hold_flow_rate`` each run holds the flow rate that G drives through the ideal channel).
-    extrapolate, coarse_resolution: run R/dx ``coarse_resolution`` (default 6, only when the resolution is above
-    it) too, in ``out/resolution-<R/dx>/`` beside ``out/resolution-<resolution>/`` (each resumable, each with
+    extrapolate, coarse_resolution: (default off) run R/dx ``coarse_resolution`` (default 6, only when the
+    resolution is above it) too, in ``out/resolution-<R/dx>/`` beside ``out/resolution-<resolution>/`` (each resumable, each with
     its own time series, checkpoint and VTK files), and report the stationary strains, deformation, projected
     area and axial velocity (:data:`EXTRAPOLATED`) extrapolated to dx -> 0 with order 2
     (``summary["extrapolation"]``; the top-level time series and plot are the finer run's). Without cell= the
@@ -171,7 +175,7 @@ def pipe(
                 raise ParameterError(name, f"given twice, {value!r} and flow_options {flow_options[name]!r}")
             flow_options[name] = value
     params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)
-    coarse = coarse_resolution_of(extrapolate, params.resolution, coarse_resolution)
+    coarse = requested_coarse_resolution(extrapolate, params.resolution, coarse_resolution)
     length = channel_length_of(channel_length, flow_cell(cell, cell_options, params.resolution))
     arguments = (capillary_number_wall, cell, equivalent, duration, resume, progress, wall_clock, stationary_tolerance,
                  stationary_observable, record_interval, checkpoint_every, vtk_interval, capillary_number_modulus,

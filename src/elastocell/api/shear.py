@@ -21,7 +21,10 @@ from elastocell.scenarios.shear import (
     plot_taylor_deformation,
 )
 from elastocell.simulation.directory import interruptible, output_directory
-from elastocell.simulation.extrapolation import coarse_resolution_of, run_extrapolated
+from elastocell.simulation.extrapolation import (
+    requested_coarse_resolution,
+    run_extrapolated,
+)
 from elastocell.simulation.output import directory_summary, run_in_directory, warn_if_not_stationary
 from elastocell.simulation.runner import StopCriteria, check_run_cost
 
@@ -73,7 +76,7 @@ def shear(
     if resolution is not None:
         flow_options["resolution"] = resolution
     params = ShearFlowParameters(capillary_number=capillary_number, **flow_options)
-    coarse = coarse_resolution_of(extrapolate, params.resolution, coarse_resolution)
+    coarse = requested_coarse_resolution(extrapolate, params.resolution, coarse_resolution)
     if coarse is None:
         return _single(out, capillary_number, cell, equivalent, params, duration, resume, progress, wall_clock,
                        stationary_tolerance, record_interval, checkpoint_every, vtk_interval,

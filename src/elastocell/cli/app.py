@@ -159,7 +159,7 @@ def shear(out: Path, capillary_number: float | None, cell: dict, equivalent: boo
         ShearFlowParameters,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
     from elastocell.simulation.extrapolation import (
-        coarse_resolution_of,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+        requested_coarse_resolution,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
     from elastocell.simulation.runner import (
         StopCriteria,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
@@ -182,7 +182,7 @@ def shear(out: Path, capillary_number: float | None, cell: dict, equivalent: boo
     flow_options = {"confinement": confinement, "backend": backend.value}
     ShearFlowParameters(capillary_number=capillary_number, resolution=resolution, **flow_options)  # validate early
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance)
-    coarse_resolution_of(extrapolate, resolution, coarse_resolution)
+    requested_coarse_resolution(extrapolate, resolution, coarse_resolution)
     try:
         summary = run(out, capillary_number, equivalent=equivalent, resolution=resolution, extrapolate=extrapolate,
                       coarse_resolution=coarse_resolution, duration=duration, resume=resume, progress=not quiet,
@@ -252,8 +252,9 @@ def equivalent_command(cell: dict, as_json: bool):
 @user_errors
 @takes("out", "capillary_number_wall", FLOW_CELL,
        opt("equivalent", help="Simulate the homogeneous equivalent (Ca_w with mu_eff)."),
-       "channel_radius_ratio", "start_offset", "resolution", "extrapolate", "coarse_resolution",
-       "hold_flow_rate", "hydrodynamic_radius_correction", "channel_shape",
+       "channel_radius_ratio", "start_offset", "resolution", opt("extrapolate", default=False, shown="off"),
+       "coarse_resolution", "hold_flow_rate", opt("hydrodynamic_radius_correction", default=0.3),  # the API's
+       "channel_shape",
        opt("channel_width", help="Width W of a square or rectangular channel, with a physical --radius: sets "
            "--channel-radius-ratio to W/(2R)."), "channel_height", "channel_aspect_ratio", "medium", "temperature",
        "flow_index", opt("channel_length", help="Length L of a finite channel, with a physical --radius (RT-DC chips: "
@@ -291,7 +292,7 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
         PipeFlowParameters,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
     from elastocell.simulation.extrapolation import (
-        coarse_resolution_of,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+        requested_coarse_resolution,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
     from elastocell.simulation.runner import (
         StopCriteria,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
@@ -326,7 +327,7 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                  stationary_observable=stationary_observable.value, unit="units of 1/gdot_w")
     channel_length_of(channel_length, cell)  # refused in one line before anything runs
-    coarse_resolution_of(extrapolate, resolution, coarse_resolution)
+    requested_coarse_resolution(extrapolate, resolution, coarse_resolution)
     try:
         summary = run(out, capillary_number_wall, equivalent=equivalent, extrapolate=extrapolate,
                       coarse_resolution=coarse_resolution, duration=duration, resume=resume,

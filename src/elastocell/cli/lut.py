@@ -36,8 +36,9 @@ from elastocell.cli.options import opt, takes
            "--stiffness-ratio).", shown="0.5 with --stiffness-ratio"),
        opt("poisson_ratio", help="Cell Poisson ratio."), opt("material", help="Hyperelastic law of the cell."),
        opt("resolution", annotation=float | None, default=None, shown="8; --quick: 4"),
-       opt("extrapolate", help="Also run each point at --coarse-resolution (in <stem>_runs/<point>/resolution-<R/dx>/) "
-                               "and extrapolate its area and deformation to dx -> 0 (Richardson, order 2)."),
+       opt("extrapolate", default=False, shown="off: one run per point, the markers at R - 0.3 dx",
+           help="Also run each point at --coarse-resolution (in <stem>_runs/<point>/resolution-<R/dx>/) "
+                "and extrapolate its area and deformation to dx -> 0 (Richardson, order 2)."),
        "coarse_resolution",
        opt("duration", annotation=float | None, default=None, help="Longest run per point.", units="1/gdot_w",
            shown="20; --quick: 1; with --channel-length 1.5 times the transit at the mean flow speed"),

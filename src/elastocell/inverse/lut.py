@@ -81,6 +81,7 @@ from elastocell.parameters.medium import (
 )
 from elastocell.parameters.units import ParameterError, parse_quantity, parse_temperature
 from elastocell.scenarios.pipe import (
+    PIPE_HYDRODYNAMIC_RADIUS_CORRECTION,
     PipeFlowParameters,
     pipe_lattice_units,
     unit_flow_rate,
@@ -88,7 +89,12 @@ from elastocell.scenarios.pipe import (
 from elastocell.scenarios.shear import compile_kernels
 from elastocell.simulation.directory import output_directory
 from elastocell.simulation.distributed import TaskFailure, check_execution, run_tasks
-from elastocell.simulation.extrapolation import coarse_resolution_of, extrapolate_values, part_directory
+from elastocell.simulation.extrapolation import (
+    coarse_resolution_of,
+    extrapolate_values,
+    part_directory,
+    requested_coarse_resolution,
+)
 from elastocell.simulation.runner import StopCriteria, resume_or_restart
 from elastocell.version import __version__
 
@@ -315,15 +321,16 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
          poisson_ratio: float = 0.48, material: str = "neo-hookean", resolution: float | None = None,
          duration: float | None = None, stationary_tolerance: float | None = None,
          channel_width=None, channel_shape=None, channel_height=None, medium=None, temperature=None,
-         flow_index=None, extrapolate: bool = True, coarse_resolution: float | None = None,
+         flow_index=None, extrapolate: bool = False, coarse_resolution: float | None = None,
          stiffness_ratio: float | None = None, size_ratio: float | None = None,
          channel_length=None) -> tuple[list[dict], dict]:
     """Check every input and return (grid points, settings); raises ParameterError (named option) on an
     impossible one, before anything runs. Each point holds its key and the keyword arguments of ``pipe``.
     ``channel_width`` (a square channel's W) replaces ``channel_radius`` (give None for it); ``channel_shape``
     "square" runs the duct itself; ``medium`` an MC-PBS preset at ``temperature`` replaces ``viscosity``;
-    ``extrapolate``/``coarse_resolution`` as ``pipe`` (each point two runs, R/dx 6 and ``resolution``, whose final
-    shapes are Richardson-extrapolated; a point at R/dx <= 6 is one run); ``stiffness_ratio``, ``size_ratio``:
+    ``extrapolate``/``coarse_resolution`` as ``pipe`` (default off: each point one run at ``resolution`` with the
+    pipe's markers at R - 0.3 dx; on: two runs, R/dx 6 and ``resolution``, whose final shapes are
+    Richardson-extrapolated; a point at R/dx <= 6 is one run); ``stiffness_ratio``, ``size_ratio``:
     the nucleated cell model (:func:`cell_model`; the moduli are then the cytoplasm's E_c); ``channel_length``: the
     shape at the end of a channel of that length (:func:`transit_length`) instead of the stationary shape."""
     from pydantic import ValidationError
@@ -366,15 +373,15 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
             raise ParameterError("stationary_tolerance", "stops at a stationary shape; a table for a finite channel "
                                  "(--channel-length) reads each cell at the end of the channel")
         tolerance = None
-    # the pipe options that differ from its defaults (a cylinder in a Newtonian medium adds none: its keys stay)
+    # the pipe options that differ from the defaults the earlier points were made with (a cylinder in a Newtonian
+    # medium added none; the markers at R - c dx now add c, so that no point made at c = 0 is taken for one)
     flow = {} if shape == "cylinder" else {"channel_shape": shape}
+    flow["hydrodynamic_radius_correction"] = PIPE_HYDRODYNAMIC_RADIUS_CORRECTION
     if not fluid.is_newtonian:
         flow.update(medium=fluid.name, temperature=fluid.temperature)
-    coarse = coarse_resolution_of(bool(extrapolate), resolution, coarse_resolution)
-    extrapolation = {}  # pipe's defaults add nothing (the keys of the points stay)
-    if not extrapolate:
-        extrapolation["extrapolate"] = False
-    elif coarse_resolution is not None:
+    coarse = requested_coarse_resolution(bool(extrapolate), resolution, coarse_resolution)
+    extrapolation = {"extrapolate": bool(extrapolate)}  # said in full: pipe's default is one resolution
+    if extrapolate and coarse_resolution is not None:
         extrapolation["coarse_resolution"] = coarse
     driving = channel_driving(shape, r_ch, q, fluid, eta)
     transit = {}
@@ -419,6 +426,7 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
                 "wall_shear_stress_pa": driving["wall_shear_stress"],
                 "wall_shear_rate_1_s": driving["wall_shear_rate"], "poisson_ratio": float(poisson_ratio),
                 "material": material, "resolution": resolution, "coarse_resolution": coarse, "duration": duration,
+                "hydrodynamic_radius_correction": PIPE_HYDRODYNAMIC_RADIUS_CORRECTION,
                 "stationary_tolerance": tolerance, "quick": bool(quick), **cell_settings(cell, poisson_ratio),
                 "state": "stationary" if length is None else f"transit {length * 1e6:g} um"}
     if grid is not None:
@@ -714,6 +722,8 @@ def run_point(task: tuple[dict, str]) -> dict:
     options = dict(point["options"])  # the point's key hashes these as they are
     if options.get("stationary_tolerance") is None:
         options.pop("stationary_observable", None)  # read only by the stationarity stop, which is off
+    if options.get("extrapolate") is False:  # a point too near the wall for the grid's coarse run: one resolution
+        options = {k: v for k, v in options.items() if k != "coarse_resolution"}
     summary = resume_or_restart(pipe, directory, progress=False, vtk_interval=None, **options)
     radius = point["radius_um"]
     final, state = point_shape(directory, summary)
@@ -890,7 +900,7 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                 stationary_tolerance: float | None = None, identifier: str | None = None,
                 scheduler: str | None = None, workers: int | None = None, progress: bool = False,
                 client=None, channel_width=None, security=None, channel_shape=None, channel_height=None,
-                medium=None, temperature=None, flow_index=None, extrapolate: bool = True,
+                medium=None, temperature=None, flow_index=None, extrapolate: bool = False,
                 coarse_resolution: float | None = None, stiffness_ratio: float | None = None,
                 size_ratio: float | None = None, channel_length=None) -> dict:
     """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``. ``security``:
@@ -900,8 +910,9 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     mPa s; or ``channel_radius=None`` and ``channel_width`` the width W of a square RT-DC channel (the cylinder
     R_ch = 1.094 W/2 stands for it; ``channel_shape="square"`` runs the square duct). ``medium``: "newtonian"
     (with ``viscosity``) or an MC-PBS preset at ``temperature`` degC (``viscosity=None``). ``extrapolate``,
-    ``coarse_resolution``: as ``pipe`` (default: each point at R/dx above 6 also runs R/dx 6 and its area and
-    deformation are extrapolated to dx -> 0). radii, moduli: comma-separated lists or sequences (bare numbers in um
+    ``coarse_resolution``: as ``pipe`` (default off: each point one run at the resolution, the markers at
+    R - 0.3 dx; on: each point at R/dx above 6 also runs R/dx 6 and its area and deformation are extrapolated to
+    dx -> 0). radii, moduli: comma-separated lists or sequences (bare numbers in um
     and Pa); default the region of dclab's table for the channel (:func:`default_grid`, 6 x 8) or, with ``quick``,
     the 2 x 2 test grid. Returns a
     summary: paths, the finished records, the failed points (key and one-line error; left out of the table and

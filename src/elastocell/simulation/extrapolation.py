@@ -76,6 +76,15 @@ def coarse_resolution_of(extrapolate: bool, resolution: float, coarse_resolution
     return coarse
 
 
+def requested_coarse_resolution(extrapolate: bool, resolution: float, coarse_resolution: float | None) -> float | None:
+    """:func:`coarse_resolution_of` for what a user asked: a ``coarse_resolution`` given without ``extrapolate``
+    names the cheaper run of an extrapolation that will not run, and is refused (a ParameterError naming it)."""
+    if coarse_resolution is not None and not extrapolate:
+        raise ParameterError("coarse_resolution", f"{coarse_resolution} is the cheaper run of the extrapolation, "
+                             "which is off: give --extrapolate (extrapolate=True) with it, or leave it out")
+    return coarse_resolution_of(extrapolate, resolution, coarse_resolution)
+
+
 def part_directory(out, resolution: float):
     """The sub-directory of one resolution of an extrapolated run: ``out/resolution-<R/dx>``."""
     return Path(out) / f"resolution-{resolution:g}"
