@@ -89,10 +89,14 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     "flow_accuracy": ("Accuracy of the immersed-boundary flow", {
         "flow_accuracy.py": ("Held sphere (torque, stresslet, drag) and the cell against closed forms",
                              "python validation/flow_accuracy.py --page"),
+        "flow_volumetric.py": ("The cell's Poisson ratio in shear flow: the discrete body's volumetric stiffness",
+                               "nice python validation/flow_volumetric.py"),
     }),
-    "flow_default": ("Cost of the extrapolated flow default", {
+    "flow_default": ("Cost of the flow defaults", {
         "flow_default_cost.py": ("elastocell shear at its defaults (R/dx 8 and 6, extrapolated) against one R/dx 8 run",
                                  "nice python validation/flow_default_cost.py --page"),
+        "pipe_default_cost.py": ("elastocell pipe at its default (R/dx 8 alone, markers at R - 0.3 dx) against the "
+                                 "extrapolated pair it replaced", "nice python validation/pipe_default_cost.py --page"),
     }),
     "pipe": ("Cell in pipe flow", {
         "pipe.py": ("Poiseuille flow, the centred cell, and the cost of a coupled step",

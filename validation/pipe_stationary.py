@@ -5,6 +5,7 @@ read where the runs of 16 units of 1/gdot_w had not settled, and at cells outsid
     nice python validation/pipe_stationary.py [--points 7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5]
                                               [--resolution 8] [--corrections 0.3] [--duration 40]
                                               [--poisson-ratios 0.48 0.49]
+                                              [--extra 6:3:0.3:8,6:3:0.48:10]
                                               [--workers 2] [--out results/pipe-stationary] [--cached-only]
 
 The cell, channel, flow, reading of the table and record format are validation/pipe_resolution.py's (its
@@ -16,7 +17,9 @@ units says whether the shape is stationary; dV/V end is the volume the immersed 
 ``--poisson-ratios``: the same cells at other nu, each with the shear modulus mu = E/(2 (1 + 0.48)) of the point's
 E at nu 0.48 (its E scaled by (1 + nu)/1.48), so that Ca_w and the table's isoelastic stay those of the point: in the
 immersed-boundary model the incompressible fluid inside the cell holds its volume whatever nu, so in the continuum
-D does not depend on nu, and any change of D with nu is the discrete body's.
+D does not depend on nu, and any change of D with nu is the discrete model's. ``--extra``: single cases
+R:E:nu:R/dx (E at nu 0.48, scaled as above) beside the grid, such as a sweep of nu or a finer resolution at one
+cell.
 Every run's record is appended to ``--out/runs.jsonl`` (a run already there is not repeated); ``--cached-only``
 writes the page from that file alone. The section goes into docs/validation/pipe_dclab.md.
 """
@@ -63,6 +66,30 @@ def last_unit_records(record: dict, out: Path) -> int | str:
     return int((times > times.iloc[-1] - 1.0).sum())
 
 
+def nu_table(records: list[dict], out: Path) -> list[dict]:
+    """Per cell (radius, shear modulus) run at more than one nu: a row per nu, D against the nu 0.48 run's."""
+    groups: dict[tuple, list[dict]] = {}
+    for r, e_err in zip(records, e_errors(records) if records else [], strict=True):
+        groups.setdefault((r["radius_um"], round(shear_equivalent_modulus(r), 4), r["c"], r["resolution"]),
+                          []).append(
+            {**r, "E_err": e_err})
+    rows = []
+    for (radius, e_t, _, resolution), runs in sorted(groups.items()):
+        if len({poisson_ratio(r) for r in runs}) < 2:
+            continue
+        base = [r for r in runs if poisson_ratio(r) == POISSON_RATIO]
+        for r in sorted(runs, key=poisson_ratio):
+            nu = poisson_ratio(r)
+            rows.append({"R [um]": radius, "R/R_ch": radius / CHANNEL_RADIUS_UM, "mu [kPa]": e_t / 3,
+                         "R/dx": resolution, "nu": nu,
+                         "kappa/mu": 2 * (1 + nu) / (3 * (1 - 2 * nu)), "deform": r["deform"],
+                         "D/D(nu 0.48)": r["deform"] / base[0]["deform"] if base else float("nan"),
+                         "D err %": r["D_err"], "A err %": r["A_err"], "E err %": r["E_err"],
+                         "dV/V end": r["volume_change_end"],
+                         "reading": "hull" if r["fallback_last_unit"] else "outline"})
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--points", default="7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5", help="R:E,R:E (um, kPa)")
@@ -71,15 +98,20 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=40.0, help="units of 1/gdot_w")
     parser.add_argument("--poisson-ratios", type=float, nargs="+", default=[POISSON_RATIO],
                         help="nu of the cell, each at the shear modulus of the point's E at nu 0.48")
+    parser.add_argument("--extra", default="", help="R:E:nu:R/dx,... single cases beside the grid")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("results/pipe-stationary"))
     parser.add_argument("--cached-only", action="store_true")
     args = parser.parse_args()
     points = parse_points(args.points)
+    runs = [(nu, point, args.resolution) for nu in args.poisson_ratios for point in points]
+    for item in filter(None, args.extra.split(",")):
+        radius, modulus, nu, resolution = map(float, item.split(":"))
+        if (nu, (radius, modulus), resolution) not in runs:
+            runs.append((nu, (radius, modulus), resolution))
     todo = [{**c, "hold": True, **({} if nu == POISSON_RATIO else {"poisson_ratio": nu})}
-            for nu in args.poisson_ratios
-            for point in points
-            for c in cases((point[0], round(point[1] * (1 + nu) / (1 + POISSON_RATIO), 6)), [args.resolution],
+            for nu, point, resolution in runs
+            for c in cases((point[0], round(point[1] * (1 + nu) / (1 + POISSON_RATIO), 6)), [resolution],
                            args.corrections, args.duration, meshes=False)]
     page = Page("pipe_dclab", "pipe_stationary.py", versions=("dclab", "numba"))
     if not args.cached_only:
@@ -88,7 +120,7 @@ def main() -> None:
     records = with_table([cached[key(c)] for c in todo if key(c) in cached])
     moduli = e_errors(records) if records else []
     rows = [{"R [um]": r["radius_um"], "R/R_ch": r["radius_um"] / CHANNEL_RADIUS_UM, "E [kPa]": r["emodulus_kpa"],
-             "nu": poisson_ratio(r), "mu [kPa]": shear_equivalent_modulus(r) / 3, "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"],
+             "R/dx": r["resolution"], "nu": poisson_ratio(r), "mu [kPa]": shear_equivalent_modulus(r) / 3, "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"],
              "reading": "hull" if r["fallback_last_unit"] else "outline", "deform": r["deform"],
              "D_t": r["D_t"], "D err %": r["D_err"], "A err %": r["A_err"], "E err %": e_err,
              "D drift %/t": 100 * r["drift_deformation"], "A drift %/t": 100 * r["drift_projected_area"],
@@ -100,12 +132,11 @@ def main() -> None:
     page.intro = (
         f"A centred homogeneous cell (neo-Hookean, nu 0.48 unless the row says, linear tetrahedra on the default mesh) in LE-2D-FEM-19's "
         f"cylinder (R_ch = {CHANNEL_RADIUS_UM:.2f} um, Q = 0.04 uL/s, eta = 15 mPa s), the flow rate held, R/dx "
-        f"{args.resolution:g} alone (no extrapolation), the markers at R - c dx, {args.duration:g} units of "
+        f"{args.resolution:g} alone unless the row says (no extrapolation), the markers at R - c dx, {args.duration:g} units of "
         "1/gdot_w; D and the area are means over the last unit. A row at another nu has the shear modulus mu of its "
         "point at nu 0.48 (E scaled by (1 + nu)/1.48): the same Ca_w and the same isoelastic of the table; in the "
         "immersed-boundary model the incompressible fluid inside the cell holds its volume whatever nu, so in the "
-        "continuum D does not depend on nu and a change of D with nu is the discrete body's (its tetrahedra's "
-        "volumetric stiffness). Ca_w = G R_ch/(2 mu) is the wall capillary number of "
+        "continuum D does not depend on nu and a change of D with nu is the discrete model's. Ca_w = G R_ch/(2 mu) is the wall capillary number of "
         "the nominal flow (mu the cell's shear modulus). Against the table (validation/pipe_dclab.py's reading): D "
         "err at elastocell's area on the isoelastic of the same shear modulus, A err at elastocell's D, E err the "
         "table's modulus at elastocell's (area, D) over the run's shear-equivalent modulus. D and A drift: the "
@@ -119,8 +150,16 @@ def main() -> None:
         f"2-core machine; {sum(r['wall_s'] for r in records):.0f} s in all); the footer's wall time is that of the "
         f"command that wrote the page, which reads runs found in the cache. {len(records)} of {len(todo)} runs.")
     page.table(rows, f"The shape at t = {args.duration:g}/gdot_w against LE-2D-FEM-19", formats={
-        **FORMATS, "R/R_ch": ".3f", "Ca_w": ".3f", "E [kPa]": ".4g", "mu [kPa]": ".4f", "nu": "g", "t [1/gdot_w]": ".1f", "E err %": "+.1f", "A drift %/t": "+.2f",
+        **FORMATS, "R/R_ch": ".3f", "Ca_w": ".3f", "E [kPa]": ".4g", "mu [kPa]": ".4f", "nu": "g", "R/dx": "g", "t [1/gdot_w]": ".1f", "E err %": "+.1f", "A drift %/t": "+.2f",
         "G/G_0": ".4f"})
+    by_nu = nu_table(records, args.out)
+    if by_nu:
+        page.table(by_nu, "The same cells at other Poisson ratios, at the same shear modulus: D and its error "
+                   "against LE-2D-FEM-19 (kappa/mu = 2 (1 + nu)/(3 (1 - 2 nu)), the tetrahedra's volumetric "
+                   "stiffness over their shear stiffness; `hull`: the last unit read on the nodes' hull)",
+                   formats={"R/R_ch": ".3f", "mu [kPa]": ".4f", "nu": "g", "R/dx": "g", "kappa/mu": ".1f", "deform": ".4f",
+                            "D/D(nu 0.48)": ".3f", "D err %": "+.1f", "A err %": "+.1f", "E err %": "+.1f",
+                            "dV/V end": "+.4f"})
     missing = [key(c) for c in todo if key(c) not in cached]
     if missing:
         page.print("Not run (no record in the cache): " + ", ".join(missing))

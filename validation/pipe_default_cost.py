@@ -1,0 +1,112 @@
+"""The cost and the answer of ``elastocell pipe`` at its default (R/dx 8 alone, the markers at R - 0.3 dx) against
+the default it replaced (R/dx 8 and 6, stationary values Richardson-extrapolated, the markers at R), each in a new
+process, in one script (issue 24's target: the default at most 1.5x the wall time of the earlier one).
+
+Usage::
+
+    nice python validation/pipe_default_cost.py --page         # R 6 um, E 3 kPa in LE-2D-FEM-19's channel, t = 10
+
+The cell is a centred homogeneous one (neo-Hookean, nu 0.48) in dclab's LE-2D-FEM-19 cylinder (R_ch = 1.094 x
+10 um, Q = 0.04 uL/s, eta = 15 mPa s), as validation/pipe_dclab.py's points, at the command's default duration (10
+units of 1/gdot_w, the flow rate held). The runs are made in the order default, earlier default, default again, so
+that a change of the machine's load shows as a difference between the two default runs; CPU time is user + system
+of the child process. D and the area are the summary's means (extrapolated for the pair), read against the table
+as pipe_dclab.py reads them (D err at the run's area on the isoelastic of the same shear modulus; E err the table's
+modulus at the run's (area, D) over the cell's E_t = 3 mu). t = 10 is the command's default, not a stationary
+shape (docs/validation/pipe_dclab.md has the stationary runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from flow_default_cost import timed_command  # noqa: E402
+from page import Page  # noqa: E402
+from pipe_dclab import FLOW_RATE_UL_S, VISCOSITY_MPA_S, percent, table_readings  # noqa: E402
+from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO  # noqa: E402
+
+from elastocell.inverse.lut import capillary_number_wall  # noqa: E402
+
+PLAN = [("default (one resolution, c 0.3)", "default-1", []),
+        ("earlier default (--extrapolate: R/dx 6 too, c 0)", "earlier",
+         ["--extrapolate", "--hydrodynamic-radius-correction", "0"]),
+        ("default, again", "default-2", [])]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--radius", type=float, default=6.0, help="cell radius, um")
+    parser.add_argument("--modulus", type=float, default=3.0, help="Young's modulus, kPa")
+    parser.add_argument("--duration", type=float, default=None, help="units of 1/gdot_w (default: the command's)")
+    parser.add_argument("--resolution", type=float, default=None, help="R/dx (default: the command's, 8)")
+    parser.add_argument("--threads", type=int, default=1, help="Numba threads of each run (NUMBA_NUM_THREADS)")
+    parser.add_argument("--workdir", type=Path, default=None)
+    parser.add_argument("--page", action="store_true", help="write the section of docs/validation/flow_default.md")
+    args = parser.parse_args()
+
+    ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
+                                 args.modulus * 1e3, POISSON_RATIO)
+    common = ["--capillary-number-wall", f"{ca_w:.10g}", "--nucleus", "none", "--channel-radius-ratio",
+              f"{CHANNEL_RADIUS_UM / args.radius:.10g}", "--poisson-ratio", f"{POISSON_RATIO:g}", "--quiet",
+              "--vtk-interval", "1000"]
+    if args.duration is not None:
+        common += ["--duration", f"{args.duration:g}"]
+    if args.resolution is not None:
+        common += ["--resolution", f"{args.resolution:g}"]
+    command = "elastocell pipe " + " ".join(common)
+    e_t = 3 * args.modulus / (2 * (1 + POISSON_RATIO))
+    workdir = args.workdir or Path(tempfile.mkdtemp(prefix="pipe-default-"))
+    rows, times = [], {}
+    for label, name, options in PLAN:
+        out = workdir / name
+        wall, cpu = timed_command(["pipe", "--out", str(out), *common, *options], args.threads)
+        summary = json.loads((out / "summary.json").read_text())
+        deform, area = summary["deformation_mean"], summary["projected_area_mean"] * args.radius**2
+        (d_t, a_t, e_read), = table_readings([(area, deform, e_t)])
+        extrapolation = summary.get("extrapolation")
+        times[name] = (wall, cpu)
+        rows.append({"run": label, "R/dx": (f"{extrapolation['fine_resolution']:g} & "
+                                            f"{extrapolation['coarse_resolution']:g}" if extrapolation
+                                            else f"{summary['lattice']['radius']:g}"),
+                     "c [dx]": summary["flow"].get("hydrodynamic_radius_correction", 0.0), "deform": deform,
+                     "D err %": percent(deform, d_t), "A err %": percent(area, a_t), "E err %": percent(e_read, e_t),
+                     "hull records": summary.get("outline_fallback_records"), "stationary": summary["stationary"],
+                     "wall (s)": wall, "CPU (s)": cpu})
+        print(f"{label}: wall {wall:.1f} s, CPU {cpu:.1f} s, D = {deform:.5f}", flush=True)
+    default_wall = 0.5 * (times["default-1"][0] + times["default-2"][0])
+    default_cpu = 0.5 * (times["default-1"][1] + times["default-2"][1])
+    for row in rows:
+        row["wall / earlier"] = row["wall (s)"] / times["earlier"][0]
+        row["CPU / earlier"] = row["CPU (s)"] / times["earlier"][1]
+    page = Page("flow_default", "pipe_default_cost.py", intro=(
+        f"Wall and CPU time of `{command}` (R = {args.radius:g} um, E = {args.modulus:g} kPa, nu {POISSON_RATIO:g}, "
+        f"in LE-2D-FEM-19's cylinder R_ch = {CHANNEL_RADIUS_UM:.2f} um, Q = {FLOW_RATE_UL_S:g} uL/s, eta = "
+        f"{VISCOSITY_MPA_S:g} mPa s; Ca_w = {ca_w:.4f}) at its default (R/dx 8 alone, the markers at R - 0.3 dx) "
+        "against the default it replaced (`--extrapolate --hydrodynamic-radius-correction 0`: R/dx 8 and 6, "
+        "Richardson-extrapolated, the markers at R), each a new process (imports and compilation included), in the "
+        "order default, earlier, default. D err, A err, E err: against LE-2D-FEM-19 as docs/validation/"
+        "pipe_dclab.md reads it; the command's default duration is not a stationary shape (that page has them). "
+        "`hull records`: records of the averaging window read through the nodes' hull (the finer run's for the pair)."))
+    page.table(rows, f"{command}, NUMBA_NUM_THREADS={args.threads}", formats={
+        "c [dx]": "g", "deform": ".5f", "D err %": "+.1f", "A err %": "+.1f", "E err %": "+.1f", "wall (s)": ".1f",
+        "CPU (s)": ".1f", "wall / earlier": ".2f", "CPU / earlier": ".2f"})
+    cpu_ratio, wall_ratio = default_cpu / times["earlier"][1], default_wall / times["earlier"][0]
+    page.print(f"default / earlier default: CPU {cpu_ratio:.2f}x, wall {wall_ratio:.2f}x (issue 24's target <= 1.5x: "
+               f"{'met' if cpu_ratio <= 1.5 else 'not met'} in CPU time); the two default runs' walls differ by "
+               f"{100 * abs(times['default-1'][0] / times['default-2'][0] - 1):.0f} %")
+    if os.getloadavg()[0] > (os.cpu_count() or 1):
+        page.print(f"The machine was shared with other work (load average {os.getloadavg()[0]:.1f} on "
+                   f"{os.cpu_count()} cores at the end): the wall times are indicative; the CPU times are steadier.")
+    if args.page:
+        page.write()
+
+
+if __name__ == "__main__":
+    main()
