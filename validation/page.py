@@ -119,8 +119,10 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                                "nice python validation/pipe_resolution.py"),
         "pipe_flow_rate.py": ("The flow rate held, as RT-DC's pump, against the pressure gradient held",
                               "nice python validation/pipe_flow_rate.py"),
-        "pipe_stationary.py": ("The stationary shape at R/dx 8 with the flow rate held and the markers moved in",
-                               "nice python validation/pipe_stationary.py"),
+        "pipe_stationary.py": ("The stationary shape at R/dx 8 with the flow rate held and the markers moved in "
+                               "(the pipe's default), and the cell's Poisson ratio",
+                               "nice python validation/pipe_stationary.py --poisson-ratios 0.48 0.49 --extra "
+                               "6:3:0.3:8,6:3:0.4:8,6:3:0.45:8,6:3:0.495:8,6:3:0.48:10,6:3:0.49:10"),
     }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",

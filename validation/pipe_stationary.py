@@ -2,6 +2,10 @@
 measurements of validation/pipe_flow_rate.py argue for as the pipe's default (R/dx 8 alone, the markers at R - c dx),
 read where the runs of 16 units of 1/gdot_w had not settled, and at cells outside their four points.
 
+The page's runs: ``--poisson-ratios 0.48 0.49 --extra 6:3:0.3:8,6:3:0.4:8,6:3:0.45:8,6:3:0.495:8,6:3:0.48:10,
+6:3:0.49:10`` (one Numba thread each, two or three processes at a time on the 2-core machine: the six at nu
+0.48 about 20 min, the others about 50 min).
+
     nice python validation/pipe_stationary.py [--points 7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5]
                                               [--resolution 8] [--corrections 0.3] [--duration 40]
                                               [--poisson-ratios 0.48 0.49]
@@ -90,6 +94,31 @@ def nu_table(records: list[dict], out: Path) -> list[dict]:
     return rows
 
 
+def nu_summary(rows: list[dict]) -> str:
+    """What the rows of :func:`nu_table` say, in numbers: D at nu 0.49 over D at 0.48 per resolution, and the
+    spread of D over every nu run at one cell and resolution."""
+    lines = []
+    for resolution in sorted({r["R/dx"] for r in rows}):
+        hull = {(r["R [um]"], r["mu [kPa]"]) for r in rows if r["R/dx"] == resolution and r["reading"] == "hull"}
+        ratios = [r["D/D(nu 0.48)"] for r in rows if r["R/dx"] == resolution and r["nu"] == 0.49
+                  and (r["R [um]"], r["mu [kPa]"]) not in hull]
+        if ratios:
+            lines.append(f"R/dx {resolution:g}: D(nu 0.49)/D(nu 0.48) {min(ratios):.3f}-{max(ratios):.3f} over "
+                         f"{len(ratios)} cell(s) read on the outline at both")
+    cells: dict[tuple, list[dict]] = {}
+    for r in rows:
+        cells.setdefault((r["R [um]"], r["mu [kPa]"], r["R/dx"]), []).append(r)
+    for (radius, mu, resolution), runs in cells.items():
+        if len(runs) > 2:
+            low, high = min(runs, key=lambda r: r["deform"]), max(runs, key=lambda r: r["deform"])
+            ratios = ", ".join(f"{r['nu']:g}" for r in runs)
+            lines.append(f"R {radius:g} um, mu {mu:.4f} kPa, R/dx {resolution:g}, nu {ratios}: D from "
+                         f"{low['deform']:.4f} (nu {low['nu']:g}, D err {low['D err %']:+.1f} %) to "
+                         f"{high['deform']:.4f} (nu {high['nu']:g}, {high['D err %']:+.1f} %), "
+                         f"{100 * (high['deform'] - low['deform']) / high['deform']:.0f} % of the largest")
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--points", default="7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5", help="R:E,R:E (um, kPa)")
@@ -146,7 +175,7 @@ def main() -> None:
         "(`hull records`: how many of the unit's records): D jumps there with the change of reading, not with the "
         "cell, so a `hull` row is not the cell's shape. G/G_0: the pressure gradient that held Q at the end over the "
         "nominal one; dV/V end: the volume the immersed boundary let the cell gain by the end. `target met`: D and "
-        f"A within {TARGET_PERCENT:g} % (issue 24). wall_s is each run's own wall time (runs two at a time on the "
+        f"A within {TARGET_PERCENT:g} % (issue 24). wall_s is each run's own wall time (runs two or three at a time on the "
         f"2-core machine; {sum(r['wall_s'] for r in records):.0f} s in all); the footer's wall time is that of the "
         f"command that wrote the page, which reads runs found in the cache. {len(records)} of {len(todo)} runs.")
     page.table(rows, f"The shape at t = {args.duration:g}/gdot_w against LE-2D-FEM-19", formats={
@@ -160,6 +189,7 @@ def main() -> None:
                    formats={"R/R_ch": ".3f", "mu [kPa]": ".4f", "nu": "g", "R/dx": "g", "kappa/mu": ".1f", "deform": ".4f",
                             "D/D(nu 0.48)": ".3f", "D err %": "+.1f", "A err %": "+.1f", "E err %": "+.1f",
                             "dV/V end": "+.4f"})
+        page.print(nu_summary(by_nu))
     missing = [key(c) for c in todo if key(c) not in cached]
     if missing:
         page.print("Not run (no record in the cache): " + ", ".join(missing))
