@@ -194,7 +194,8 @@ EXPECTED_OPTIONS = {
            '--out! --radii=None '
            '--moduli=None --quick=False --stiffness-ratio=None --size-ratio=None --poisson-ratio=0.48 '
            '--material=neo-hookean --resolution=None '
-           '--extrapolate=False --coarse-resolution=None --duration=None --stationary-tolerance=None '
+           '--extrapolate=False --coarse-resolution=None --hydrodynamic-radius-correction=0.3 --duration=None '
+           '--stationary-tolerance=None '
            '--identifier=None --scheduler=None --workers=None --quiet=False',
     'mastercurve compression': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False '
                                '--quiet=False',

@@ -67,6 +67,11 @@ def test_plan_units_and_grid():
     assert all(p["options"]["extrapolate"] is False for p in full)
     assert all(p["options"]["hydrodynamic_radius_correction"] == 0.3 for p in full)
     assert settings["hydrodynamic_radius_correction"] == 0.3
+    # the default the pipe had before: the pair with the markers at R, said in the options
+    earlier, settings = plan("10um", "0.04uL/s", "15mPa*s", extrapolate=True, hydrodynamic_radius_correction=0)
+    assert settings["hydrodynamic_radius_correction"] == 0.0
+    assert all(p["options"]["hydrodynamic_radius_correction"] == 0.0 for p in earlier)
+    assert not {p["key"] for p in earlier} & {p["key"] for p in full}
     # extrapolated: a cell above R_ch/(1 + 2/6) = 7.5 um in R_ch = 10 um keeps the kernel's reach + 1 dx from the
     # wall at R/dx 8, not at the coarse R/dx 6: its points run at one resolution; the others are extrapolated; the
     # default grid's largest cell is the largest R/dx 8 takes (R_ch/R >= 1.25)
@@ -353,10 +358,20 @@ def test_dclab_interpolates_a_square_mc_pbs_table(tmp_path):
     (["--medium", "0.59%MC-PBS", "--channel-height", "30um"], "--channel-height"),
     (["--medium", "0.59%MC-PBS", "--channel-shape", "rectangle"], "--channel-shape"),
     (["--medium", "newtonian"], "--viscosity"),
-    (["--medium", "0.59%MC-PBS", "--resolution", "8", "--coarse-resolution", "9"], "--coarse-resolution"),
+    (["--medium", "0.59%MC-PBS", "--resolution", "8", "--coarse-resolution", "6"], "--coarse-resolution"),
+    (["--medium", "0.59%MC-PBS", "--hydrodynamic-radius-correction", "-0.1"], "--hydrodynamic-radius-correction"),
 ])
 def test_square_and_medium_refusals(tmp_path, extra, option):
     _refused(SQUARE, extra, option, tmp_path)
+
+
+def test_a_coarse_resolution_not_below_the_resolution_is_refused_with_the_extrapolation(tmp_path):
+    result = runner.invoke(app, [*SQUARE, "--medium", "0.59%MC-PBS", "--resolution", "8", "--extrapolate",
+                                 "--coarse-resolution", "9", "--out", str(tmp_path / "lut.txt")])
+    assert result.exit_code == 2
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("elastocell: error: --coarse-resolution:"), result.output
+    assert "below the resolution" in lines[0] and not (tmp_path / "lut_runs").exists()
 
 
 def test_square_mc_pbs_options_reach_the_pipe_runs(tmp_path, monkeypatch):

@@ -7,6 +7,7 @@ coupled run to a few seconds; the physics figures at the default resolution are 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -264,7 +265,9 @@ def test_checkpoint_fingerprint_ignores_field_order_and_a_sweep_restarts_a_stale
         (["--capillary-number-wall", "0.2", "--medium", "honey"], "--medium"),
         (["--capillary-number-wall", "0.2", "--medium", "0.59%MC-PBS", "--temperature", "150"], "--temperature"),
         (["--capillary-number-wall", "0.2", "--medium", "power-law"], "--flow-index"),
-        (["--capillary-number-wall", "0.2", "--resolution", "4", "--coarse-resolution", "4"], "--coarse-resolution"),
+        (["--capillary-number-wall", "0.2", "--resolution", "4", "--extrapolate", "--coarse-resolution", "4"],
+         "--coarse-resolution"),
+        (["--capillary-number-wall", "0.2", "--resolution", "8", "--coarse-resolution", "6"], "--coarse-resolution"),
     ],
 )
 def test_cli_refuses_impossible_input_in_one_line(tmp_path, arguments, option):
@@ -432,6 +435,16 @@ def test_the_command_line_and_the_api_share_the_pipe_defaults():
     assert cli["extrapolate"] is inspect.signature(pipe).parameters["extrapolate"].default is False
     lut = {param.name: param.default for param in commands["lut"].params}
     assert lut["extrapolate"] is inspect.signature(compute_lut).parameters["extrapolate"].default is False
+    assert lut["hydrodynamic_radius_correction"] == PIPE_HYDRODYNAMIC_RADIUS_CORRECTION
+
+
+def test_a_coarse_resolution_without_the_extrapolation_is_refused_by_the_api():
+    from elastocell.api.pipe import pipe
+    from elastocell.parameters.units import ParameterError
+
+    with pytest.raises(ParameterError, match="coarse_resolution.*extrapolation, which is off"):
+        pipe("never-written", 0.2, nucleus="none", coarse_resolution=6, progress=False)
+    assert not Path("never-written").exists()
 
 
 @pytest.mark.parametrize("aspect_ratio", [7 / 23, 0.2, 0.5, 1.0, 2.0])

@@ -11,11 +11,12 @@ linear-elastic sphere in a cylinder of radius R_ch = 1.094 x 10 um (the equivale
 channel, Mietke et al. 2015, supplement S3), Q = 0.04 uL/s, eta = 15 mPa s, axisymmetric FEM. Its columns are
 (area_um, deform, emodulus) only; the radius of the cell behind a row is not in it. Each point here is a cell of
 radius R (um) and Young's modulus E (kPa) in that same cylinder and flow, run as one extrapolated grid point of
-``elastocell.inverse.lut`` (``plan`` and ``run_point``: centred homogeneous neo-Hookean cell, nu = 0.48; pipe's
-default extrapolation, runs at R/dx 8 and 6, each stopped once its mean deformation over a unit of 1/gdot_w is
-stationary to 1e-3 or at the duration cap; final-window means of each, combined by
-``elastocell.simulation.extrapolation``, order 2). Each resolution's run alone is listed too: R/dx 8 alone is
-the setting before the extrapolation became the default.
+``elastocell.inverse.lut`` (``plan`` and ``run_point``: centred homogeneous neo-Hookean cell, nu = 0.48; the
+extrapolation, said in full with the markers' correction (``--correction``, default 0: the markers at R), runs at
+R/dx 8 and 6, each stopped once its mean deformation over a unit of 1/gdot_w is stationary to 1e-3 or at the
+duration cap; final-window means of each, combined by ``elastocell.simulation.extrapolation``, order 2). Each
+resolution's run alone is listed too. This page's extrapolated pair with the markers at R was the pipe's default
+before R/dx 8 alone with the markers at R - 0.3 dx became it (docs/usage/flow.md).
 
 The table holds no radius, so the comparison is made in its own plane, against the isoelastic of the same shear
 modulus, E_t = 3 mu = 3 E / (2 (1 + nu)) (the table's nu = 0.5):

@@ -62,6 +62,15 @@ def main() -> None:
         common += ["--resolution", f"{args.resolution:g}"]
     command = "elastocell pipe " + " ".join(common)
     e_t = 3 * args.modulus / (2 * (1 + POISSON_RATIO))
+    page = Page("flow_default", "pipe_default_cost.py", intro=(
+        f"Wall and CPU time of `{command}` (R = {args.radius:g} um, E = {args.modulus:g} kPa, nu {POISSON_RATIO:g}, "
+        f"in LE-2D-FEM-19's cylinder R_ch = {CHANNEL_RADIUS_UM:.2f} um, Q = {FLOW_RATE_UL_S:g} uL/s, eta = "
+        f"{VISCOSITY_MPA_S:g} mPa s; Ca_w = {ca_w:.4f}) at its default (R/dx 8 alone, the markers at R - 0.3 dx) "
+        "against the default it replaced (`--extrapolate --hydrodynamic-radius-correction 0`: R/dx 8 and 6, "
+        "Richardson-extrapolated, the markers at R), each a new process (imports and compilation included), in the "
+        "order default, earlier, default. D err, A err, E err: against LE-2D-FEM-19 as docs/validation/"
+        "pipe_dclab.md reads it; the command's default duration is not a stationary shape (that page has them). "
+        "`hull records`: records of the averaging window read through the nodes' hull (the finer run's for the pair)."))
     workdir = args.workdir or Path(tempfile.mkdtemp(prefix="pipe-default-"))
     rows, times = [], {}
     for label, name, options in PLAN:
@@ -85,15 +94,6 @@ def main() -> None:
     for row in rows:
         row["wall / earlier"] = row["wall (s)"] / times["earlier"][0]
         row["CPU / earlier"] = row["CPU (s)"] / times["earlier"][1]
-    page = Page("flow_default", "pipe_default_cost.py", intro=(
-        f"Wall and CPU time of `{command}` (R = {args.radius:g} um, E = {args.modulus:g} kPa, nu {POISSON_RATIO:g}, "
-        f"in LE-2D-FEM-19's cylinder R_ch = {CHANNEL_RADIUS_UM:.2f} um, Q = {FLOW_RATE_UL_S:g} uL/s, eta = "
-        f"{VISCOSITY_MPA_S:g} mPa s; Ca_w = {ca_w:.4f}) at its default (R/dx 8 alone, the markers at R - 0.3 dx) "
-        "against the default it replaced (`--extrapolate --hydrodynamic-radius-correction 0`: R/dx 8 and 6, "
-        "Richardson-extrapolated, the markers at R), each a new process (imports and compilation included), in the "
-        "order default, earlier, default. D err, A err, E err: against LE-2D-FEM-19 as docs/validation/"
-        "pipe_dclab.md reads it; the command's default duration is not a stationary shape (that page has them). "
-        "`hull records`: records of the averaging window read through the nodes' hull (the finer run's for the pair)."))
     page.table(rows, f"{command}, NUMBA_NUM_THREADS={args.threads}", formats={
         "c [dx]": "g", "deform": ".5f", "D err %": "+.1f", "A err %": "+.1f", "E err %": "+.1f", "wall (s)": ".1f",
         "CPU (s)": ".1f", "wall / earlier": ".2f", "CPU / earlier": ".2f"})

@@ -39,7 +39,7 @@ from elastocell.cli.options import opt, takes
        opt("extrapolate", default=False, shown="off: one run per point, the markers at R - 0.3 dx",
            help="Also run each point at --coarse-resolution (in <stem>_runs/<point>/resolution-<R/dx>/) "
                 "and extrapolate its area and deformation to dx -> 0 (Richardson, order 2)."),
-       "coarse_resolution",
+       "coarse_resolution", opt("hydrodynamic_radius_correction", default=0.3),  # the pipe's default
        opt("duration", annotation=float | None, default=None, help="Longest run per point.", units="1/gdot_w",
            shown="20; --quick: 1; with --channel-length 1.5 times the transit at the mean flow speed"),
        opt("stationary_tolerance", help="Stop a point once its deformation is stationary to this fraction.",
@@ -51,7 +51,8 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
         channel_length: str | None, out: Path,
         radii: str | None, moduli: str | None, quick: bool, stiffness_ratio: float | None,
         size_ratio: float | None, poisson_ratio: float, material: str,
-        resolution: float | None, extrapolate: bool, coarse_resolution: float | None, duration: float | None,
+        resolution: float | None, extrapolate: bool, coarse_resolution: float | None,
+        hydrodynamic_radius_correction: float, duration: float | None,
         stationary_tolerance: float | None,
         identifier: str | None, scheduler: str | None, workers: int | None, quiet: bool):
     """Look-up table for deformability cytometry: pipe-flow runs over cell radii x moduli (Dask, resumable)
@@ -68,6 +69,7 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
                          channel_shape=None if channel_shape is None else channel_shape.value,
                          channel_height=channel_height, medium=medium, temperature=temperature,
                          flow_index=flow_index, extrapolate=extrapolate, coarse_resolution=coarse_resolution,
+                         hydrodynamic_radius_correction=hydrodynamic_radius_correction,
                          stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, channel_length=channel_length)
     if not quiet:
         settings = result["settings"]

@@ -323,14 +323,16 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
          channel_width=None, channel_shape=None, channel_height=None, medium=None, temperature=None,
          flow_index=None, extrapolate: bool = False, coarse_resolution: float | None = None,
          stiffness_ratio: float | None = None, size_ratio: float | None = None,
-         channel_length=None) -> tuple[list[dict], dict]:
+         channel_length=None, hydrodynamic_radius_correction: float | None = None) -> tuple[list[dict], dict]:
     """Check every input and return (grid points, settings); raises ParameterError (named option) on an
     impossible one, before anything runs. Each point holds its key and the keyword arguments of ``pipe``.
     ``channel_width`` (a square channel's W) replaces ``channel_radius`` (give None for it); ``channel_shape``
     "square" runs the duct itself; ``medium`` an MC-PBS preset at ``temperature`` replaces ``viscosity``;
     ``extrapolate``/``coarse_resolution`` as ``pipe`` (default off: each point one run at ``resolution`` with the
     pipe's markers at R - 0.3 dx; on: two runs, R/dx 6 and ``resolution``, whose final shapes are
-    Richardson-extrapolated; a point at R/dx <= 6 is one run); ``stiffness_ratio``, ``size_ratio``:
+    Richardson-extrapolated; a point at R/dx <= 6 is one run); ``hydrodynamic_radius_correction``: c, the markers
+    at R - c dx (default :data:`~elastocell.scenarios.pipe.PIPE_HYDRODYNAMIC_RADIUS_CORRECTION`; 0 with
+    ``extrapolate`` is the default the pipe had before); ``stiffness_ratio``, ``size_ratio``:
     the nucleated cell model (:func:`cell_model`; the moduli are then the cytoplasm's E_c); ``channel_length``: the
     shape at the end of a channel of that length (:func:`transit_length`) instead of the stationary shape."""
     from pydantic import ValidationError
@@ -376,7 +378,12 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
     # the pipe options that differ from the defaults the earlier points were made with (a cylinder in a Newtonian
     # medium added none; the markers at R - c dx now add c, so that no point made at c = 0 is taken for one)
     flow = {} if shape == "cylinder" else {"channel_shape": shape}
-    flow["hydrodynamic_radius_correction"] = PIPE_HYDRODYNAMIC_RADIUS_CORRECTION
+    correction = (PIPE_HYDRODYNAMIC_RADIUS_CORRECTION if hydrodynamic_radius_correction is None
+                  else float(hydrodynamic_radius_correction))
+    if not (math.isfinite(correction) and 0 <= correction < 0.5 * resolution):
+        raise ParameterError("hydrodynamic_radius_correction", f"must be in [0, R/2) = [0, {0.5 * resolution:g}) dx "
+                             f"at R/dx {resolution:g}, got {hydrodynamic_radius_correction}")
+    flow["hydrodynamic_radius_correction"] = correction
     if not fluid.is_newtonian:
         flow.update(medium=fluid.name, temperature=fluid.temperature)
     coarse = requested_coarse_resolution(bool(extrapolate), resolution, coarse_resolution)
@@ -426,7 +433,7 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
                 "wall_shear_stress_pa": driving["wall_shear_stress"],
                 "wall_shear_rate_1_s": driving["wall_shear_rate"], "poisson_ratio": float(poisson_ratio),
                 "material": material, "resolution": resolution, "coarse_resolution": coarse, "duration": duration,
-                "hydrodynamic_radius_correction": PIPE_HYDRODYNAMIC_RADIUS_CORRECTION,
+                "hydrodynamic_radius_correction": correction,
                 "stationary_tolerance": tolerance, "quick": bool(quick), **cell_settings(cell, poisson_ratio),
                 "state": "stationary" if length is None else f"transit {length * 1e6:g} um"}
     if grid is not None:
@@ -612,7 +619,7 @@ def check_lattice(points: list[dict]) -> list[dict]:
             flow = {k: v for k, v in options.items() if k in PipeFlowParameters.model_fields}
             params = PipeFlowParameters(**flow)
             units = pipe_lattice_units(cells[key], params)
-            coarse = coarse_resolution_of(options.get("extrapolate", True), options["resolution"],
+            coarse = coarse_resolution_of(options.get("extrapolate", False), options["resolution"],
                                           options.get("coarse_resolution"))
             updates = float(np.prod(units.shape)) * units.steps_per_time * options["duration"]
             if coarse is not None:  # the coarse run of the extrapolation: its own cell and lattice
@@ -902,7 +909,8 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                 client=None, channel_width=None, security=None, channel_shape=None, channel_height=None,
                 medium=None, temperature=None, flow_index=None, extrapolate: bool = False,
                 coarse_resolution: float | None = None, stiffness_ratio: float | None = None,
-                size_ratio: float | None = None, channel_length=None) -> dict:
+                size_ratio: float | None = None, channel_length=None,
+                hydrodynamic_radius_correction: float | None = None) -> dict:
     """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``. ``security``:
     a ``distributed.Security`` for a TLS scheduler (docs/usage/cluster.md).
 
@@ -912,7 +920,7 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     (with ``viscosity``) or an MC-PBS preset at ``temperature`` degC (``viscosity=None``). ``extrapolate``,
     ``coarse_resolution``: as ``pipe`` (default off: each point one run at the resolution, the markers at
     R - 0.3 dx; on: each point at R/dx above 6 also runs R/dx 6 and its area and deformation are extrapolated to
-    dx -> 0). radii, moduli: comma-separated lists or sequences (bare numbers in um
+    dx -> 0); ``hydrodynamic_radius_correction``: as :func:`plan`. radii, moduli: comma-separated lists or sequences (bare numbers in um
     and Pa); default the region of dclab's table for the channel (:func:`default_grid`, 6 x 8) or, with ``quick``,
     the 2 x 2 test grid. Returns a
     summary: paths, the finished records, the failed points (key and one-line error; left out of the table and
@@ -939,7 +947,8 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                             channel_shape=channel_shape, channel_height=channel_height, medium=medium,
                             temperature=temperature, flow_index=flow_index, extrapolate=extrapolate,
                             coarse_resolution=coarse_resolution, stiffness_ratio=stiffness_ratio,
-                            size_ratio=size_ratio, channel_length=channel_length)
+                            size_ratio=size_ratio, channel_length=channel_length,
+                            hydrodynamic_radius_correction=hydrodynamic_radius_correction)
     lattice = check_lattice(points)
     identifier = identifier or f"elastocell-{out.stem}"
     runs = runs_directory(out)

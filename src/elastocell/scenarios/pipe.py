@@ -444,13 +444,15 @@ immersed-boundary kernel's reach, and the lattice stays small (34 x 34 nodes in 
 PIPE_HYDRODYNAMIC_RADIUS_CORRECTION = 0.3
 """The pipe's default c (dx): the markers at R - 0.3 dx, where a sphere held on the pipe's axis has its hydrodynamic
 radius within 0.05-0.15 dx of R at R/dx 6-8 (0.36-0.46 dx above it with the markers at R; docs/validation/
-pipe_dclab.md, 'a rigid sphere's hydrodynamic radius'). With it the pipe runs R/dx 8 alone (``pipe``'s
-``extrapolate`` is off): at the four cells of 'The flow rate held' (t = 16/gdot_w) its RT-DC deformation errs
+pipe_dclab.md, 'a rigid sphere's hydrodynamic radius'; a force-free sphere, nearer a cell, stays 0.16-0.50 dx above
+it). With it the pipe runs R/dx 8 alone (``pipe``'s ``extrapolate`` is off; the earlier default is ``extrapolate``
+with c = 0): at the four cells of 'The flow rate held' (t = 16/gdot_w) its RT-DC deformation errs
 +0.0, +18.1, +6.6 and +11.8 % against LE-2D-FEM-19 (the modulus dclab reads from it -8.2 to 0.0 %), where the
 earlier default (markers at R, extrapolated from R/dx 6 and 8) erred +8.6, +8.5 and -20.4 % at three of them (the
 modulus -4.1 to +11.7 %) and gave no reading at the fourth, its R/dx 6 run's outline having fallen back to the
-nodes' hull; the single run costs about 0.8x the pair. Not yet within issue 24's 10 %: at t = 40/gdot_w it errs
--3.3 to +25.4 % at five cells (section 'The stationary shape at R/dx 8')."""
+nodes' hull; the single run costs 0.7-0.8x the pair (docs/validation/flow_default.md). Not yet within issue 24's
+10 %: at t = 40/gdot_w it errs -3.3 to +25.4 % at five of six cells, the sixth read on the nodes' hull (section
+'The stationary shape at R/dx 8', which also shows D moving by about a tenth with the cell's Poisson ratio)."""
 
 
 class PipeFlowParameters(FlowLatticeParameters):
