@@ -25,7 +25,7 @@ R_ch = 1.094 x 10 um standing for the 20 um square channel, Q = 0.04 uL/s, eta =
 moduli are of an incompressible solid (nu = 0.5): the modulus dclab reads is converted to the cell's Poisson
 ratio at equal shear modulus, E = E_t 2 (1 + nu)/3.
 
-Settings (:func:`settings`): full: R/dx 6, each run until its mean deformation over a unit of 1/gdot_w is
+Settings (:func:`settings`): full: R/dx 6 (the markers at R - 0.3 dx, the pipe's default), each run until its mean deformation over a unit of 1/gdot_w is
 stationary to 1e-3 or 20 units of 1/gdot_w, one resolution (no extrapolation: the reading cancels the
 discretisation error instead); quick: R/dx 5 for 4 units, two nucleus cells and two homogeneous ones (a smoke
 test, far from stationary).
