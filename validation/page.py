@@ -122,7 +122,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "pipe_stationary.py": ("The stationary shape at R/dx 8 with the flow rate held and the markers moved in "
                                "(the pipe's default), and the cell's Poisson ratio",
                                "nice python validation/pipe_stationary.py --poisson-ratios 0.48 0.49 --extra "
-                               "6:3:0.3:8,6:3:0.4:8,6:3:0.45:8,6:3:0.495:8,6:3:0.48:10,6:3:0.49:10"),
+                               "6:3:0.3:8,6:3:0.4:8,6:3:0.45:8,6:3:0.495:8,6:3:0.48:10,6:3:0.49:10,6:3:0.48:8:p2,"
+                               "6:3:0.49:8:p2"),
     }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",

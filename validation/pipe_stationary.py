@@ -3,8 +3,8 @@ measurements of validation/pipe_flow_rate.py argue for as the pipe's default (R/
 read where the runs of 16 units of 1/gdot_w had not settled, and at cells outside their four points.
 
 The page's runs: ``--poisson-ratios 0.48 0.49 --extra 6:3:0.3:8,6:3:0.4:8,6:3:0.45:8,6:3:0.495:8,6:3:0.48:10,
-6:3:0.49:10`` (one Numba thread each, two or three processes at a time on the 2-core machine: the six at nu
-0.48 about 20 min, the others about 50 min).
+6:3:0.49:10,6:3:0.48:8:p2,6:3:0.49:8:p2`` (one Numba thread each, two or three processes at a time on the
+2-core machine: the six at nu 0.48 about 20 min, the others about 55 min).
 
     nice python validation/pipe_stationary.py [--points 7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5]
                                               [--resolution 8] [--corrections 0.3] [--duration 40]
@@ -74,45 +74,62 @@ def nu_table(records: list[dict], out: Path) -> list[dict]:
     """Per cell (radius, shear modulus) run at more than one nu: a row per nu, D against the nu 0.48 run's."""
     groups: dict[tuple, list[dict]] = {}
     for r, e_err in zip(records, e_errors(records) if records else [], strict=True):
-        groups.setdefault((r["radius_um"], round(shear_equivalent_modulus(r), 4), r["c"], r["resolution"]),
-                          []).append(
+        groups.setdefault((r["radius_um"], round(shear_equivalent_modulus(r), 4), r["c"], r["resolution"],
+                           r["element"]), []).append(
             {**r, "E_err": e_err})
     rows = []
-    for (radius, e_t, _, resolution), runs in sorted(groups.items()):
+    for (radius, e_t, _, resolution, element), runs in sorted(groups.items()):
         if len({poisson_ratio(r) for r in runs}) < 2:
             continue
         base = [r for r in runs if poisson_ratio(r) == POISSON_RATIO]
         for r in sorted(runs, key=poisson_ratio):
             nu = poisson_ratio(r)
             rows.append({"R [um]": radius, "R/R_ch": radius / CHANNEL_RADIUS_UM, "mu [kPa]": e_t / 3,
-                         "R/dx": resolution, "nu": nu,
+                         "R/dx": resolution, "element": element, "nu": nu,
                          "kappa/mu": 2 * (1 + nu) / (3 * (1 - 2 * nu)), "deform": r["deform"],
                          "D/D(nu 0.48)": r["deform"] / base[0]["deform"] if base else float("nan"),
                          "D err %": r["D_err"], "A err %": r["A_err"], "E err %": r["E_err"],
-                         "dV/V end": r["volume_change_end"],
+                         "dV/V end": r["volume_change_end"], "D drift %/t": 100 * r["drift_deformation"],
                          "reading": "hull" if r["fallback_last_unit"] else "outline"})
     return rows
+
+
+SETTLED_DRIFT_PERCENT = 0.5
+"""A run counts in the Poisson-ratio summary where its D drifts by at most this (% per unit of 1/gdot_w) ..."""
+SETTLED_VOLUME = 0.02
+"""... its volume changed by at most this fraction, and its last unit was read on the outline."""
+
+
+def settled(row: dict) -> bool:
+    return (row["reading"] == "outline" and abs(row["D drift %/t"]) <= SETTLED_DRIFT_PERCENT
+            and abs(row["dV/V end"]) <= SETTLED_VOLUME)
 
 
 def nu_summary(rows: list[dict]) -> str:
     """What the rows of :func:`nu_table` say, in numbers: D at nu 0.49 over D at 0.48 per resolution, and the
     spread of D over every nu run at one cell and resolution."""
     lines = []
-    for resolution in sorted({r["R/dx"] for r in rows}):
-        hull = {(r["R [um]"], r["mu [kPa]"]) for r in rows if r["R/dx"] == resolution and r["reading"] == "hull"}
-        ratios = [r["D/D(nu 0.48)"] for r in rows if r["R/dx"] == resolution and r["nu"] == 0.49
-                  and (r["R [um]"], r["mu [kPa]"]) not in hull]
+    for resolution, element in sorted({(r["R/dx"], r["element"]) for r in rows}):
+        same = [r for r in rows if r["R/dx"] == resolution and r["element"] == element]
+        unsettled = {(r["R [um]"], r["mu [kPa]"]) for r in same if not settled(r)}
+        ratios = [r["D/D(nu 0.48)"] for r in same if r["nu"] == 0.49
+                  and (r["R [um]"], r["mu [kPa]"]) not in unsettled]
         if ratios:
-            lines.append(f"R/dx {resolution:g}: D(nu 0.49)/D(nu 0.48) {min(ratios):.3f}-{max(ratios):.3f} over "
-                         f"{len(ratios)} cell(s) read on the outline at both")
+            lines.append(f"R/dx {resolution:g}, {element}: D(nu 0.49)/D(nu 0.48) {min(ratios):.3f}-{max(ratios):.3f} "
+                         f"over {len(ratios)} cell(s) settled at both nu")
+        if unsettled:
+            lines.append(f"R/dx {resolution:g}, {element}: not counted, a run not settled (read on the hull, |D drift| "
+                         f"above {SETTLED_DRIFT_PERCENT:g} %/t or |dV/V| above {SETTLED_VOLUME:g}): "
+                         + ", ".join(f"R {radius:g} um, mu {mu:.4f} kPa" for radius, mu in sorted(unsettled)))
     cells: dict[tuple, list[dict]] = {}
     for r in rows:
-        cells.setdefault((r["R [um]"], r["mu [kPa]"], r["R/dx"]), []).append(r)
-    for (radius, mu, resolution), runs in cells.items():
+        cells.setdefault((r["R [um]"], r["mu [kPa]"], r["R/dx"], r["element"]), []).append(r)
+    for (radius, mu, resolution, element), runs in cells.items():
         if len(runs) > 2:
+            runs = [r for r in runs if settled(r)]
             low, high = min(runs, key=lambda r: r["deform"]), max(runs, key=lambda r: r["deform"])
             ratios = ", ".join(f"{r['nu']:g}" for r in runs)
-            lines.append(f"R {radius:g} um, mu {mu:.4f} kPa, R/dx {resolution:g}, nu {ratios}: D from "
+            lines.append(f"R {radius:g} um, mu {mu:.4f} kPa, R/dx {resolution:g}, {element}, nu {ratios}: D from "
                          f"{low['deform']:.4f} (nu {low['nu']:g}, D err {low['D err %']:+.1f} %) to "
                          f"{high['deform']:.4f} (nu {high['nu']:g}, {high['D err %']:+.1f} %), "
                          f"{100 * (high['deform'] - low['deform']) / high['deform']:.0f} % of the largest")
@@ -127,19 +144,21 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=40.0, help="units of 1/gdot_w")
     parser.add_argument("--poisson-ratios", type=float, nargs="+", default=[POISSON_RATIO],
                         help="nu of the cell, each at the shear modulus of the point's E at nu 0.48")
-    parser.add_argument("--extra", default="", help="R:E:nu:R/dx,... single cases beside the grid")
+    parser.add_argument("--extra", default="", help="R:E:nu:R/dx[:element],... single cases beside the grid")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("results/pipe-stationary"))
     parser.add_argument("--cached-only", action="store_true")
     args = parser.parse_args()
     points = parse_points(args.points)
-    runs = [(nu, point, args.resolution) for nu in args.poisson_ratios for point in points]
+    runs = [(nu, point, args.resolution, "p1") for nu in args.poisson_ratios for point in points]
     for item in filter(None, args.extra.split(",")):
-        radius, modulus, nu, resolution = map(float, item.split(":"))
-        if (nu, (radius, modulus), resolution) not in runs:
-            runs.append((nu, (radius, modulus), resolution))
-    todo = [{**c, "hold": True, **({} if nu == POISSON_RATIO else {"poisson_ratio": nu})}
-            for nu, point, resolution in runs
+        fields = item.split(":")
+        radius, modulus, nu, resolution = map(float, fields[:4])
+        element = fields[4] if len(fields) > 4 else "p1"
+        if (nu, (radius, modulus), resolution, element) not in runs:
+            runs.append((nu, (radius, modulus), resolution, element))
+    todo = [{**c, "hold": True, "element": element, **({} if nu == POISSON_RATIO else {"poisson_ratio": nu})}
+            for nu, point, resolution, element in runs
             for c in cases((point[0], round(point[1] * (1 + nu) / (1 + POISSON_RATIO), 6)), [resolution],
                            args.corrections, args.duration, meshes=False)]
     page = Page("pipe_dclab", "pipe_stationary.py", versions=("dclab", "numba"))
@@ -149,7 +168,7 @@ def main() -> None:
     records = with_table([cached[key(c)] for c in todo if key(c) in cached])
     moduli = e_errors(records) if records else []
     rows = [{"R [um]": r["radius_um"], "R/R_ch": r["radius_um"] / CHANNEL_RADIUS_UM, "E [kPa]": r["emodulus_kpa"],
-             "R/dx": r["resolution"], "nu": poisson_ratio(r), "mu [kPa]": shear_equivalent_modulus(r) / 3, "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"],
+             "R/dx": r["resolution"], "element": r["element"], "nu": poisson_ratio(r), "mu [kPa]": shear_equivalent_modulus(r) / 3, "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"],
              "reading": "hull" if r["fallback_last_unit"] else "outline", "deform": r["deform"],
              "D_t": r["D_t"], "D err %": r["D_err"], "A err %": r["A_err"], "E err %": e_err,
              "D drift %/t": 100 * r["drift_deformation"], "A drift %/t": 100 * r["drift_projected_area"],
@@ -188,7 +207,7 @@ def main() -> None:
                    "stiffness over their shear stiffness; `hull`: the last unit read on the nodes' hull)",
                    formats={"R/R_ch": ".3f", "mu [kPa]": ".4f", "nu": "g", "R/dx": "g", "kappa/mu": ".1f", "deform": ".4f",
                             "D/D(nu 0.48)": ".3f", "D err %": "+.1f", "A err %": "+.1f", "E err %": "+.1f",
-                            "dV/V end": "+.4f"})
+                            "dV/V end": "+.4f", "D drift %/t": "+.2f"})
         page.print(nu_summary(by_nu))
     missing = [key(c) for c in todo if key(c) not in cached]
     if missing:
