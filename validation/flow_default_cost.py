@@ -70,6 +70,13 @@ def timed_previous(out: Path, capillary_number: float, nucleus: str, resolution,
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
+def print_if_shared(page: Page) -> None:
+    """Say on the page when the machine was shared at the end of the timings (load above the core count)."""
+    if os.getloadavg()[0] > (os.cpu_count() or 1):
+        page.print(f"The machine was shared with other work (load average {os.getloadavg()[0]:.1f} on "
+                   f"{os.cpu_count()} cores at the end): the wall times are indicative; the CPU times are steadier.")
+
+
 PREVIOUS_FLOW = {"relaxation_time": 1.0, "reynolds_number": 0.1}
 """The shear defaults' flow settings before the matched tau (tau 1; the matched tau keeps its lattice shear rate):
 the single run at these is the cost the issue's 1.5x is counted against."""
@@ -157,9 +164,7 @@ def main() -> None:
     page.print(f"extrapolated default / the single run at the previous default's flow (tau 1): CPU "
                f"{previous_ratio:.2f}x, wall {walls['extrapolated'][0] / walls['previous'][0]:.2f}x (target <= 1.5x: "
                f"{'met' if previous_ratio <= 1.5 else 'not met'} in CPU time)")
-    if os.getloadavg()[0] > (os.cpu_count() or 1):
-        page.print(f"The machine was shared with other work (load average {os.getloadavg()[0]:.1f} on "
-                   f"{os.cpu_count()} cores at the end): the wall times are indicative; the CPU times are steadier.")
+    print_if_shared(page)
     if args.page:
         page.write()
 

@@ -20,14 +20,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from flow_default_cost import timed_command  # noqa: E402
+from flow_default_cost import print_if_shared, timed_command  # noqa: E402
 from page import Page  # noqa: E402
 from pipe_dclab import FLOW_RATE_UL_S, VISCOSITY_MPA_S, percent, table_readings  # noqa: E402
 from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO  # noqa: E402
@@ -101,9 +100,7 @@ def main() -> None:
     page.print(f"default / earlier default: CPU {cpu_ratio:.2f}x, wall {wall_ratio:.2f}x (issue 24's target <= 1.5x: "
                f"{'met' if cpu_ratio <= 1.5 else 'not met'} in CPU time); the two default runs' walls differ by "
                f"{100 * abs(times['default-1'][0] / times['default-2'][0] - 1):.0f} %")
-    if os.getloadavg()[0] > (os.cpu_count() or 1):
-        page.print(f"The machine was shared with other work (load average {os.getloadavg()[0]:.1f} on "
-                   f"{os.cpu_count()} cores at the end): the wall times are indicative; the CPU times are steadier.")
+    print_if_shared(page)
     if args.page:
         page.write()
 
