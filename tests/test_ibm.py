@@ -137,14 +137,21 @@ def test_compiled_elastic_forces_equal_jax_autodiff(coarse_cells, element, law, 
     if np.linalg.det(deformation) < 0.5:
         deformation = np.eye(3) + 0.05 * rng.standard_normal((3, 3))
     x = cell.mesh.nodes @ deformation.T + 0.01 * rng.standard_normal(cell.mesh.nodes.shape)
+    assert_compiled_forces_are_autodiff(cell, x)
+
+
+def assert_compiled_forces_are_autodiff(cell, x: np.ndarray) -> np.ndarray:
+    """The compiled forces at x equal -Cell.internal_forces to 1e-12 of the largest, in the cell's units and in
+    scaled ones (positions in dx with R = 7.5 dx, E_c = 0.02: forces E_c R^2 times the dimensionless ones);
+    returns them."""
     reference = -np.asarray(cell.internal_forces(x))
     forces, j_min = elastic_forces.ElasticForces(cell)(x)
     scale = np.abs(reference).max()
     np.testing.assert_allclose(forces, reference, atol=1e-12 * scale)
     assert j_min > 0
-    # scaled units: positions in dx (R = 7.5 dx), E_c = 0.02 -> forces E_c R^2 times the dimensionless ones
     scaled, _ = elastic_forces.ElasticForces(cell, length_scale=7.5, modulus_scale=0.02)(3.0 + 7.5 * x)
     np.testing.assert_allclose(scaled, 0.02 * 7.5**2 * reference, atol=1e-12 * 0.02 * 7.5**2 * scale)
+    return forces
 
 
 def test_compiled_forces_flag_inverted_elements(coarse_cells):

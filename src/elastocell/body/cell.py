@@ -116,6 +116,11 @@ class Cell:
         energy_law = self.law
         projections = self.dilatation_projections
         projections = None if projections is None else jnp.asarray(projections)
+        nodal = self.parameters.mesh.volumetric == "nodal"
+        if nodal:
+            node_volumes0 = jnp.asarray(self.nodal_reference_volumes)
+            node_bulk = jnp.asarray(self.nodal_bulk_moduli)
+            n_nodes, n_k = self.mesh.n_nodes, self.mesh.elements.shape[1]
 
         def element_gradients(x_elements):
             """F[i, j, e, q] = sum_k x_(e_k) i dN_k/dX_j (the materials' layout: the points last)."""
@@ -132,8 +137,18 @@ class Cell:
             volume_ratio = determinant(f)
             return f * (jnp.einsum("eqr,er->eq", projections, volume_ratio) / volume_ratio) ** (1.0 / 3.0)
 
+        def nodal_volume_ratios(f):
+            """J_a = V_a/V_a0 per node, V_a the sum of 1/n_k of the current volumes of its elements."""
+            shares = jnp.repeat(jnp.sum(weights * determinant(f), axis=1) / n_k, n_k)
+            return jax.ops.segment_sum(shares, elements.ravel(), num_segments=n_nodes) / node_volumes0
+
         def energy(x):
-            return jnp.sum(weights * energy_law(law_gradients(deformation_gradients(x)), params))
+            f = deformation_gradients(x)
+            if nodal:  # the law's isochoric part per point, its volumetric part kappa/2 (J - 1)^2 per node
+                isochoric = f * determinant(f) ** (-1.0 / 3.0)
+                return (jnp.sum(weights * energy_law(isochoric, params))
+                        + jnp.sum(0.5 * node_bulk * node_volumes0 * (nodal_volume_ratios(f) - 1.0) ** 2))
+            return jnp.sum(weights * energy_law(law_gradients(f), params))
 
         def tangents(x):
             # w_q d2W/dF2 per quadrature point by autodiff, [i, j, k, l, e, q]; contracted with dN/dX into the
@@ -181,7 +196,11 @@ class Cell:
             return jnp.moveaxis(columns.reshape(n, len(x_elements), n), 0, 1)
 
         def stresses(x):
-            f = law_gradients(deformation_gradients(x))
+            f = deformation_gradients(x)
+            if nodal:  # the law on F_bar = (J_bar/J)^(1/3) F, J_bar the mean of the element's nodal J
+                mean = jnp.mean(nodal_volume_ratios(f)[elements], axis=1)[:, None]
+                f = f * (mean / determinant(f)) ** (1.0 / 3.0)
+            f = law_gradients(f)
             piola = jax.grad(lambda ff: jnp.sum(energy_law(ff, params)))(f)
             sigma = jnp.einsum("ik...,jk...->ij...", piola, f) / determinant(f)
             return jnp.einsum("eq,ijeq->eij", weights, sigma) / jnp.sum(weights, axis=1)[:, None, None]
@@ -196,6 +215,58 @@ class Cell:
             stresses=jax.jit(stresses),
         )
         return self._kernels
+
+    @cached_property
+    def nodal_reference_volumes(self) -> np.ndarray:
+        """V_a0 per node (units of R^3): the sum over its elements of 1/n_k of their volumes (n_k nodes each); the
+        volumes of the averaged nodal dilatation (``MeshParameters.volumetric`` nodal)."""
+        elements = self.mesh.elements
+        shares = np.repeat(self.element_volumes / elements.shape[1], elements.shape[1])
+        return np.bincount(elements.ravel(), weights=shares, minlength=self.mesh.n_nodes)
+
+    @cached_property
+    def nodal_bulk_moduli(self) -> np.ndarray:
+        """kappa_a per node (units of E_c): the bulk moduli of its elements averaged with the weights of
+        :attr:`nodal_reference_volumes`; ValueError for a law that does not name its bulk modulus
+        (``Law.compiled_parameters``: the decoupled Mooney-Rivlin family)."""
+        if not self.law.has_compiled_kernel:
+            raise ValueError(f"the law {self.law.name!r} does not name its bulk modulus (it is not of the "
+                             "decoupled Mooney-Rivlin family): the nodal dilatation needs it")
+        elements = self.mesh.elements
+        bulk = self.law.compiled_parameters(np.asarray(self.material_parameters, dtype=np.float64))[:, 2]
+        shares = np.repeat(self.element_volumes * bulk / elements.shape[1], elements.shape[1])
+        return np.bincount(elements.ravel(), weights=shares, minlength=self.mesh.n_nodes) / self.nodal_reference_volumes
+
+    def reference_stiffness_matrix(self):
+        """K = d^2 E/dx^2 at the reference state x = X (CSR). For the nodal dilatation, which has no element
+        matrices, by exchanging the volumetric parts: at J = 1 the elements' kappa_e/V_e0 grad V_e grad V_e^T
+        for the nodes' kappa_a/V_a0 grad V_a grad V_a^T (V_a = sum of 1/n_k of its elements' volumes); the
+        isochoric part is the same in both (a decoupled law)."""
+        if self.parameters.mesh.volumetric != "nodal":
+            return self.stiffness_matrix(self.mesh.nodes)
+        import scipy.sparse as sp
+
+        elements = self.mesh.elements
+        n_elements, n_k = elements.shape
+        n = 3 * self.mesh.n_nodes
+        volumes = self.element_volumes
+        columns = (3 * elements[:, :, None] + np.arange(3)).reshape(n_elements, -1)
+        values = (volumes[:, None, None] * self.geometry.shape_gradients[:, 0]).reshape(n_elements, -1)
+        volume_gradients = sp.csr_matrix((values.ravel(), (np.repeat(np.arange(n_elements), 3 * n_k), columns.ravel())),
+                                         shape=(n_elements, n))  # row e: dV_e/dx at x = X (p1: one point)
+        incidence = sp.csr_matrix((np.full(elements.size, 1.0 / n_k), (elements.ravel(),
+                                   np.repeat(np.arange(n_elements), n_k))), shape=(self.mesh.n_nodes, n_elements))
+        nodal_gradients = incidence @ volume_gradients
+        bulk = self.law.compiled_parameters(np.asarray(self.material_parameters, dtype=np.float64))[:, 2]
+        elementwise = volume_gradients.T @ sp.diags(bulk / volumes) @ volume_gradients
+        nodal = nodal_gradients.T @ sp.diags(self.nodal_bulk_moduli / self.nodal_reference_volumes) @ nodal_gradients
+        return (self.with_standard_volumetric().stiffness_matrix(self.mesh.nodes) - elementwise + nodal).tocsr()
+
+    def with_standard_volumetric(self) -> Cell:
+        """The same body (mesh, moduli) with J = det F at each point (``MeshParameters.volumetric`` standard)."""
+        mesh = self.parameters.mesh.model_copy(update={"volumetric": "standard"})
+        return Cell(self.parameters.model_copy(update={"mesh": mesh}), self.mesh, self.youngs_moduli,
+                    is_equivalent=self.is_equivalent)
 
     @cached_property
     def dilatation_projections(self) -> np.ndarray | None:
@@ -226,6 +297,9 @@ class Cell:
             element_stiffness_matrices,  # lazy: the Numba stiffness kernel compiles/loads only when a stiffness is needed
         )
 
+        if self.parameters.mesh.volumetric == "nodal":
+            raise ValueError("the nodal dilatation couples the elements that share a node: it has no element "
+                             "stiffness matrices (it serves the flows, which need forces only)")
         if self.dilatation_projections is not None:
             tangents, coupling = self._compiled()["projected_tangents"](jnp.asarray(x))
             return element_stiffness_matrices(np.asarray(tangents), self._shape_gradients_points_last) + np.asarray(coupling)

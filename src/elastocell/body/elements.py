@@ -187,9 +187,10 @@ def conical_product_rule(n: int) -> tuple[np.ndarray, np.ndarray]:
     return _read_only(points), _read_only(weights)
 
 
-VOLUMETRIC_TREATMENTS = ("standard", "projected", "mean")
-"""How J enters a p2 element's law (``MeshParameters.volumetric``): as det F at each point, L2-projected onto the
-linear polynomials of the element (P1, discontinuous) or onto the constants (P0, mean dilatation)."""
+VOLUMETRIC_TREATMENTS = ("standard", "projected", "mean", "nodal")
+"""How J enters the law (``MeshParameters.volumetric``): as det F at each point; for a p2 element L2-projected onto
+the linear polynomials of the element (P1, discontinuous) or onto the constants (P0, mean dilatation); for p1
+elements averaged per node (the volumetric part of the law per node, ``Cell.nodal_reference_volumes``)."""
 
 
 def dilatation_projections(treatment: str, points: np.ndarray, weights: np.ndarray) -> np.ndarray | None:
@@ -197,8 +198,9 @@ def dilatation_projections(treatment: str, points: np.ndarray, weights: np.ndarr
     the L2 projection, weighted by the points' reference volumes ``weights`` (n_elements, n_points), onto the
     polynomials in the reference coordinates ``points`` (n_points, 3) of degree 1 (``projected``) or 0
     (``mean``); None for ``standard``. Exact per element, curved ones included; a J that is such a polynomial
-    (a uniform deformation: a constant) is its own projection."""
-    if treatment == "standard":
+    (a uniform deformation: a constant) is its own projection. None for ``nodal`` too: its J is not projected
+    within an element."""
+    if treatment in ("standard", "nodal"):
         return None
     if treatment not in VOLUMETRIC_TREATMENTS:
         raise ValueError(f"volumetric treatment must be one of {VOLUMETRIC_TREATMENTS}, got {treatment!r}")

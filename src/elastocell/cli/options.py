@@ -198,10 +198,12 @@ OPTIONS: dict[str, Opt] = _declare(
         "points that include the nodes, so that no element folds at a node in a crushed soft layer, at about "
         "twice the time of a degree-2 curve.",
         shown="5 for a neo-Hookean cell whose nucleus is at least 5.5 times stiffer than the cytoplasm, else 2"),
-    Opt("volumetric", str, "standard", "p2 only: how J = det F enters the law. standard: at each quadrature point; "
+    Opt("volumetric", str, "standard", "How J = det F enters the law. standard: at each quadrature point; p2: "
         "projected: L2-projected onto linear polynomials per element and the law evaluated on "
         "(J_bar/J)^(1/3) F (F-bar, relieves the volumetric locking of a crushed soft layer; needs a quadrature "
-        "degree above 2); mean: the element's mean dilatation."),
+        "degree above 2); mean: the element's mean dilatation; p1, flows only: nodal: the volumetric part per "
+        "node, from the volumes of its elements (the averaged nodal dilatation: linear tetrahedra that do not "
+        "lock)."),
     # ---------------------------------------------------------------- compress
     Opt("delta_max", float, 0.75, "Final deformation delta = 1 - h/(2R) in (0, 1).", units=_DIMENSIONLESS),
     Opt("steps", int, 40, "Load steps (output rows after delta = 0)."),
@@ -368,7 +370,11 @@ FLOW_CELL = CELL.but(
     opt("pole_size", help="Element size at the poles.", shown="uniform"),
     opt("interface_size", help="Element size on the nucleus surface.", shown="uniform"),
     opt("element", default="p1", help="p1 (4-node, the paper's; flow default) | p2 (10-node)."),
-    without=("quadrature_degree", "volumetric"))
+    opt("volumetric", help="How J = det F enters the law. standard: at each point; p1: nodal: the volumetric part "
+        "per node, from the volumes of its elements (the averaged nodal dilatation: linear tetrahedra that do not "
+        "lock); p2: mean: the element's mean dilatation, projected: J projected onto linear polynomials per "
+        "element (no compiled kernel: runs on the JAX backend)."),
+    without=("quadrature_degree",))
 
 
 def takes(*items: str | Opt | Group):

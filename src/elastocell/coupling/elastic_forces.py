@@ -11,6 +11,12 @@ entry (``Law.compiled_parameters``; neo-Hookean: mu2 = 0); the tests hold the co
 to the JAX gradient of the law itself (``Cell.internal_forces``). A law without that entry has no compiled
 kernel here: :func:`elastocell.coupling.immersed.immersed_cell` runs its flow on the JAX backend.
 
+The cell's volumetric treatment (``MeshParameters.volumetric``) is the kernel's too: ``standard`` takes kappa (J - 1)
+at each point; ``mean`` (p2) the element's mean dilatation, p = kappa_e (V_e/V_e0 - 1); ``nodal`` (p1) the averaged
+nodal dilatation, p = the mean over the element's nodes of kappa_a (V_a/V_a0 - 1) (docs/theory.md). Both replace
+kappa (J - 1) J F^-T by p J F^-T = p cof F, after a first pass over the elements for their volumes. ``projected``
+has no kernel here: its flow runs on the JAX backend.
+
 Why a kernel by hand and not the JAX law inside the Numba loop: the loop cannot call JAX, and a JAX call per
 step from Python costs more than this kernel by itself (reference p2 cell, 4,656 nodes, 2 cores: 3.1 ms per
 ``Cell.internal_forces`` against 1.0 ms here; p1, 3,861 nodes: 4.0 against 1.3 ms). The JAX backend's whole
@@ -22,6 +28,9 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit, prange
+
+VOLUMETRIC_CODES = {"standard": 0, "nodal": 1, "mean": 2}
+"""``MeshParameters.volumetric`` -> the kernel's code; ``projected`` has no compiled kernel (the JAX backend)."""
 
 
 def compiled_law_parameters(cell) -> np.ndarray:
@@ -61,8 +70,11 @@ def _inverse_cube_root(j):
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
-def _element_forces(x, elements, gradients, weights, params, eforce, j_min):
-    """eforce[e, k] = -dE_e/dx_k per element (parallel over elements); j_min[e] = min det F of element e."""
+def _element_forces(x, elements, gradients, weights, params, eforce, j_min, volumetric, pressure):
+    """eforce[e, k] = -dE_e/dx_k per element (parallel over elements); j_min[e] = min det F of element e.
+
+    volumetric 0: the volumetric stress at each point is kappa (J - 1) cof F (J = det F there); otherwise it is
+    pressure[e] cof F with the element's pressure from :func:`_volumetric_pressure`."""
     n_el = elements.shape[0]
     n_q = gradients.shape[1]
     n_k = elements.shape[1]
@@ -114,7 +126,10 @@ def _element_forces(x, elements, gradients, weights, params, eforce, j_min):
             a1 = mu1 * y * y  # mu1 J^(-2/3)
             # P = a F - b (F C) + g cof(F)
             a = a1
-            g = -a1 * i1 / 3.0 + kappa * (det - 1.0) * det
+            if volumetric == 0:
+                g = -a1 * i1 / 3.0 + kappa * (det - 1.0) * det
+            else:
+                g = -a1 * i1 / 3.0 + pressure[e] * det
             fc00 = fc01 = fc02 = fc10 = fc11 = fc12 = fc20 = fc21 = fc22 = 0.0
             b = 0.0
             if mu2 != 0.0:
@@ -160,6 +175,61 @@ def _element_forces(x, elements, gradients, weights, params, eforce, j_min):
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
+def _element_volumes(x, elements, gradients, weights, volume):
+    """volume[e] = sum_q w_q det F_q: the element's current volume (parallel over elements)."""
+    n_q = gradients.shape[1]
+    n_k = elements.shape[1]
+    for e in prange(elements.shape[0]):
+        v = 0.0
+        for q in range(n_q):
+            f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
+            for k in range(n_k):
+                nd = elements[e, k]
+                g0 = gradients[e, q, k, 0]
+                g1 = gradients[e, q, k, 1]
+                g2 = gradients[e, q, k, 2]
+                f00 += x[nd, 0] * g0
+                f01 += x[nd, 0] * g1
+                f02 += x[nd, 0] * g2
+                f10 += x[nd, 1] * g0
+                f11 += x[nd, 1] * g1
+                f12 += x[nd, 1] * g2
+                f20 += x[nd, 2] * g0
+                f21 += x[nd, 2] * g1
+                f22 += x[nd, 2] * g2
+            v += weights[e, q] * (f00 * (f11 * f22 - f12 * f21) + f01 * (f12 * f20 - f10 * f22)
+                                  + f02 * (f10 * f21 - f11 * f20))
+        volume[e] = v
+
+
+@njit(parallel=True, cache=True, error_model="numpy")
+def _volumetric_pressure(x, elements, gradients, weights, volumetric, node_ptr, node_slots, reference_volume,
+                         node_reference_volume, node_bulk, bulk, volume, node_pressure, pressure):
+    """pressure[e]: the factor p of the volumetric stress p cof F of every point of element e (units of the moduli).
+
+    volumetric 1 (``nodal``, the averaged nodal dilatation of linear tetrahedra): node a holds V_a = the sum of
+    1/n_k of the current volumes of its elements, the volumetric energy is sum_a V_a0 kappa_a/2 (V_a/V_a0 - 1)^2,
+    and an element's p is the mean over its nodes of kappa_a (J_a - 1). volumetric 2 (``mean``, P0 mean
+    dilatation): the energy V_e0 kappa_e/2 (V_e/V_e0 - 1)^2 per element, p = kappa_e (J_e - 1)."""
+    _element_volumes(x, elements, gradients, weights, volume)
+    n_k = elements.shape[1]
+    if volumetric == 2:
+        for e in prange(elements.shape[0]):
+            pressure[e] = bulk[e] * (volume[e] / reference_volume[e] - 1.0)
+        return
+    for a in prange(node_pressure.shape[0]):
+        v = 0.0
+        for s in range(node_ptr[a], node_ptr[a + 1]):
+            v += volume[node_slots[s] // n_k]
+        node_pressure[a] = node_bulk[a] * (v / n_k / node_reference_volume[a] - 1.0)
+    for e in prange(elements.shape[0]):
+        p = 0.0
+        for k in range(n_k):
+            p += node_pressure[elements[e, k]]
+        pressure[e] = p / n_k
+
+
+@njit(parallel=True, cache=True, error_model="numpy")
 def _gather_node_forces(eforce, node_ptr, node_slots, out):
     """out[n] = sum of eforce over the (element, local node) slots of node n (CSR; parallel, race free)."""
     flat = eforce.reshape(-1, 3)
@@ -178,8 +248,12 @@ def _gather_node_forces(eforce, node_ptr, node_slots, out):
 
 
 @njit(cache=True, error_model="numpy")
-def elastic_forces(x, elements, gradients, weights, params, node_ptr, node_slots, eforce, j_elem, out):
-    _element_forces(x, elements, gradients, weights, params, eforce, j_elem)
+def elastic_forces(x, elements, gradients, weights, params, node_ptr, node_slots, eforce, j_elem, volumetric,
+                   reference_volume, node_reference_volume, node_bulk, volume, node_pressure, pressure, out):
+    if volumetric != 0:
+        _volumetric_pressure(x, elements, gradients, weights, volumetric, node_ptr, node_slots, reference_volume,
+                             node_reference_volume, node_bulk, params[:, 2], volume, node_pressure, pressure)
+    _element_forces(x, elements, gradients, weights, params, eforce, j_elem, volumetric, pressure)
     _gather_node_forces(eforce, node_ptr, node_slots, out)
     j_min = np.inf
     for e in range(j_elem.shape[0]):
@@ -214,12 +288,26 @@ class ElasticForces:
         self.node_slots = slots.astype(np.int64)
         self._eforce = np.zeros(elements.shape + (3,))
         self._j = np.zeros(len(elements))
+        treatment = cell.parameters.mesh.volumetric
+        if treatment not in VOLUMETRIC_CODES:
+            raise ValueError(f"the volumetric treatment {treatment!r} has no compiled force kernel: run its flow "
+                             "with backend='jax', which immersed_cell selects for it")
+        self.volumetric = VOLUMETRIC_CODES[treatment]
+        self.reference_volume = np.ascontiguousarray(self.weights.sum(axis=1))
+        nodal = treatment == "nodal"  # the node arrays are read by the nodal treatment only
+        self.node_reference_volume = (cell.nodal_reference_volumes * length_scale**3 if nodal
+                                      else np.ones(n_nodes))
+        self.node_bulk = cell.nodal_bulk_moduli * modulus_scale if nodal else np.zeros(n_nodes)
+        self._volume = np.zeros(len(elements))
+        self._node_pressure = np.zeros(n_nodes)
+        self._pressure = np.zeros(len(elements))
 
     def arguments(self) -> tuple:
         """The compiled kernel's arguments after x: (elements, gradients, weights, params, node_ptr,
         node_slots, element-force buffer, per-element det buffer)."""
         return (self.elements, self.gradients, self.weights, self.params, self.node_ptr, self.node_slots,
-                self._eforce, self._j)
+                self._eforce, self._j, self.volumetric, self.reference_volume, self.node_reference_volume,
+                self.node_bulk, self._volume, self._node_pressure, self._pressure)
 
     def __call__(self, x: np.ndarray, out: np.ndarray | None = None) -> tuple[np.ndarray, float]:
         """(forces (n, 3), smallest det F); det F <= 0 or NaN flags an inverted element."""

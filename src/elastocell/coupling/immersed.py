@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from elastocell.coupling import ibm
-from elastocell.coupling.elastic_forces import ElasticForces, elastic_forces
+from elastocell.coupling.elastic_forces import VOLUMETRIC_CODES, ElasticForces, elastic_forces
 from elastocell.coupling.markers import MarkerState, marker_radius, raise_flow_failure
 from elastocell.lattice import Lattice, LatticeParams
 from elastocell.lattice import kernels as lb_kernels
@@ -48,7 +48,8 @@ def _coupled_steps(
     n_steps, A, parity, nz, field, consts, has_walls, wall_corr, cint, opp, solid, has_solid,
     run_ptr, run_lo, run_hi, link_ptr, link_z, link_q, lb_weights, cvel, fluid_velocity, box,
     positions, spread_positions, has_spread, forces, velocity, kernel, support,
-    elements, gradients, weights, params, node_ptr, node_slots, eforce, j_elem,
+    elements, gradients, weights, params, node_ptr, node_slots, eforce, j_elem, volumetric, reference_volume,
+    node_reference_volume, node_bulk, volume, node_pressure, pressure,
 ):  # fmt: skip
     """Advance ``n_steps`` coupled LB + IBM steps in compiled code (see the module docstring).
 
@@ -66,7 +67,8 @@ def _coupled_steps(
         if has_spread:
             ibm._clear_field(spread_positions, kernel, periodic_y, field)
         j = elastic_forces(positions, elements, gradients, weights, params, node_ptr, node_slots, eforce,
-                            j_elem, forces)
+                           j_elem, volumetric, reference_volume, node_reference_volume, node_bulk, volume,
+                           node_pressure, pressure, forces)
         if not j > 0.0:
             return parity, step, j, max_speed
         j_min = min(j_min, j)
@@ -102,6 +104,11 @@ def immersed_cell(backend: str, lattice_params: LatticeParams, velocity, cell, u
     if backend == "numba" and not cell.law.has_compiled_kernel:
         warnings.warn(f"the law {cell.law.name!r} has no compiled (Numba) force kernel: the flow runs on the JAX "
                       "backend, forces by autodiff of the law (on a CPU 10-16 times slower per step)", stacklevel=2)
+        backend = "jax"
+    elif backend == "numba" and cell.parameters.mesh.volumetric not in VOLUMETRIC_CODES:
+        warnings.warn(f"the volumetric treatment {cell.parameters.mesh.volumetric!r} has no compiled (Numba) force "
+                      "kernel: the flow runs on the JAX backend, forces by autodiff of the law (on a CPU 10-16 times "
+                      "slower per step)", stacklevel=2)
         backend = "jax"
     if backend == "jax":
         from elastocell.coupling.immersed_jax import (  # lazy: JAX (about 1 s) only for backend='jax'

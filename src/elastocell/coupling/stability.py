@@ -77,7 +77,7 @@ def stiffness_mobility_eigenvalue(cell, radius: float, kernel: str = "trilinear"
 
     positions = np.asarray(offset) + radius * cell.mesh.nodes
     w = sp.kron(kernel_overlap_matrix(positions, kernel), sp.eye(3), format="csr")
-    k = cell.stiffness_matrix(cell.mesh.nodes) * radius
+    k = cell.reference_stiffness_matrix() * radius
     # fixed start vector and 5 significant digits: the same value on every call, so that the derived lattice
     # parameters (and a run resumed from a checkpoint) are reproducible
     start = np.ones(w.shape[0])

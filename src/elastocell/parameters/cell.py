@@ -283,10 +283,12 @@ class MeshParameters(ParameterModel):
         require(0 < self.layer_angle <= 90, "layer_angle", f"must be in (0, 90] degrees, got {self.layer_angle}")
         if self.layer_depth is not None:
             require(0 < self.layer_depth <= 1, "layer_depth", f"must be in (0, 1] (units of R), got {self.layer_depth}")
-        require(self.volumetric in ("standard", "projected", "mean"), "volumetric",
-                f"must be standard, projected or mean, got {self.volumetric!r}")
-        require(self.volumetric == "standard" or self.element == "p2", "volumetric",
-                "applies to p2 elements only (a p1 element has one point: nothing to project)")
+        require(self.volumetric in ("standard", "projected", "mean", "nodal"), "volumetric",
+                f"must be standard, projected, mean or nodal, got {self.volumetric!r}")
+        require(self.volumetric in ("standard", "nodal") or self.element == "p2", "volumetric",
+                f"{self.volumetric} applies to p2 elements only (a p1 element has one point: nothing to project)")
+        require(self.volumetric != "nodal" or self.element == "p1", "volumetric",
+                "nodal applies to p1 elements only (the averaged nodal dilatation of linear tetrahedra)")
         require(not (self.volumetric == "projected" and self.quadrature_degree == 2), "volumetric",
                 "projected needs a quadrature degree above 2: the linear projection of the 4-point rule's J is J")
         if self.quadrature_degree is not None:

@@ -44,6 +44,7 @@ from elastocell.body.elements import (
 )
 from elastocell.body.mesh import corners_surrounded, surface_corner_edges
 from elastocell.parameters.cell import CellParameters, MeshParameters, ParameterModel, require
+from elastocell.parameters.units import ParameterError
 from elastocell.solvers.sparse import NotPositiveDefinite, SparseSolver
 
 DEBUG = bool(os.environ.get('ELASTOCELL_DEBUG'))
@@ -700,6 +701,10 @@ def compression_parameters_for(cell: CellParameters) -> CellParameters:
     the nodes, so no element of the crushed soft layer folds at a node). The Mooney-Rivlin law keeps degree 2:
     its reference cell stops at delta = 0.619 with degree 5 (README). A cell whose J is projected onto linear
     polynomials (``volumetric`` projected) takes degree 5 too: with 4 points that projection is the identity."""
+    if cell.mesh.volumetric == "nodal":
+        raise ParameterError("volumetric", "nodal serves the flows only (their forces; the static solvers need the "
+                             "element stiffness matrices it does not have): use standard for p1, or p2 with "
+                             "projected or mean")
     cell = stiff_nucleus_mesh(cell)
     mesh, nucleus = cell.mesh, cell.nucleus
     if mesh.volumetric == "projected" and mesh.quadrature_degree is None:

@@ -1,0 +1,129 @@
+"""The nodal dilatation of linear tetrahedra (``MeshParameters.volumetric`` nodal) and the compiled flow forces of
+every volumetric treatment: the energy's definition, its forces on both flow backends, its reference stiffness
+for the stability estimate, and the refusals."""
+
+from __future__ import annotations
+
+import jax
+import numpy as np
+import pytest
+
+import elastocell
+from elastocell.body.cell import Cell
+from elastocell.body.materials import float64
+from elastocell.coupling import elastic_forces
+from elastocell.parameters.units import ParameterError
+from elastocell.scenarios import pipe as pipe_flow
+from elastocell.scenarios import shear as shear_flow
+
+
+def coarse_cell(element: str, volumetric: str, law: str = "neo-hookean", stiffness_ratio: float = 3.0) -> Cell:
+    return Cell.from_parameters(elastocell.cell_parameters(
+        nucleus="sphere", stiffness_ratio=stiffness_ratio, element=element, material=law, mesh_size=0.5,
+        pole_size=0.5, interface_size=0.5, volumetric=volumetric))
+
+
+def strained(cell: Cell, seed: int = 5, amplitude: float = 0.1) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    deformation = np.eye(3) + amplitude * rng.standard_normal((3, 3))
+    return cell.mesh.nodes @ deformation.T + 0.01 * rng.standard_normal(cell.mesh.nodes.shape)
+
+
+def volumetric_energies(cell: Cell, x: np.ndarray) -> tuple[float, float]:
+    """(sum_a V_a0 kappa/2 (J_a - 1)^2, sum_e V_e0 kappa/2 (J_e - 1)^2) in NumPy, for a uniform kappa = 1."""
+    elements = cell.mesh.elements
+    edges = x[elements[:, 1:4]] - x[elements[:, [0]]]
+    volumes = np.linalg.det(edges) / 6.0
+    reference = cell.element_volumes
+    nodal = np.bincount(elements.ravel(), weights=np.repeat(volumes / 4, 4), minlength=cell.mesh.n_nodes)
+    ratios = nodal / cell.nodal_reference_volumes
+    return (float(np.sum(0.5 * cell.nodal_reference_volumes * (ratios - 1) ** 2)),
+            float(np.sum(0.5 * reference * (volumes / reference - 1) ** 2)))
+
+
+def test_nodal_volumetric_energy_is_the_averaged_nodal_dilatation():
+    # References: (1) the energy written out in NumPy from its definition (node volumes V_a = sum of a quarter of
+    # the current volumes of its tetrahedra): Cell.energy of the nodal cell minus that of the isochoric part alone
+    # (the law at kappa's cell with J = 1 per point is W(J^(-1/3) F)); (2) Jensen: J_a - 1 is a weighted mean of
+    # its elements' J_e - 1, so the nodal volumetric energy is at most the elements' one, and equal for a uniform
+    # dilation. Round-off: measured 4e-16 relative; tolerance 1e-12.
+    cell = coarse_cell("p1", "nodal", stiffness_ratio=1.0)
+    kappa = cell.nodal_bulk_moduli
+    np.testing.assert_allclose(kappa, kappa[0], rtol=1e-14)
+    for seed in range(3):
+        x = strained(cell, seed)
+        nodal, elementwise = volumetric_energies(cell, x)
+        assert 0 < nodal < elementwise
+        standard = cell.with_standard_volumetric()
+        with float64():
+            isochoric = standard.energy(x) - kappa[0] * elementwise
+            assert cell.energy(x) == pytest.approx(isochoric + kappa[0] * nodal, rel=1e-12)
+    x = 1.07 * cell.mesh.nodes
+    nodal, elementwise = volumetric_energies(cell, x)
+    assert nodal == pytest.approx(elementwise, rel=1e-12) and nodal == pytest.approx(
+        0.5 * cell.volume * (1.07**3 - 1) ** 2, rel=1e-12)
+
+
+@pytest.mark.parametrize(("element", "volumetric"), [("p1", "nodal"), ("p2", "mean")])
+@pytest.mark.parametrize("law", ["neo-hookean", "mooney-rivlin"])
+def test_compiled_forces_of_each_volumetric_treatment_equal_jax_autodiff(element, volumetric, law):
+    # Reference: -Cell.internal_forces (JAX autodiff of the cell's energy, the treatment included). Round-off:
+    # measured 2.7e-15 relative to the largest force (p1 nodal) and 1.7e-15 (p2 mean); tolerance 1e-12. Also in
+    # scaled (lattice) units, as the flows call it.
+    from test_ibm import assert_compiled_forces_are_autodiff
+
+    cell = coarse_cell(element, volumetric, law)
+    x = strained(cell)
+    forces = assert_compiled_forces_are_autodiff(cell, x)
+    scale = np.abs(forces).max()
+    # the treatment changes the forces: not the standard elements' (measured: differences of the size of the forces)
+    standard, _ = elastic_forces.ElasticForces(cell.with_standard_volumetric())(x)
+    assert np.abs(standard - forces).max() > 0.1 * scale
+
+
+@pytest.mark.parametrize("stiffness_ratio", [1.0, 10.0])
+def test_reference_stiffness_of_the_nodal_dilatation_is_the_hessian(stiffness_ratio):
+    # Reference: the dense Hessian of Cell.energy by JAX autodiff at x = X (float64). Round-off: measured 4.6e-15
+    # relative to the largest entry; tolerance 1e-12. A stiff nucleus makes the node bulk moduli differ.
+    cell = coarse_cell("p1", "nodal", "mooney-rivlin", stiffness_ratio)
+    with float64():
+        energy = cell._compiled()["energy"]
+        hessian = np.asarray(jax.hessian(lambda flat: energy(flat.reshape(-1, 3)))(cell.mesh.nodes.ravel()))
+    stiffness = cell.reference_stiffness_matrix().toarray()
+    np.testing.assert_allclose(stiffness, hessian, atol=1e-12 * np.abs(hessian).max())
+    # averaging relieves the volumetric stiffness: the largest eigenvalue falls (measured 119 -> 18 at ratio 10)
+    standard = cell.with_standard_volumetric().reference_stiffness_matrix().toarray()
+    assert np.linalg.eigvalsh(stiffness)[-1] < 0.5 * np.linalg.eigvalsh(standard)[-1]
+
+
+def test_nodal_dilatation_refusals():
+    with pytest.raises(ValueError, match="p1 elements only"):
+        elastocell.cell_parameters(element="p2", volumetric="nodal")
+    with pytest.raises(ValueError, match="p2 elements only"):
+        elastocell.cell_parameters(element="p1", volumetric="mean")
+    cell = coarse_cell("p1", "nodal")
+    with pytest.raises(ValueError, match="no element stiffness"):
+        cell.element_stiffness(cell.mesh.nodes)
+    with pytest.raises(ParameterError, match="flows only"):
+        elastocell.compress("unused", element="p1", volumetric="nodal")
+
+
+def test_nodal_dilatation_on_the_jax_flow_backend_and_projected_falls_back_to_it():
+    # Reference: Cell.internal_forces at the markers, scaled by E_c R^2 (tests/test_laws.py's check): the JAX
+    # backend's coupled loop traces the same energy. Round-off: tolerance 1e-12 as there. A p2 cell with J
+    # projected onto linear polynomials has no compiled kernel: the numba backend hands it to JAX with one warning.
+    from test_laws import check_coupled_forces
+
+    nodal = coarse_cell("p1", "nodal")
+    params = pipe_flow.PipeFlowParameters(capillary_number_wall=0.2, resolution=3, channel_radius_ratio=2.5,
+                                          box_length=4, backend="jax")
+    system = pipe_flow.pipe_setup(nodal, params)
+    assert check_coupled_forces(system, 4) <= 1e-12
+    projected = Cell.from_parameters(elastocell.cell_parameters(
+        element="p2", mesh_size=0.6, pole_size=0.6, volumetric="projected", quadrature_degree=5))
+    params = shear_flow.ShearFlowParameters(capillary_number=0.05, resolution=3.0, confinement=0.3, box_length=4.0)
+    with pytest.warns(UserWarning, match="no compiled") as caught:
+        system = shear_flow.shear_setup(projected, params)
+    assert len(caught) == 1 and system.backend == "jax"
+    with pytest.raises(ValueError, match="backend='jax'"):
+        elastic_forces.ElasticForces(projected)
