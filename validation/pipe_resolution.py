@@ -85,11 +85,14 @@ def shear_equivalent_modulus(case: dict) -> float:
 
 def key(case: dict) -> str:
     """The run's name: ``-Q`` ends that of a run holding the flow rate (``hold``; this page's own runs hold G),
-    ``-nu<nu>`` precedes it for a cell of another nu than :data:`POISSON_RATIO`."""
+    ``-nu<nu>`` precedes it for a cell of another nu than :data:`POISSON_RATIO`, ``-<volumetric>`` for a cell
+    whose J enters the law otherwise than at each point (``MeshParameters.volumetric``)."""
     mesh = case["mesh_size"] or "default"
     nu = "" if poisson_ratio(case) == POISSON_RATIO else f"-nu{poisson_ratio(case):g}"
+    treatment = case.get("volumetric", "standard")
     return (f"{case['radius_um']:g}um-{case['emodulus_kpa']:g}kPa-{case['element']}-{mesh}-Rdx{case['resolution']:g}"
-            f"-c{case['c']:g}-t{case['duration']:g}" + nu + ("-Q" if case.get("hold") else ""))
+            f"-c{case['c']:g}-t{case['duration']:g}" + nu + ("" if treatment == "standard" else f"-{treatment}")
+            + ("-Q" if case.get("hold") else ""))
 
 
 def cases(point: tuple[float, float], resolutions: list[float], corrections: list[float],
@@ -105,7 +108,8 @@ def cases(point: tuple[float, float], resolutions: list[float], corrections: lis
 def mesh_options(case: dict) -> dict:
     """The cell options of ``case``'s uniform mesh (none for the flow scenarios' default)."""
     size = case["mesh_size"]
-    return {} if size is None else {"mesh_size": size, "pole_size": size, "interface_size": size}
+    treatment = {} if case.get("volumetric", "standard") == "standard" else {"volumetric": case["volumetric"]}
+    return treatment if size is None else {"mesh_size": size, "pole_size": size, "interface_size": size, **treatment}
 
 
 def run_case(case: dict, out: Path) -> dict:

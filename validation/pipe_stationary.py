@@ -3,13 +3,16 @@ measurements of validation/pipe_flow_rate.py argue for as the pipe's default (R/
 read where the runs of 16 units of 1/gdot_w had not settled, and at cells outside their four points.
 
 The page's runs: ``--poisson-ratios 0.48 0.49 --extra 6:3:0.3:8,6:3:0.4:8,6:3:0.45:8,6:3:0.495:8,6:3:0.48:10,
-6:3:0.49:10,6:3:0.48:8:p2,6:3:0.49:8:p2`` (one Numba thread each, two or three processes at a time on the
-2-core machine: the six at nu 0.48 about 20 min, the others about 55 min).
+6:3:0.49:10,6:3:0.48:8:p2,6:3:0.49:8:p2,6:3:0.48:8:p1:nodal,7.66:3:0.48:8:p1:nodal,7.66:4.5:0.48:8:p1:nodal,
+6:2:0.48:8:p1:nodal,6.5:2.5:0.48:8:p1:nodal,5:1.5:0.48:8:p1:nodal,6:3:0.45:8:p1:nodal,6:3:0.49:8:p1:nodal,
+6:3:0.495:8:p1:nodal,6:3:0.48:6,6:3:0.48:6:p1:nodal,6:3:0.48:10:p1:nodal`` (one Numba thread each, two or three
+processes at a time on the 2-core machine: the six at nu 0.48 about 20 min, the others about 2 h).
 
     nice python validation/pipe_stationary.py [--points 7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5]
                                               [--resolution 8] [--corrections 0.3] [--duration 40]
                                               [--poisson-ratios 0.48 0.49]
-                                              [--extra 6:3:0.3:8,6:3:0.48:10]
+                                              [--extra 6:3:0.3:8,6:3:0.48:10,6:3:0.49:8:p1:nodal]
+                                              [--volumetric standard nodal]
                                               [--workers 2] [--out results/pipe-stationary] [--cached-only]
 
 The cell, channel, flow, reading of the table and record format are validation/pipe_resolution.py's (its
@@ -22,8 +25,11 @@ units says whether the shape is stationary; dV/V end is the volume the immersed 
 E at nu 0.48 (its E scaled by (1 + nu)/1.48), so that Ca_w and the table's isoelastic stay those of the point: in the
 immersed-boundary model the incompressible fluid inside the cell holds its volume whatever nu, so in the continuum
 D does not depend on nu, and any change of D with nu is the discrete model's. ``--extra``: single cases
-R:E:nu:R/dx (E at nu 0.48, scaled as above) beside the grid, such as a sweep of nu or a finer resolution at one
-cell.
+R:E:nu:R/dx[:element[:volumetric[:mesh size]]] (E at nu 0.48, scaled as above; the mesh size a uniform edge in
+units of R, the flow's default edge of 2 dx where none is given) beside the grid, such as a sweep of nu, a finer
+resolution or a denser mesh at one cell. ``--volumetric`` (and an extra case's last field): how J enters the tetrahedra's law
+(``MeshParameters.volumetric``): ``standard``, kappa (J - 1) per element, or ``nodal``, the averaged nodal
+dilatation that relieves the linear elements' volumetric locking (docs/theory.md).
 Every run's record is appended to ``--out/runs.jsonl`` (a run already there is not repeated); ``--cached-only``
 writes the page from that file alone. The section goes into docs/validation/pipe_dclab.md.
 """
@@ -75,17 +81,17 @@ def nu_table(records: list[dict], out: Path) -> list[dict]:
     groups: dict[tuple, list[dict]] = {}
     for r, e_err in zip(records, e_errors(records) if records else [], strict=True):
         groups.setdefault((r["radius_um"], round(shear_equivalent_modulus(r), 4), r["c"], r["resolution"],
-                           r["element"]), []).append(
+                           r["element"], r.get("volumetric", "standard")), []).append(
             {**r, "E_err": e_err})
     rows = []
-    for (radius, e_t, _, resolution, element), runs in sorted(groups.items()):
+    for (radius, e_t, _, resolution, element, treatment), runs in sorted(groups.items()):
         if len({poisson_ratio(r) for r in runs}) < 2:
             continue
         base = [r for r in runs if poisson_ratio(r) == POISSON_RATIO]
         for r in sorted(runs, key=poisson_ratio):
             nu = poisson_ratio(r)
             rows.append({"R [um]": radius, "R/R_ch": radius / CHANNEL_RADIUS_UM, "mu [kPa]": e_t / 3,
-                         "R/dx": resolution, "element": element, "nu": nu,
+                         "R/dx": resolution, "element": element, "J": treatment, "nu": nu,
                          "kappa/mu": 2 * (1 + nu) / (3 * (1 - 2 * nu)), "deform": r["deform"],
                          "D/D(nu 0.48)": r["deform"] / base[0]["deform"] if base else float("nan"),
                          "D err %": r["D_err"], "A err %": r["A_err"], "E err %": r["E_err"],
@@ -109,31 +115,85 @@ def nu_summary(rows: list[dict]) -> str:
     """What the rows of :func:`nu_table` say, in numbers: D at nu 0.49 over D at 0.48 per resolution, and the
     spread of D over every nu run at one cell and resolution."""
     lines = []
-    for resolution, element in sorted({(r["R/dx"], r["element"]) for r in rows}):
-        same = [r for r in rows if r["R/dx"] == resolution and r["element"] == element]
+    for resolution, element, treatment in sorted({(r["R/dx"], r["element"], r["J"]) for r in rows}):
+        label = f"R/dx {resolution:g}, {element}, J {treatment}"
+        same = [r for r in rows if (r["R/dx"], r["element"], r["J"]) == (resolution, element, treatment)]
         unsettled = {(r["R [um]"], r["mu [kPa]"]) for r in same if not settled(r)}
         ratios = [r["D/D(nu 0.48)"] for r in same if r["nu"] == 0.49
                   and (r["R [um]"], r["mu [kPa]"]) not in unsettled]
         if ratios:
-            lines.append(f"R/dx {resolution:g}, {element}: D(nu 0.49)/D(nu 0.48) {min(ratios):.3f}-{max(ratios):.3f} "
+            lines.append(f"{label}: D(nu 0.49)/D(nu 0.48) {min(ratios):.3f}-{max(ratios):.3f} "
                          f"over {len(ratios)} cell(s) settled at both nu")
         if unsettled:
-            lines.append(f"R/dx {resolution:g}, {element}: not counted, a run not settled (read on the hull, |D drift| "
+            lines.append(f"{label}: not counted, a run not settled (read on the hull, |D drift| "
                          f"above {SETTLED_DRIFT_PERCENT:g} %/t or |dV/V| above {SETTLED_VOLUME:g}): "
                          + ", ".join(f"R {radius:g} um, mu {mu:.4f} kPa" for radius, mu in sorted(unsettled)))
     cells: dict[tuple, list[dict]] = {}
     for r in rows:
-        cells.setdefault((r["R [um]"], r["mu [kPa]"], r["R/dx"], r["element"]), []).append(r)
-    for (radius, mu, resolution, element), runs in cells.items():
+        cells.setdefault((r["R [um]"], r["mu [kPa]"], r["R/dx"], r["element"], r["J"]), []).append(r)
+    for (radius, mu, resolution, element, treatment), runs in cells.items():
+        runs = [r for r in runs if settled(r)]
         if len(runs) > 2:
-            runs = [r for r in runs if settled(r)]
             low, high = min(runs, key=lambda r: r["deform"]), max(runs, key=lambda r: r["deform"])
             ratios = ", ".join(f"{r['nu']:g}" for r in runs)
-            lines.append(f"R {radius:g} um, mu {mu:.4f} kPa, R/dx {resolution:g}, {element}, nu {ratios}: D from "
-                         f"{low['deform']:.4f} (nu {low['nu']:g}, D err {low['D err %']:+.1f} %) to "
+            lines.append(f"R {radius:g} um, mu {mu:.4f} kPa, R/dx {resolution:g}, {element}, J {treatment}, nu {ratios}: "
+                         f"D from {low['deform']:.4f} (nu {low['nu']:g}, D err {low['D err %']:+.1f} %) to "
                          f"{high['deform']:.4f} (nu {high['nu']:g}, {high['D err %']:+.1f} %), "
                          f"{100 * (high['deform'] - low['deform']) / high['deform']:.0f} % of the largest")
     return "\n".join(lines)
+
+
+def treatment_table(rows: list[dict]) -> list[dict]:
+    """Per cell, resolution and nu run with both volumetric treatments: D standard and nodal, their ratio, the
+    errors against the table and whether each run settled (:func:`settled`)."""
+    runs = {(r["R [um]"], r["mu [kPa]"], r["R/dx"], r["nu"], r["J"]): r for r in rows if r["element"] == "p1"}
+    out = []
+    for (radius, mu, resolution, nu, treatment), nodal in sorted(runs.items()):
+        standard = runs.get((radius, mu, resolution, nu, "standard"))
+        if treatment != "nodal" or standard is None:
+            continue
+        out.append({"R [um]": radius, "R/R_ch": radius / CHANNEL_RADIUS_UM, "mu [kPa]": mu, "R/dx": resolution,
+                    "nu": nu, "D standard": standard["deform"], "D nodal": nodal["deform"],
+                    "nodal/standard": nodal["deform"] / standard["deform"], "D err % standard": standard["D err %"],
+                    "D err % nodal": nodal["D err %"], "settled standard": "yes" if settled(standard) else "no",
+                    "settled nodal": "yes" if settled(nodal) else "no", "dV/V end nodal": nodal["dV/V end"],
+                    "D drift %/t nodal": nodal["D drift %/t"]})
+    return out
+
+
+MESH_WINDOW = (18.0, 24.0)
+"""The window (units of 1/gdot_w) in which a denser mesh's run is compared with the default mesh's: before the
+denser meshes' side views left the smooth outline for the nodes' hull."""
+
+
+def mesh_table(records: list[dict], out: Path) -> list[dict]:
+    """Per run on a mesh other than the default, beside the default-mesh run of the same cell and treatment: the
+    mean D over :data:`MESH_WINDOW` and how many of the window's records were read on the hull."""
+    import pandas as pd
+
+    def window(record: dict) -> tuple[float, str]:
+        series = pd.read_csv(out / record["key"] / "timeseries.csv")
+        inside = series[(series["time"] >= MESH_WINDOW[0]) & (series["time"] <= MESH_WINDOW[1])]
+        return float(inside["deformation"].mean()), f"{int(inside['outline_fallback'].sum())} of {len(inside)}"
+
+    def same(a: dict, b: dict) -> bool:
+        return all(a.get(k) == b.get(k) for k in ("radius_um", "emodulus_kpa", "resolution", "c", "element",
+                                                    "poisson_ratio", "volumetric", "duration"))
+
+    rows = []
+    for record in records:
+        default = [r for r in records if r["mesh_size"] is None and same(r, record)]
+        if record["mesh_size"] is None or not default:
+            continue
+        d_mesh, hull_mesh = window(record)
+        d_default, hull_default = window(default[0])
+        rows.append({"R [um]": record["radius_um"], "E [kPa]": record["emodulus_kpa"], "R/dx": record["resolution"],
+                     "J": record.get("volumetric", "standard"), "edge [dx]": record["mesh_size"] * record["resolution"],
+                     "nodes": record["nodes"], "D (edge 2 dx)": d_default, "D": d_mesh, "D/D(edge 2 dx)": d_mesh / d_default,
+                     "hull records": hull_mesh, "hull records (edge 2 dx)": hull_default,
+                     "D_t": record["D_t"], "D err % (edge 2 dx)": 100 * (d_default / record["D_t"] - 1),
+                     "D err %": 100 * (d_mesh / record["D_t"] - 1)})
+    return rows
 
 
 def main() -> None:
@@ -144,21 +204,29 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=40.0, help="units of 1/gdot_w")
     parser.add_argument("--poisson-ratios", type=float, nargs="+", default=[POISSON_RATIO],
                         help="nu of the cell, each at the shear modulus of the point's E at nu 0.48")
-    parser.add_argument("--extra", default="", help="R:E:nu:R/dx[:element],... single cases beside the grid")
+    parser.add_argument("--extra", default="", help="R:E:nu:R/dx[:element[:volumetric[:mesh size]]],... single "
+                        "cases beside the grid")
+    parser.add_argument("--volumetric", nargs="+", default=["standard"], choices=["standard", "nodal"],
+                        help="how J enters the linear tetrahedra's law (MeshParameters.volumetric), for every grid run")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("results/pipe-stationary"))
     parser.add_argument("--cached-only", action="store_true")
     args = parser.parse_args()
     points = parse_points(args.points)
-    runs = [(nu, point, args.resolution, "p1") for nu in args.poisson_ratios for point in points]
+    runs = [(nu, point, args.resolution, "p1", treatment, None) for treatment in args.volumetric
+            for nu in args.poisson_ratios for point in points]
     for item in filter(None, args.extra.split(",")):
         fields = item.split(":")
         radius, modulus, nu, resolution = map(float, fields[:4])
         element = fields[4] if len(fields) > 4 else "p1"
-        if (nu, (radius, modulus), resolution, element) not in runs:
-            runs.append((nu, (radius, modulus), resolution, element))
-    todo = [{**c, "hold": True, "element": element, **({} if nu == POISSON_RATIO else {"poisson_ratio": nu})}
-            for nu, point, resolution, element in runs
+        treatment = fields[5] if len(fields) > 5 else "standard"
+        size = float(fields[6]) if len(fields) > 6 else None
+        if (nu, (radius, modulus), resolution, element, treatment, size) not in runs:
+            runs.append((nu, (radius, modulus), resolution, element, treatment, size))
+    todo = [{**c, "hold": True, "element": element, "mesh_size": size,
+             **({} if nu == POISSON_RATIO else {"poisson_ratio": nu}),
+             **({} if treatment == "standard" else {"volumetric": treatment})}
+            for nu, point, resolution, element, treatment, size in runs
             for c in cases((point[0], round(point[1] * (1 + nu) / (1 + POISSON_RATIO), 6)), [resolution],
                            args.corrections, args.duration, meshes=False)]
     page = Page("pipe_dclab", "pipe_stationary.py", versions=("dclab", "numba"))
@@ -168,7 +236,7 @@ def main() -> None:
     records = with_table([cached[key(c)] for c in todo if key(c) in cached])
     moduli = e_errors(records) if records else []
     rows = [{"R [um]": r["radius_um"], "R/R_ch": r["radius_um"] / CHANNEL_RADIUS_UM, "E [kPa]": r["emodulus_kpa"],
-             "R/dx": r["resolution"], "element": r["element"], "nu": poisson_ratio(r), "mu [kPa]": shear_equivalent_modulus(r) / 3, "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"],
+             "R/dx": r["resolution"], "element": r["element"], "J": r.get("volumetric", "standard"), "nu": poisson_ratio(r), "mu [kPa]": shear_equivalent_modulus(r) / 3, "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"],
              "reading": "hull" if r["fallback_last_unit"] else "outline", "deform": r["deform"],
              "D_t": r["D_t"], "D err %": r["D_err"], "A err %": r["A_err"], "E err %": e_err,
              "D drift %/t": 100 * r["drift_deformation"], "A drift %/t": 100 * r["drift_projected_area"],
@@ -184,7 +252,10 @@ def main() -> None:
         "1/gdot_w; D and the area are means over the last unit. A row at another nu has the shear modulus mu of its "
         "point at nu 0.48 (E scaled by (1 + nu)/1.48): the same Ca_w and the same isoelastic of the table; in the "
         "immersed-boundary model the incompressible fluid inside the cell holds its volume whatever nu, so in the "
-        "continuum D does not depend on nu and a change of D with nu is the discrete model's. Ca_w = G R_ch/(2 mu) is the wall capillary number of "
+        "continuum D does not depend on nu and a change of D with nu is the discrete model's. J: how the volume ratio "
+        "enters the linear tetrahedra's law: `standard` (kappa (J - 1) per element, the default) or `nodal` (the "
+        "averaged nodal dilatation, one volumetric constraint per node instead of per element: no volumetric "
+        "locking; docs/theory.md). Ca_w = G R_ch/(2 mu) is the wall capillary number of "
         "the nominal flow (mu the cell's shear modulus). Against the table (validation/pipe_dclab.py's reading): D "
         "err at elastocell's area on the isoelastic of the same shear modulus, A err at elastocell's D, E err the "
         "table's modulus at elastocell's (area, D) over the run's shear-equivalent modulus. D and A drift: the "
@@ -200,6 +271,22 @@ def main() -> None:
     page.table(rows, f"The shape at t = {args.duration:g}/gdot_w against LE-2D-FEM-19", formats={
         **FORMATS, "R/R_ch": ".3f", "Ca_w": ".3f", "E [kPa]": ".4g", "mu [kPa]": ".4f", "nu": "g", "R/dx": "g", "t [1/gdot_w]": ".1f", "E err %": "+.1f", "A drift %/t": "+.2f",
         "G/G_0": ".4f"})
+    both = treatment_table(rows)
+    if both:
+        page.table(both, "The two volumetric treatments of the linear tetrahedra at the same cell: D standard "
+                   "(kappa (J - 1) per element) and nodal (the averaged nodal dilatation); settled: read on the "
+                   f"outline, |D drift| <= {SETTLED_DRIFT_PERCENT:g} %/t and |dV/V| <= {SETTLED_VOLUME:g}", formats={
+                       "R/R_ch": ".3f", "mu [kPa]": ".4f", "R/dx": "g", "nu": "g", "D standard": ".4f",
+                       "D nodal": ".4f", "nodal/standard": ".3f", "D err % standard": "+.1f", "D err % nodal": "+.1f",
+                       "dV/V end nodal": "+.4f", "D drift %/t nodal": "+.2f"})
+    meshes = mesh_table(records, args.out)
+    if meshes:
+        page.table(meshes, f"A denser mesh (more markers per dx) against the default edge of 2 dx: D averaged over t = "
+                   f"{MESH_WINDOW[0]:g}-{MESH_WINDOW[1]:g}/gdot_w, where the dense runs were still read on the outline "
+                   "(`hull records`: the window's records read on the nodes' hull, whose D is biased high); D_t the "
+                   "table's D at the run's final area", formats={
+                       "edge [dx]": ".2f", "D (edge 2 dx)": ".4f", "D": ".4f", "D/D(edge 2 dx)": ".3f", "D_t": ".4f",
+                       "D err % (edge 2 dx)": "+.1f", "D err %": "+.1f", "R/dx": "g"})
     by_nu = nu_table(records, args.out)
     if by_nu:
         page.table(by_nu, "The same cells at other Poisson ratios, at the same shear modulus: D and its error "
