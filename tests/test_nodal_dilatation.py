@@ -12,6 +12,7 @@ import elastocell
 from elastocell.body.cell import Cell
 from elastocell.body.materials import float64
 from elastocell.coupling import elastic_forces
+from elastocell.parameters.flow import flow_cell
 from elastocell.parameters.units import ParameterError
 from elastocell.scenarios import pipe as pipe_flow
 from elastocell.scenarios import shear as shear_flow
@@ -58,10 +59,46 @@ def test_nodal_volumetric_energy_is_the_averaged_nodal_dilatation():
         with float64():
             isochoric = standard.energy(x) - kappa[0] * elementwise
             assert cell.energy(x) == pytest.approx(isochoric + kappa[0] * nodal, rel=1e-12)
-    x = 1.07 * cell.mesh.nodes
-    nodal, elementwise = volumetric_energies(cell, x)
-    assert nodal == pytest.approx(elementwise, rel=1e-12) and nodal == pytest.approx(
-        0.5 * cell.volume * (1.07**3 - 1) ** 2, rel=1e-12)
+    x = 1.07 * cell.mesh.nodes  # a uniform dilation: every J_a = J_e = 1.07^3, the standard energy
+    with float64():
+        assert cell.energy(x) == pytest.approx(cell.with_standard_volumetric().energy(x), rel=1e-12)
+        assert cell.energy(x) == pytest.approx(0.5 * kappa[0] * cell.volume * (1.07**3 - 1) ** 2, rel=1e-12)
+
+
+def test_nodal_bulk_moduli_are_volume_weighted_means():
+    # Reference: sum_a kappa_a V_a0 = sum_e kappa_e V_e0 (each element's V_e0/4 goes to each of its four nodes
+    # with its kappa_e) and min kappa_e <= kappa_a <= max kappa_e, on a cell whose nucleus is 10 times stiffer
+    # (kappa_e from the law's own parameters). Round-off: tolerance 1e-12 relative.
+    cell = coarse_cell("p1", "nodal", stiffness_ratio=10.0)
+    bulk = cell.law.compiled_parameters(np.asarray(cell.material_parameters))[:, 2]
+    assert bulk.max() / bulk.min() == pytest.approx(10.0)
+    assert np.sum(cell.nodal_bulk_moduli * cell.nodal_reference_volumes) == pytest.approx(
+        np.sum(bulk * cell.element_volumes), rel=1e-12)
+    assert np.all(cell.nodal_bulk_moduli >= bulk.min() * (1 - 1e-12))
+    assert np.all(cell.nodal_bulk_moduli <= bulk.max() * (1 + 1e-12))
+    assert np.sum(cell.nodal_reference_volumes) == pytest.approx(cell.volume, rel=1e-12)
+
+
+def test_nodal_cauchy_stress_is_the_isochoric_part_plus_the_nodal_pressure():
+    # References: (1) a uniform deformation of a homogeneous cell has J_a = J_e and kappa_a = kappa_e, so the
+    # stress is the standard element's (with a nucleus the interface nodes average kappa: not so); (2) the
+    # isochoric part is traceless, so tr(sigma_e)/3 is the mean over the element's nodes of kappa_a (J_a - 1),
+    # computed here in NumPy from the node volumes (a nucleus 10 times stiffer). Round-off: tolerance 1e-10
+    # of the largest stress.
+    homogeneous = coarse_cell("p1", "nodal", stiffness_ratio=1.0)
+    uniform = homogeneous.mesh.nodes @ np.array([[1.1, 0.05, 0.0], [0.0, 0.95, 0.02], [0.03, 0.0, 0.98]]).T
+    standard = homogeneous.with_standard_volumetric().element_cauchy_stress(uniform)
+    np.testing.assert_allclose(homogeneous.element_cauchy_stress(uniform), standard,
+                               atol=1e-10 * np.abs(standard).max())
+    cell = coarse_cell("p1", "nodal", stiffness_ratio=10.0)
+    x = strained(cell, 2)
+    stress = cell.element_cauchy_stress(x)
+    elements = cell.mesh.elements
+    edges = x[elements[:, 1:4]] - x[elements[:, [0]]]
+    volumes = np.linalg.det(edges) / 6.0
+    ratios = np.bincount(elements.ravel(), weights=np.repeat(volumes / 4, 4)) / cell.nodal_reference_volumes
+    pressure = np.mean((cell.nodal_bulk_moduli * (ratios - 1))[elements], axis=1)
+    np.testing.assert_allclose(np.trace(stress, axis1=1, axis2=2) / 3, pressure, atol=1e-10 * np.abs(stress).max())
 
 
 @pytest.mark.parametrize(("element", "volumetric"), [("p1", "nodal"), ("p2", "mean")])
@@ -114,13 +151,18 @@ def test_nodal_dilatation_on_the_jax_flow_backend_and_projected_falls_back_to_it
     # projected onto linear polynomials has no compiled kernel: the numba backend hands it to JAX with one warning.
     from test_laws import check_coupled_forces
 
-    nodal = coarse_cell("p1", "nodal")
-    params = pipe_flow.PipeFlowParameters(capillary_number_wall=0.2, resolution=3, channel_radius_ratio=2.5,
-                                          box_length=4, backend="jax")
-    system = pipe_flow.pipe_setup(nodal, params)
-    assert check_coupled_forces(system, 4) <= 1e-12
-    projected = Cell.from_parameters(elastocell.cell_parameters(
-        element="p2", mesh_size=0.6, pole_size=0.6, volumetric="projected", quadrature_degree=5))
+    for backend in ("jax", "numba"):  # the numba loop calls the compiled kernel with its nodal pass
+        nodal = coarse_cell("p1", "nodal")
+        params = pipe_flow.PipeFlowParameters(capillary_number_wall=0.2, resolution=3, channel_radius_ratio=2.5,
+                                              box_length=4, backend=backend)
+        system = pipe_flow.pipe_setup(nodal, params)
+        assert system.backend == backend
+        assert check_coupled_forces(system, 4) <= 1e-12
+    # a flow's projected J takes the rule of degree 5 (with 4 points the projection is the identity)
+    parameters = flow_cell(None, {"element": "p2", "mesh_size": 0.6, "volumetric": "projected"}, 3.0)
+    assert parameters.mesh.quadrature_degree == 5
+    assert flow_cell(parameters, {}, 3.0).mesh.quadrature_degree == 5
+    projected = Cell.from_parameters(parameters)
     params = shear_flow.ShearFlowParameters(capillary_number=0.05, resolution=3.0, confinement=0.3, box_length=4.0)
     with pytest.warns(UserWarning, match="no compiled") as caught:
         system = shear_flow.shear_setup(projected, params)

@@ -5,8 +5,10 @@ read where the runs of 16 units of 1/gdot_w had not settled, and at cells outsid
 The page's runs: ``--poisson-ratios 0.48 0.49 --extra 6:3:0.3:8,6:3:0.4:8,6:3:0.45:8,6:3:0.495:8,6:3:0.48:10,
 6:3:0.49:10,6:3:0.48:8:p2,6:3:0.49:8:p2,6:3:0.48:8:p1:nodal,7.66:3:0.48:8:p1:nodal,7.66:4.5:0.48:8:p1:nodal,
 6:2:0.48:8:p1:nodal,6.5:2.5:0.48:8:p1:nodal,5:1.5:0.48:8:p1:nodal,6:3:0.45:8:p1:nodal,6:3:0.49:8:p1:nodal,
-6:3:0.495:8:p1:nodal,6:3:0.48:6,6:3:0.48:6:p1:nodal,6:3:0.48:10:p1:nodal`` (one Numba thread each, two or three
-processes at a time on the 2-core machine: the six at nu 0.48 about 20 min, the others about 2 h).
+6:3:0.495:8:p1:nodal,6:3:0.48:6,6:3:0.48:6:p1:nodal,6:3:0.48:10:p1:nodal,6:3:0.48:8:p1:standard:0.1667,
+6:3:0.48:8:p1:nodal:0.1667,7.66:4.5:0.48:8:p1:nodal:0.1667,6.5:2.5:0.48:8:p1:nodal:0.1667`` (one Numba thread
+each, two to four processes at a time on the 2-core machine: the six at nu 0.48 about 20 min, the others about
+2.5 h).
 
     nice python validation/pipe_stationary.py [--points 7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5]
                                               [--resolution 8] [--corrections 0.3] [--duration 40]
@@ -46,7 +48,7 @@ except ImportError:  # a source checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from page import Page
-from pipe_dclab import DRIFT_WINDOW, parse_points
+from pipe_dclab import DRIFT_WINDOW, parse_points, table_readings
 from pipe_flow_rate import e_errors
 from pipe_resolution import (
     CHANNEL_RADIUS_UM,
@@ -80,6 +82,8 @@ def nu_table(records: list[dict], out: Path) -> list[dict]:
     """Per cell (radius, shear modulus) run at more than one nu: a row per nu, D against the nu 0.48 run's."""
     groups: dict[tuple, list[dict]] = {}
     for r, e_err in zip(records, e_errors(records) if records else [], strict=True):
+        if r["mesh_size"] is not None:  # the denser meshes have their own table (mesh_table)
+            continue
         groups.setdefault((r["radius_um"], round(shear_equivalent_modulus(r), 4), r["c"], r["resolution"],
                            r["element"], r.get("volumetric", "standard")), []).append(
             {**r, "E_err": e_err})
@@ -146,7 +150,8 @@ def nu_summary(rows: list[dict]) -> str:
 def treatment_table(rows: list[dict]) -> list[dict]:
     """Per cell, resolution and nu run with both volumetric treatments: D standard and nodal, their ratio, the
     errors against the table and whether each run settled (:func:`settled`)."""
-    runs = {(r["R [um]"], r["mu [kPa]"], r["R/dx"], r["nu"], r["J"]): r for r in rows if r["element"] == "p1"}
+    runs = {(r["R [um]"], r["mu [kPa]"], r["R/dx"], r["nu"], r["J"]): r for r in rows
+            if r["element"] == "p1" and r["mesh"] == "default"}
     out = []
     for (radius, mu, resolution, nu, treatment), nodal in sorted(runs.items()):
         standard = runs.get((radius, mu, resolution, nu, "standard"))
@@ -161,7 +166,7 @@ def treatment_table(rows: list[dict]) -> list[dict]:
     return out
 
 
-MESH_WINDOW = (18.0, 24.0)
+MESH_WINDOW = (8.0, 12.0)
 """The window (units of 1/gdot_w) in which a denser mesh's run is compared with the default mesh's: before the
 denser meshes' side views left the smooth outline for the nodes' hull."""
 
@@ -171,10 +176,14 @@ def mesh_table(records: list[dict], out: Path) -> list[dict]:
     mean D over :data:`MESH_WINDOW` and how many of the window's records were read on the hull."""
     import pandas as pd
 
-    def window(record: dict) -> tuple[float, str]:
+    def window(record: dict) -> tuple[float, str, float]:
+        """(mean D, hull records, the table's D at the window's mean area on the record's isoelastic)."""
         series = pd.read_csv(out / record["key"] / "timeseries.csv")
         inside = series[(series["time"] >= MESH_WINDOW[0]) & (series["time"] <= MESH_WINDOW[1])]
-        return float(inside["deformation"].mean()), f"{int(inside['outline_fallback'].sum())} of {len(inside)}"
+        deform = float(inside["deformation"].mean())
+        area = float(inside["projected_area"].mean()) * record["radius_um"] ** 2
+        table = table_readings([(area, deform, shear_equivalent_modulus(record))])[0][0]
+        return deform, f"{int(inside['outline_fallback'].sum())} of {len(inside)}", table
 
     def same(a: dict, b: dict) -> bool:
         return all(a.get(k) == b.get(k) for k in ("radius_um", "emodulus_kpa", "resolution", "c", "element",
@@ -185,14 +194,14 @@ def mesh_table(records: list[dict], out: Path) -> list[dict]:
         default = [r for r in records if r["mesh_size"] is None and same(r, record)]
         if record["mesh_size"] is None or not default:
             continue
-        d_mesh, hull_mesh = window(record)
-        d_default, hull_default = window(default[0])
+        d_mesh, hull_mesh, table_mesh = window(record)
+        d_default, hull_default, table_default = window(default[0])
         rows.append({"R [um]": record["radius_um"], "E [kPa]": record["emodulus_kpa"], "R/dx": record["resolution"],
                      "J": record.get("volumetric", "standard"), "edge [dx]": record["mesh_size"] * record["resolution"],
                      "nodes": record["nodes"], "D (edge 2 dx)": d_default, "D": d_mesh, "D/D(edge 2 dx)": d_mesh / d_default,
                      "hull records": hull_mesh, "hull records (edge 2 dx)": hull_default,
-                     "D_t": record["D_t"], "D err % (edge 2 dx)": 100 * (d_default / record["D_t"] - 1),
-                     "D err %": 100 * (d_mesh / record["D_t"] - 1)})
+                     "D err % (edge 2 dx)": 100 * (d_default / table_default - 1),
+                     "D err %": 100 * (d_mesh / table_mesh - 1)})
     return rows
 
 
@@ -236,7 +245,8 @@ def main() -> None:
     records = with_table([cached[key(c)] for c in todo if key(c) in cached])
     moduli = e_errors(records) if records else []
     rows = [{"R [um]": r["radius_um"], "R/R_ch": r["radius_um"] / CHANNEL_RADIUS_UM, "E [kPa]": r["emodulus_kpa"],
-             "R/dx": r["resolution"], "element": r["element"], "J": r.get("volumetric", "standard"), "nu": poisson_ratio(r), "mu [kPa]": shear_equivalent_modulus(r) / 3, "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"],
+             "R/dx": r["resolution"], "element": r["element"], "J": r.get("volumetric", "standard"),
+             "mesh": "default" if r["mesh_size"] is None else f"edge {r['mesh_size'] * r['resolution']:.2f} dx", "nu": poisson_ratio(r), "mu [kPa]": shear_equivalent_modulus(r) / 3, "Ca_w": r["capillary_number_wall"], "c [dx]": r["c"], "t [1/gdot_w]": r["end"],
              "reading": "hull" if r["fallback_last_unit"] else "outline", "deform": r["deform"],
              "D_t": r["D_t"], "D err %": r["D_err"], "A err %": r["A_err"], "E err %": e_err,
              "D drift %/t": 100 * r["drift_deformation"], "A drift %/t": 100 * r["drift_projected_area"],
@@ -283,9 +293,10 @@ def main() -> None:
     if meshes:
         page.table(meshes, f"A denser mesh (more markers per dx) against the default edge of 2 dx: D averaged over t = "
                    f"{MESH_WINDOW[0]:g}-{MESH_WINDOW[1]:g}/gdot_w, where the dense runs were still read on the outline "
-                   "(`hull records`: the window's records read on the nodes' hull, whose D is biased high); D_t the "
-                   "table's D at the run's final area", formats={
-                       "edge [dx]": ".2f", "D (edge 2 dx)": ".4f", "D": ".4f", "D/D(edge 2 dx)": ".3f", "D_t": ".4f",
+                   "(`hull records`: the window's records read on the nodes' hull, whose D is biased high); D err "
+                   "against the table's D at the window's mean area (the shape is not yet stationary there: a "
+                   "comparison of the two meshes at the same time)", formats={
+                       "edge [dx]": ".2f", "D (edge 2 dx)": ".4f", "D": ".4f", "D/D(edge 2 dx)": ".3f",
                        "D err % (edge 2 dx)": "+.1f", "D err %": "+.1f", "R/dx": "g"})
     by_nu = nu_table(records, args.out)
     if by_nu:

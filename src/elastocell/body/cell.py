@@ -197,12 +197,15 @@ class Cell:
 
         def stresses(x):
             f = deformation_gradients(x)
-            if nodal:  # the law on F_bar = (J_bar/J)^(1/3) F, J_bar the mean of the element's nodal J
-                mean = jnp.mean(nodal_volume_ratios(f)[elements], axis=1)[:, None]
-                f = f * (mean / determinant(f)) ** (1.0 / 3.0)
-            f = law_gradients(f)
-            piola = jax.grad(lambda ff: jnp.sum(energy_law(ff, params)))(f)
-            sigma = jnp.einsum("ik...,jk...->ij...", piola, f) / determinant(f)
+            if nodal:  # the isochoric part's Cauchy stress plus the element's pressure, the mean of kappa_a (J_a - 1)
+                isochoric = jax.grad(lambda ff: jnp.sum(energy_law(ff * determinant(ff) ** (-1.0 / 3.0), params)))(f)
+                sigma = jnp.einsum("ik...,jk...->ij...", isochoric, f) / determinant(f)
+                pressure = jnp.mean((node_bulk * (nodal_volume_ratios(f) - 1.0))[elements], axis=1)
+                sigma = sigma + pressure[None, None, :, None] * jnp.eye(3)[:, :, None, None]
+            else:
+                f = law_gradients(f)
+                piola = jax.grad(lambda ff: jnp.sum(energy_law(ff, params)))(f)
+                sigma = jnp.einsum("ik...,jk...->ij...", piola, f) / determinant(f)
             return jnp.einsum("eq,ijeq->eij", weights, sigma) / jnp.sum(weights, axis=1)[:, None, None]
 
         self._kernels.update(

@@ -304,7 +304,9 @@ class ElasticForces:
 
     def arguments(self) -> tuple:
         """The compiled kernel's arguments after x: (elements, gradients, weights, params, node_ptr,
-        node_slots, element-force buffer, per-element det buffer)."""
+        node_slots, element-force buffer, per-element det buffer, volumetric code, reference element volumes,
+        reference node volumes, node bulk moduli, element-volume buffer, node-pressure buffer, element-pressure
+        buffer)."""
         return (self.elements, self.gradients, self.weights, self.params, self.node_ptr, self.node_slots,
                 self._eforce, self._j, self.volumetric, self.reference_volume, self.node_reference_volume,
                 self.node_bulk, self._volume, self._node_pressure, self._pressure)

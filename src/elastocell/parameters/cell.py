@@ -212,7 +212,9 @@ class MeshParameters(ParameterModel):
     the constants (mean dilatation, P0). Both relieve the volumetric locking of a nearly incompressible layer
     crushed between a stiff nucleus and a plate (docs/theory.md). p2 only; with the 4-point rule the P1
     projection is the identity (four points, four polynomials), so ``projected`` refuses degree 2 and a
-    compression takes degree 5 for it when none is given. Does not change the mesh; ``standard`` is left out of
+    compression or a flow takes degree 5 for it when none is given. ``nodal`` (p1 only, the flows only: the static
+    solvers refuse it): the law's volumetric part per node, from the volumes of its elements (the averaged nodal
+    dilatation, which relieves the volumetric locking of linear tetrahedra; docs/theory.md). Does not change the mesh; ``standard`` is left out of
     the model's data (cache and run keys unchanged).
     """
 

@@ -72,12 +72,13 @@ def shear_mesh_size(resolution: float, edge: float = DEFAULT_MESH_EDGE) -> float
 def flow_cell(cell, cell_options: dict, resolution: float):
     """The CellParameters of a flow run: ``cell`` or the CELL OPTIONS of ``cell_parameters``; without an
     explicit mesh size the mesh is uniform with edges of 2 dx (:func:`shear_mesh_size`) and linear
-    tetrahedra (``element="p1"``) unless another element is given."""
+    tetrahedra (``element="p1"``) unless another element is given; a projected J takes quadrature degree 5
+    (:func:`projected_quadrature`)."""
 
     if cell is not None and cell_options:
         raise ParameterError("cell", f"give either cell= or cell options, not both ({', '.join(cell_options)})")
     if cell is not None:
-        return cell
+        return projected_quadrature(cell)
     cell_options = dict(cell_options)
     cell_options.setdefault("element", "p1")
     if cell_options.get("mesh_size") is None:
@@ -86,7 +87,17 @@ def flow_cell(cell, cell_options: dict, resolution: float):
         cell_options["pole_size"] = cell_options["mesh_size"]
     if cell_options.get("interface_size") is None:
         cell_options["interface_size"] = cell_options["mesh_size"]
-    return cell_parameters(**cell_options)
+    return projected_quadrature(cell_parameters(**cell_options))
+
+
+def projected_quadrature(cell):
+    """``cell`` with quadrature degree 5 where its J is projected onto linear polynomials (``volumetric``
+    projected) and no degree is given: with the default 4 points that projection is the identity (as a
+    compression takes it, ``compression_parameters_for``)."""
+    mesh = cell.mesh
+    if mesh.volumetric == "projected" and mesh.quadrature_degree is None:
+        return cell.model_copy(update={"mesh": mesh.model_copy(update={"quadrature_degree": 5})})
+    return cell
 
 
 def check_capillary_number(value: float, parameter: str, maximum: float, validated: float, refusal: str,
