@@ -143,6 +143,11 @@ def test_nodal_dilatation_refusals():
         cell.element_stiffness(cell.mesh.nodes)
     with pytest.raises(ParameterError, match="flows only"):
         elastocell.compress("unused", element="p1", volumetric="nodal")
+    # the axisymmetric solvers have their own meridian mesh: a treatment of the 3D elements is refused, not ignored
+    with pytest.raises(ParameterError, match="axisymmetric solver"):
+        elastocell.compress("unused", element="p1", volumetric="nodal", axisymmetric=True)
+    with pytest.raises(ParameterError, match="axisymmetric solver"):
+        elastocell.indent("unused", indenter_radius=0.5, volumetric="mean", nucleus="none")
 
 
 def test_nodal_dilatation_on_the_jax_flow_backend_and_projected_falls_back_to_it():

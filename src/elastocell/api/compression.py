@@ -116,6 +116,9 @@ def compress(
     scenario = CompressionParameters(delta_max=delta_max, steps=steps)
     if axisymmetric:
         meridian_nucleus(cell)  # a cell not axisymmetric about z: one ParameterError before any file
+        if cell.mesh.volumetric != "standard":
+            raise ParameterError("volumetric", "sets how the 3D elements take J; the axisymmetric solver (its own "
+                                               "meridian mesh of quadratic triangles) has no such option")
     else:
         cell = compression_parameters_for(cell)
     with output_directory(out) as out, interruptible():

@@ -62,7 +62,7 @@ CONE_TIP_RADIUS = 1e-4
 """Radius of the cone's rounded apex in units of the contact scale s = depth_max max(tan(alpha), 1). Its effect on F
 (measured in validation/indentation_cone.py by doubling it) is ~ 2 rho (1/sin(alpha) - 1)/depth: the flanks
 are the sharp cone's offset by rho."""
-MESH_OPTIONS = ("element", "mesh_size", "pole_size", "interface_size", "quadrature_degree")
+MESH_OPTIONS = ("element", "mesh_size", "pole_size", "interface_size", "quadrature_degree", "volumetric")
 """The 3D mesh's options, which the axisymmetric solver (its own meridian mesh) does not take."""
 
 
