@@ -6,8 +6,8 @@ does to the immersed-boundary cell's deformation.
                                               [--capillary-number 0.05] [--out results/flow-volumetric]
                                               [--cached-only]
 
-The page's runs: ``--volumetric standard nodal --resolutions 6 --poisson-ratios 0.45 0.48 0.49`` and
-``--volumetric standard nodal --resolutions 8 --poisson-ratios 0.48 0.49`` (one Numba thread, beside other work).
+The page's runs: ``--volumetric standard nodal --resolutions 6 8 --poisson-ratios 0.45 0.48 0.49`` (one Numba
+thread, beside other work).
 
 In the immersed-boundary model the cell is carried by an incompressible fluid that fills it: the continuum motion
 of its body is isochoric whatever its Poisson ratio, so the volumetric term of its strain energy
