@@ -133,7 +133,7 @@ def test_reference_stiffness_of_the_nodal_dilatation_is_the_hessian(stiffness_ra
     assert np.linalg.eigvalsh(stiffness)[-1] < 0.5 * np.linalg.eigvalsh(standard)[-1]
 
 
-def test_nodal_dilatation_refusals():
+def test_nodal_dilatation_refusals(tmp_path):
     with pytest.raises(ValueError, match="p1 elements only"):
         elastocell.cell_parameters(element="p2", volumetric="nodal")
     with pytest.raises(ValueError, match="p2 elements only"):
@@ -143,6 +143,10 @@ def test_nodal_dilatation_refusals():
         cell.element_stiffness(cell.mesh.nodes)
     with pytest.raises(ParameterError, match="flows only"):
         elastocell.compress("unused", element="p1", volumetric="nodal")
+    with pytest.raises(ParameterError, match="flows only"):  # refused before its output directory is made
+        elastocell.indent(tmp_path / "indent", indenter_radius=0.5, solver="3d", element="p1", volumetric="nodal",
+                          nucleus="none")
+    assert not (tmp_path / "indent").exists()
     # the axisymmetric solvers have their own meridian mesh: a treatment of the 3D elements is refused, not ignored
     with pytest.raises(ParameterError, match="axisymmetric solver"):
         elastocell.compress("unused", element="p1", volumetric="nodal", axisymmetric=True)

@@ -144,10 +144,11 @@ def indent(
     if resume and path != "3d":
         raise ParameterError("resume", "continues a curve of the 3D solver only (this indentation runs the "
                                        "axisymmetric solver, whose curve takes seconds: run it again)")
+    cell_3d = indentation_cell_3d(cell) if path == "3d" else None  # its refusals before the directory exists
     with output_directory(out) as out, interruptible():
         clock = Stopwatch()
         if path == "3d":
-            body = Cell.from_parameters(indentation_cell_3d(cell))
+            body = Cell.from_parameters(cell_3d)
         else:
             body = AxisymmetricCell.from_parameters(cell, geometry=geometry)
         label = f"{describe_cell(cell)}, {cell_shape}, R_b = {bead * cell.radius:g}"
