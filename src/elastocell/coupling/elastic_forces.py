@@ -69,6 +69,30 @@ def _inverse_cube_root(j):
     return y
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _deformation_gradient(x, elements, gradients, e, q):
+    """F = sum_k x_(e_k) (dN_k/dX)^T at point q of element e, as its nine entries row by row."""
+    f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
+    for k in range(elements.shape[1]):
+        nd = elements[e, k]
+        x0 = x[nd, 0]
+        x1 = x[nd, 1]
+        x2 = x[nd, 2]
+        g0 = gradients[e, q, k, 0]
+        g1 = gradients[e, q, k, 1]
+        g2 = gradients[e, q, k, 2]
+        f00 += x0 * g0
+        f01 += x0 * g1
+        f02 += x0 * g2
+        f10 += x1 * g0
+        f11 += x1 * g1
+        f12 += x1 * g2
+        f20 += x2 * g0
+        f21 += x2 * g1
+        f22 += x2 * g2
+    return f00, f01, f02, f10, f11, f12, f20, f21, f22
+
+
 @njit(parallel=True, cache=True, error_model="numpy")
 def _element_forces(x, elements, gradients, weights, params, eforce, j_min, volumetric, pressure):
     """eforce[e, k] = -dE_e/dx_k per element (parallel over elements); j_min[e] = min det F of element e.
@@ -88,24 +112,7 @@ def _element_forces(x, elements, gradients, weights, params, eforce, j_min, volu
             eforce[e, k, 1] = 0.0
             eforce[e, k, 2] = 0.0
         for q in range(n_q):
-            f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
-            for k in range(n_k):
-                nd = elements[e, k]
-                x0 = x[nd, 0]
-                x1 = x[nd, 1]
-                x2 = x[nd, 2]
-                g0 = gradients[e, q, k, 0]
-                g1 = gradients[e, q, k, 1]
-                g2 = gradients[e, q, k, 2]
-                f00 += x0 * g0
-                f01 += x0 * g1
-                f02 += x0 * g2
-                f10 += x1 * g0
-                f11 += x1 * g1
-                f12 += x1 * g2
-                f20 += x2 * g0
-                f21 += x2 * g1
-                f22 += x2 * g2
+            f00, f01, f02, f10, f11, f12, f20, f21, f22 = _deformation_gradient(x, elements, gradients, e, q)
             # cofactors: cof(F) = det(F) F^-T
             c00 = f11 * f22 - f12 * f21
             c01 = f12 * f20 - f10 * f22
@@ -177,26 +184,10 @@ def _element_forces(x, elements, gradients, weights, params, eforce, j_min, volu
 @njit(parallel=True, cache=True, error_model="numpy")
 def _element_volumes(x, elements, gradients, weights, volume):
     """volume[e] = sum_q w_q det F_q: the element's current volume (parallel over elements)."""
-    n_q = gradients.shape[1]
-    n_k = elements.shape[1]
     for e in prange(elements.shape[0]):
         v = 0.0
-        for q in range(n_q):
-            f00 = f01 = f02 = f10 = f11 = f12 = f20 = f21 = f22 = 0.0
-            for k in range(n_k):
-                nd = elements[e, k]
-                g0 = gradients[e, q, k, 0]
-                g1 = gradients[e, q, k, 1]
-                g2 = gradients[e, q, k, 2]
-                f00 += x[nd, 0] * g0
-                f01 += x[nd, 0] * g1
-                f02 += x[nd, 0] * g2
-                f10 += x[nd, 1] * g0
-                f11 += x[nd, 1] * g1
-                f12 += x[nd, 1] * g2
-                f20 += x[nd, 2] * g0
-                f21 += x[nd, 2] * g1
-                f22 += x[nd, 2] * g2
+        for q in range(gradients.shape[1]):
+            f00, f01, f02, f10, f11, f12, f20, f21, f22 = _deformation_gradient(x, elements, gradients, e, q)
             v += weights[e, q] * (f00 * (f11 * f22 - f12 * f21) + f01 * (f12 * f20 - f10 * f22)
                                   + f02 * (f10 * f21 - f11 * f20))
         volume[e] = v
