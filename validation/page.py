@@ -109,6 +109,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                       "python validation/medium.py --baseline-kernels /tmp/kernels_before.py"),
     }),
     "pipe_dclab": ("Pipe flow against dclab's LE-2D-FEM-19", {
+        "pipe_references.py": ("The reference's own uncertainty: LE-2D-FEM-19 against the analytical LE-2D-ana-18",
+                               "python validation/pipe_references.py"),
         "pipe_dclab.py": ("RT-DC deformation and area, one resolution and extrapolated",
                           "nice python validation/pipe_dclab.py"),
         "pipe_contour.py": ("Error sources: the measured outline and the staircase wall",
