@@ -134,8 +134,16 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     }),
     "lut_square": ("RT-DC look-up table in the square channel with MC-PBS, against dclab", {
         "lut_square.py": ("Square-channel MC-PBS points against dclab's HE-3D-FEM-22 and HE-2D-FEM-22",
-                          "nice python validation/lut_square.py --radii 5,6 --moduli 1,2 --resolution 6 --duration 8 "
-                          "--workers 2 --out /tmp/lut-square"),
+                          "nice python validation/lut_square.py --radii 4,5,6,7 --moduli 1,1.5,2,3 --duration 20 "
+                          "--workers 2 "
+                          "--out /work/results/lut-square-r8"),
+        "lut_cylinder.py": ("Cylinder MC-PBS points against dclab's HE-2D-FEM-22",
+                            "nice python validation/lut_cylinder.py --radii 5,6 --moduli 2 --duration 20 "
+                            "--workers 2 "
+                            "--out /work/results/lut-cylinder-r8"),
+        "lut_relaxation.py": ("How long a point must run: the cell's relaxation in the channel",
+                              "nice python validation/lut_relaxation.py --runs /work/results/lut-square-r8/lut_runs/R* "
+                              "/work/results/lut-square-long/lut_runs/R5um_E1kPa_6766fc3991 --cuts 10 15 20 30 40"),
     }),
     "rtdc_nucleus": ("The modulus RT-DC assigns a cell with a stiff nucleus", {
         "rtdc_nucleus.py": ("Nucleus cells and the random cell read through homogeneous tables",
