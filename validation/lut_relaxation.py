@@ -9,7 +9,8 @@ The page's runs are lut_square.py's (capped at 20 units of 1/gdot_w) and one lon
 
 Each DIR is a point's run directory (``<stem>_runs/<key>/`` of ``elastocell lut``, with its timeseries.csv and
 summary.json). For each run: the relaxation time tau of D(t) = D_inf - A exp(-t/tau) fitted to the whole run from
-t = 2 on (``lut_square.relaxation_fit``) and tau over Ca_w; then, for each cut time t_c of ``--cuts`` below the
+t = 2 on (``lut_square.relaxation_fit``; NaN where tau comes out beyond the run's end: no exponential approach
+within the run) and tau over Ca_w; then, for each cut time t_c of ``--cuts`` below the
 run's end, the same fit to the run truncated at t_c, and its D_inf and the deformation the run itself had at t_c
 (the mean of the last unit of 1/gdot_w before it: what a point capped at t_c reports) against the run's final
 reading (the mean of its last unit), for the runs that reached their stationary stop only (the reference is the
@@ -58,8 +59,12 @@ def main(argv=None) -> None:
         final = last_unit_mean(t, d, end)
         capillary = float(summary.get("capillary_number_wall", float("nan")))
         d_inf, tau = relaxation_fit(run / "timeseries.csv")
+        if not tau < end:  # no exponential approach within the run (a drift): the fit says nothing
+            d_inf = tau = float("nan")
         stop = "stationary" if summary.get("stop_reason") == "stationary" else str(summary.get("stop_reason"))
-        rows.append({"run": run.name, "Ca_w": capillary, "t_end": end, "end": stop, "D final": final,
+        confinement = 1.0 / float(summary.get("channel_radius_ratio", float("nan")))
+        rows.append({"run": run.name, "channel": summary.get("channel_shape", "cylinder"),
+                     "medium": summary.get("medium", "newtonian"), "R/R_ch": confinement, "Ca_w": capillary, "t_end": end, "end": stop, "D final": final,
                      "tau fit": tau, "tau / Ca_w": tau / capillary, "D_inf fit / D final": d_inf / final})
         for cut in args.cuts:
             if stop != "stationary" or cut > end - 1.0:  # only a run that ended stationary is a reference
@@ -76,7 +81,7 @@ def main(argv=None) -> None:
                              "capped at t_c: D / D final - 1 %": 100.0 * (capped / final - 1.0),
                              "fit to t_c: tau": tau_cut,
                              "fit to t_c: D_inf / D final - 1 %": 100.0 * (d_cut_inf / final - 1.0)})
-    page.table(rows, "Each run's relaxation", formats={"Ca_w": ".3f", "t_end": ".1f", "D final": ".5f",
+    page.table(rows, "Each run's relaxation", formats={"R/R_ch": ".3f", "Ca_w": ".3f", "t_end": ".1f", "D final": ".5f",
                                                        "tau fit": ".2f", "tau / Ca_w": ".2f",
                                                        "D_inf fit / D final": ".4f"})
     page.table(cut_rows, "A run stopped at t_c: its reading, and the exponential fit's extrapolation, against the "

@@ -143,7 +143,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                             "--out /work/results/lut-cylinder-r8"),
         "lut_relaxation.py": ("How long a point must run: the cell's relaxation in the channel",
                               "nice python validation/lut_relaxation.py --runs /work/results/lut-square-r8/lut_runs/R* "
-                              "/work/results/lut-square-long/lut_runs/R5um_E1kPa_6766fc3991 --cuts 10 15 20 30 40"),
+                              "/work/results/lut-square-long/lut_runs/R5um_E1kPa_6766fc3991 "
+                              "/work/results/pipe-stationary/*-p1-default-Rdx8-c0.3-t40-Q --cuts 10 15 20 30 40"),
     }),
     "rtdc_nucleus": ("The modulus RT-DC assigns a cell with a stiff nucleus", {
         "rtdc_nucleus.py": ("Nucleus cells and the random cell read through homogeneous tables",

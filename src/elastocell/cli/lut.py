@@ -41,7 +41,7 @@ from elastocell.cli.options import opt, takes
                 "and extrapolate its area and deformation to dx -> 0 (Richardson, order 2)."),
        "coarse_resolution", opt("hydrodynamic_radius_correction", default=0.3),  # the pipe's default
        opt("duration", annotation=float | None, default=None, help="Longest run per point.", units="1/gdot_w",
-           shown="20; --quick: 1; with --channel-length 1.5 times the transit at the mean flow speed"),
+           shown="60, stopping earlier once stationary; --quick: 1; with --channel-length 1.5 times the transit at the mean flow speed"),
        opt("stationary_tolerance", help="Stop a point once its deformation is stationary to this fraction.",
            shown="1e-3; --quick and --channel-length: off"),
        "identifier", opt("scheduler", help="Dask scheduler address."),
