@@ -189,7 +189,7 @@ EXPECTED_OPTIONS = {
               '--radius=1 --material=neo-hookean --element=p2 --quadrature-degree=None --volumetric=standard --resume=False '
               '--quiet=False '
               '--json=False',
-    'lut': '--channel-radius=None --channel-width=None --channel-shape=None --channel-height=None --flow-rate! '
+    'lut': '--channel-radius=None --channel-width=None --channel-shape=None --channel-height=None --channel-wall=staircase --flow-rate! '
            '--viscosity=None --medium=newtonian --temperature=None --flow-index=None --channel-length=None '
            '--out! --radii=None '
            '--moduli=None --quick=False --stiffness-ratio=None --size-ratio=None --poisson-ratio=0.48 '
@@ -208,12 +208,13 @@ EXPECTED_OPTIONS = {
             '--radius=1 --material=neo-hookean --element=p1 --volumetric=standard --equivalent=False --channel-radius-ratio=2.0 '
             '--start-offset=0.0 --resolution=8.0 --extrapolate=False --coarse-resolution=None '
             '--hold-flow-rate=True --hydrodynamic-radius-correction=0.3 --channel-shape=None '
-            '--channel-width=None --channel-height=None '
+            '--channel-wall=staircase --channel-width=None --channel-height=None '
             '--channel-aspect-ratio=None --medium=newtonian --temperature=None --flow-index=None '
             '--channel-length=None --duration=10.0 --pressure-gradient=None --wall-clock=None '
             '--stationary-tolerance=None --stationary-observable=strain_axial --record-interval=0.1 '
             '--checkpoint-every=20 --vtk-interval=1.0 --resume=False --backend=numba --quiet=False',
     'reproduce': '--quick=False --scheduler=None --workers=None --out! --quiet=False',
+    'shipped-luts': '',
     'shear': '--out! --capillary-number=None --nucleus=sphere --stiffness-ratio=2.0 --size-ratio=0.5 --offset=0.0 '
              '--offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None --mesh-size=None '
              '--pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 --radius=1 '

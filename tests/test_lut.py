@@ -72,6 +72,14 @@ def test_plan_units_and_grid():
     assert settings["hydrodynamic_radius_correction"] == 0.0
     assert all(p["options"]["hydrodynamic_radius_correction"] == 0.0 for p in earlier)
     assert not {p["key"] for p in earlier} & {p["key"] for p in full}
+    # the cylinder's wall: the staircase (default) adds nothing to the options, so earlier points keep their keys;
+    # the interpolated wall is said in the options and the settings, and its points are other points
+    assert all("channel_wall" not in p["options"] for p in full) and settings["channel_wall"] == "staircase"
+    curved, curved_settings = plan("10um", "0.04uL/s", "15mPa*s", channel_wall="interpolated")
+    assert all(p["options"]["channel_wall"] == "interpolated" for p in curved)
+    assert curved_settings["channel_wall"] == "interpolated" and not {p["key"] for p in curved} & {p["key"] for p in full}
+    with pytest.raises(ParameterError, match="channel_wall"):
+        plan("10um", "0.04uL/s", "15mPa*s", channel_wall="smooth")
     # extrapolated: a cell above R_ch/(1 + 2/6) = 7.5 um in R_ch = 10 um keeps the kernel's reach + 1 dx from the
     # wall at R/dx 8, not at the coarse R/dx 6: its points run at one resolution; the others are extrapolated; the
     # default grid's largest cell is the largest R/dx 8 takes (R_ch/R >= 1.25)
@@ -416,3 +424,48 @@ def test_an_extrapolated_point_reads_both_resolutions(tmp_path):
     assert final["extrapolation"]["values"]["deformation"]["coarse"] == pytest.approx(0.026)
     assert stationary == "cap"  # the coarse run reached its cap
     assert FINAL_WINDOW < time[-1]
+
+
+def test_register_lut_registers_the_shipped_tables_in_dclab_by_one_call(tmp_path):
+    """elastocell.register_lut() registers every lut_*.txt of the data directory with dclab under its identifier
+    (here a data directory of one synthetic square MC-PBS table, law deform = 0.02 (r/5)^2/E); dclab then computes
+    emodulus with "emodulus lut" set to it. Reference: the table's own law, read back to the interpolation error
+    (measured 0.9 %, as test_dclab_interpolates_a_square_mc_pbs_table; tolerance 2 %). A second call is harmless;
+    an unknown identifier, a directory without tables and a clash with another file are refused (ParameterError)."""
+    pytest.importorskip("dclab")
+    from dclab.features import emodulus
+
+    import elastocell
+    from elastocell.inverse.shipped_luts import register_lut, shipped_luts
+
+    _, settings = plan(None, "0.04uL/s", None, quick=True, channel_width="20um", channel_shape="square",
+                       medium="0.59%MC-PBS", temperature=23, radii=[5], moduli=[1000])
+    records = [{"radius_um": r, "emodulus_kpa": e, "area_um": math.pi * r**2, "deform": 0.02 * (r / 5) ** 2 / e}
+               for e in (1.0, 1.25, 1.5, 2.0, 2.5, 3.0) for r in (4.5, 5.0, 5.5, 6.0, 6.5, 7.0)]
+    data = tmp_path / "data"
+    data.mkdir()
+    identifier = "elastocell-shipped-test"
+    meta = lut_metadata(settings, identifier)
+    path = write_lut(data / "lut_square_test.txt", records, meta)
+    write_isoelastics(isoelastics_path(path), records, meta)
+    (data / "mastercurve_other.csv").write_text("not a table\n")
+    tables = shipped_luts(data)
+    assert list(tables) == [identifier] and tables[identifier]["isoelastics"] == isoelastics_path(path)
+    assert register_lut(directory=data) == {identifier: path}
+    assert register_lut(identifier, directory=data) == {identifier: path}  # again: harmless
+    r, e = 5.75, 1.75
+    found = emodulus.get_emodulus(area_um=np.array([math.pi * r**2]), deform=np.array([0.02 * (r / 5) ** 2 / e]),
+                                  medium="0.59% MC-PBS", channel_width=20.0, flow_rate=0.04, px_um=0, temperature=23.0,
+                                  visc_model="buyukurganci-2022", lut_data=identifier)
+    assert found[0] == pytest.approx(e, rel=0.02)
+    with pytest.raises(ParameterError, match="identifier"):
+        register_lut("elastocell-none", directory=data)
+    with pytest.raises(ParameterError, match="ships no look-up table"):
+        register_lut(directory=tmp_path)
+    other = tmp_path / "other"
+    other.mkdir()
+    write_lut(other / "lut_clash.txt", records, meta)
+    with pytest.raises(ParameterError, match="already holds"):
+        register_lut(directory=other)
+    assert elastocell.register_lut is register_lut and elastocell.shipped_luts is shipped_luts
+    emodulus.load.EXTERNAL_LUTS.pop(identifier)

@@ -86,13 +86,14 @@ def shear_equivalent_modulus(case: dict) -> float:
 def key(case: dict) -> str:
     """The run's name: ``-Q`` ends that of a run holding the flow rate (``hold``; this page's own runs hold G),
     ``-nu<nu>`` precedes it for a cell of another nu than :data:`POISSON_RATIO`, ``-<volumetric>`` for a cell
-    whose J enters the law otherwise than at each point (``MeshParameters.volumetric``)."""
+    whose J enters the law otherwise than at each point (``MeshParameters.volumetric``), ``-interpolated`` ends that
+    of a run whose cylinder wall is interpolated (``PipeFlowParameters.channel_wall``)."""
     mesh = case["mesh_size"] or "default"
     nu = "" if poisson_ratio(case) == POISSON_RATIO else f"-nu{poisson_ratio(case):g}"
     treatment = case.get("volumetric", "standard")
     return (f"{case['radius_um']:g}um-{case['emodulus_kpa']:g}kPa-{case['element']}-{mesh}-Rdx{case['resolution']:g}"
             f"-c{case['c']:g}-t{case['duration']:g}" + nu + ("" if treatment == "standard" else f"-{treatment}")
-            + ("-Q" if case.get("hold") else ""))
+            + ("-Q" if case.get("hold") else "") + ("-interpolated" if case.get("wall") == "interpolated" else ""))
 
 
 def cases(point: tuple[float, float], resolutions: list[float], corrections: list[float],
@@ -120,7 +121,8 @@ def run_case(case: dict, out: Path) -> dict:
 
     ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
                                  case["emodulus_kpa"] * 1e3, poisson_ratio(case))
-    flow = {"hold_flow_rate": bool(case.get("hold", False)), "hydrodynamic_radius_correction": float(case["c"])}
+    flow = {"hold_flow_rate": bool(case.get("hold", False)), "hydrodynamic_radius_correction": float(case["c"]),
+            **({"channel_wall": case["wall"]} if case.get("wall", "staircase") != "staircase" else {})}
     directory = out / key(case)
     start = time.perf_counter()
     summary = pipe(directory, capillary_number_wall=ca_w, channel_radius_ratio=CHANNEL_RADIUS_UM / case["radius_um"],

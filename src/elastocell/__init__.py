@@ -25,6 +25,8 @@ _PUBLIC = {
     "indent": "elastocell.api.indentation",
     "shear": "elastocell.api.shear",
     "pipe": "elastocell.api.pipe",
+    "register_lut": "elastocell.inverse.shipped_luts",
+    "shipped_luts": "elastocell.inverse.shipped_luts",
     "study": ("elastocell.studies", "run_study"),
     "reproduce": ("elastocell.studies", "reproduce"),
 }
@@ -44,5 +46,5 @@ def __dir__():
     return sorted(list(globals()) + list(_PUBLIC))
 
 
-__all__ = ["cell_parameters", "compress", "equivalent", "indent", "shear", "pipe", "study", "reproduce", "ParameterError",
-           "__version__"]
+__all__ = ["cell_parameters", "compress", "equivalent", "indent", "shear", "pipe", "register_lut", "shipped_luts", "study",
+           "reproduce", "ParameterError", "__version__"]

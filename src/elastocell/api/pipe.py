@@ -107,6 +107,7 @@ def pipe(
     resolution: float | None = None,
     channel_shape: str | None = None,
     channel_aspect_ratio: float | None = None,
+    channel_wall: str | None = None,
     medium: str | None = None,
     temperature: float | str | None = None,
     flow_index: float | None = None,
@@ -134,7 +135,8 @@ def pipe(
     capillary_number_wall: Ca_w = G R_ch/(2 mu_c) (mu_eff with ``equivalent``). cell: CellParameters or the
     CELL OPTIONS of ``cell_parameters`` (default mesh: uniform p1 with edges of 2 dx, as shear flow).
     channel_shape: "cylinder" (default), "square" or "rectangle" (width 2 R_ch, height channel_aspect_ratio times
-    the width). medium: "newtonian" (default), "0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS" (at ``temperature``:
+    the width). channel_wall: "staircase" (default) or "interpolated", how the lattice places a cylinder's wall
+    (:data:`~elastocell.scenarios.pipe.CHANNEL_WALLS`). medium: "newtonian" (default), "0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS" (at ``temperature``:
     "23degC", "23°C", "296.15K" or a bare number in degC) or "power-law" (with ``flow_index``); see :class:`PipeFlowParameters`.
     hold_flow_rate: hold the flow rate the nominal G drives through the ideal channel (default True, as RT-DC's
     pump) or, False, hold G. hydrodynamic_radius_correction: the markers at R - c dx (default 0.3). Both as
@@ -166,7 +168,8 @@ def pipe(
     flow_options = dict(flow_options or {})
     for name, value in (("channel_radius_ratio", channel_radius_ratio), ("start_offset", start_offset),
                         ("resolution", resolution), ("channel_shape", channel_shape),
-                        ("channel_aspect_ratio", channel_aspect_ratio), ("medium", medium),
+                        ("channel_aspect_ratio", channel_aspect_ratio), ("channel_wall", channel_wall),
+                        ("medium", medium),
                         ("temperature", parse_temperature(temperature)), ("flow_index", flow_index),
                         ("hold_flow_rate", hold_flow_rate),
                         ("hydrodynamic_radius_correction", hydrodynamic_radius_correction)):

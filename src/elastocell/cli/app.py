@@ -15,7 +15,7 @@ from elastocell.cli.common import user_errors
 from elastocell.cli.fit import fit_app, mastercurve_app
 from elastocell.cli.fit_rtdc import fit_rtdc_command  # noqa: F401 (registers `fit rtdc` on fit_app)
 from elastocell.cli.indent import indent
-from elastocell.cli.lut import lut
+from elastocell.cli.lut import lut, shipped_luts
 from elastocell.cli.options import CELL, FLOW_CELL, opt, plain, takes
 from elastocell.cli.study import reproduce, study_app
 from elastocell.parameters.cell import cell_parameters
@@ -35,7 +35,8 @@ shear, pipe: a cell in shear flow or in pressure-driven capillary flow (lattice 
 
 fit afm, fit shear: Young's modulus from AFM force curves, or from the deformation in shear flow.
 
-lut: look-up table for RT-DC (dclab) from pipe-flow runs over cell radii and moduli.
+lut: look-up table for RT-DC (dclab) from pipe-flow runs over cell radii and moduli; shipped-luts: the tables
+that ship with elastocell (elastocell.register_lut() registers them with dclab).
 
 study, reproduce: the paper's figures as studies run on Dask, one or all of them.
 
@@ -254,7 +255,7 @@ def equivalent_command(cell: dict, as_json: bool):
        opt("equivalent", help="Simulate the homogeneous equivalent (Ca_w with mu_eff)."),
        "channel_radius_ratio", "start_offset", "resolution", opt("extrapolate", default=False, shown="off"),
        "coarse_resolution", "hold_flow_rate", opt("hydrodynamic_radius_correction", default=0.3),  # the API's
-       "channel_shape",
+       "channel_shape", "channel_wall",
        opt("channel_width", help="Width W of a square or rectangular channel, with a physical --radius: sets "
            "--channel-radius-ratio to W/(2R)."), "channel_height", "channel_aspect_ratio", "medium", "temperature",
        "flow_index", opt("channel_length", help="Length L of a finite channel, with a physical --radius (RT-DC chips: "
@@ -271,7 +272,8 @@ def equivalent_command(cell: dict, as_json: bool):
        "resume", "backend", "quiet")
 def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent: bool, channel_radius_ratio: float,
          start_offset: float, resolution: float, extrapolate: bool, coarse_resolution: float | None,
-         hold_flow_rate: bool, hydrodynamic_radius_correction: float, channel_shape, channel_width: str | None,
+         hold_flow_rate: bool, hydrodynamic_radius_correction: float, channel_shape, channel_wall,
+         channel_width: str | None,
          channel_height: str | None,
          channel_aspect_ratio: float | None, medium: str, temperature: str | None, flow_index: float | None,
          channel_length: str | None, duration: float, pressure_gradient: str | None,
@@ -321,6 +323,7 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
         raise ParameterError("capillary_number_wall", "required (or --pressure-gradient)")
     flow_options = {"channel_radius_ratio": channel_radius_ratio, "start_offset": start_offset, "resolution": resolution,
                     "backend": backend.value, "channel_shape": shape, "channel_aspect_ratio": channel_aspect_ratio,
+                    "channel_wall": channel_wall.value,
                     "medium": medium, "temperature": parse_temperature(temperature), "flow_index": flow_index}
     PipeFlowParameters(capillary_number_wall=capillary_number_wall, hold_flow_rate=hold_flow_rate,
                        hydrodynamic_radius_correction=hydrodynamic_radius_correction, **flow_options)  # validate early
@@ -417,6 +420,7 @@ app.add_typer(fit_app, name="fit")
 app.add_typer(study_app, name="study")
 app.command("reproduce")(reproduce)
 app.command("lut")(lut)
+app.command("shipped-luts")(shipped_luts)
 app.command("indent")(indent)
 
 

@@ -17,7 +17,7 @@ from elastocell.cli.options import opt, takes
                                  "as dclab's LE-2D-FEM-19) | square (the square duct itself, as HE-3D-FEM-22); a "
                                  "rectangle is refused.", shown="cylinder"),
        opt("channel_height", help="Height H of the channel: a table is made for square channels only (H = W).",
-           shown="--channel-width"),
+           shown="--channel-width"), "channel_wall",
        "flow_rate", opt("viscosity", help="Viscosity of a Newtonian medium.",
                         shown="none: required with --medium newtonian"),
        opt("medium", help="newtonian (with --viscosity) | 0.49%MC-PBS | 0.59%MC-PBS | 0.83%MC-PBS (RT-DC buffers: "
@@ -46,7 +46,7 @@ from elastocell.cli.options import opt, takes
            shown="1e-3; --quick and --channel-length: off"),
        "identifier", opt("scheduler", help="Dask scheduler address."),
        opt("workers", help="Local Dask workers."), "quiet")
-def lut(channel_radius: str | None, channel_width: str | None, channel_shape, channel_height: str | None,
+def lut(channel_radius: str | None, channel_width: str | None, channel_shape, channel_height: str | None, channel_wall,
         flow_rate: str, viscosity: str | None, medium: str, temperature: str | None, flow_index: float | None,
         channel_length: str | None, out: Path,
         radii: str | None, moduli: str | None, quick: bool, stiffness_ratio: float | None,
@@ -70,7 +70,8 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
                          channel_height=channel_height, medium=medium, temperature=temperature,
                          flow_index=flow_index, extrapolate=extrapolate, coarse_resolution=coarse_resolution,
                          hydrodynamic_radius_correction=hydrodynamic_radius_correction,
-                         stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, channel_length=channel_length)
+                         stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, channel_length=channel_length,
+                         channel_wall=channel_wall.value)
     if not quiet:
         settings = result["settings"]
         typer.echo(f"{settings.get('cell_description', 'homogeneous cell')}, "
@@ -94,3 +95,24 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
         fail(f"no grid point finished ({result['failures'][0]['error'] if result['failures'] else 'empty grid'})")
     if result["failures"]:
         raise typer.Exit(code=1)
+
+
+@user_errors
+def shipped_luts():
+    """The RT-DC look-up tables that ship with elastocell: identifier, file, channel, flow rate, medium. In Python,
+    elastocell.register_lut() registers them all with dclab by their identifiers."""
+    from elastocell.inverse.shipped_luts import (
+        shipped_luts as tables,  # lazy: a command loads its modules only when it runs
+    )
+
+    found = tables()
+    if not found:
+        fail("this version of elastocell ships no look-up table: make one with elastocell lut")
+    for identifier, table in found.items():
+        meta = table["metadata"]
+        settings = meta.get("elastocell", {})
+        typer.echo(f"{identifier}: {settings.get('channel_shape', '?')} channel {meta['channel_width']:g} um, "
+                   f"{meta['flow_rate']:g} uL/s, {settings.get('medium', 'newtonian')}"
+                   + (f" at {settings['temperature_c']:g} degC" if settings.get("temperature_c") is not None else "")
+                   + f", {settings.get('state', 'stationary')}\n  {table['path']}"
+                   + (f"\n  {table['isoelastics']}" if table["isoelastics"] else ""))

@@ -46,7 +46,8 @@ def _velocity_box(positions, support, box):
 @njit(cache=True, error_model="numpy")
 def _coupled_steps(
     n_steps, A, parity, nz, field, consts, has_walls, wall_corr, cint, opp, solid, has_solid,
-    run_ptr, run_lo, run_hi, link_ptr, link_z, link_q, lb_weights, cvel, fluid_velocity, box,
+    run_ptr, run_lo, run_hi, link_ptr, link_z, link_q, lb_weights, cvel, link_a, link_b, link_near, wall_memory,
+    curved, fluid_velocity, box,
     positions, spread_positions, has_spread, forces, velocity, kernel, support,
     elements, gradients, weights, params, node_ptr, node_slots, eforce, j_elem, volumetric, reference_volume,
     node_reference_volume, node_bulk, volume, node_pressure, pressure,
@@ -77,7 +78,8 @@ def _coupled_steps(
         has_spread = True
         _velocity_box(positions, support, box)
         lb_kernels._sweep(A, parity, nz, field, True, run_ptr, run_lo, run_hi, has_walls, wall_corr,
-                          link_ptr, link_z, link_q, consts, lb_weights, cvel, cint, opp, fluid_velocity, box)
+                          link_ptr, link_z, link_q, consts, lb_weights, cvel, cint, opp, link_a, link_b,
+                          link_near, wall_memory, curved, fluid_velocity, box)
         parity = 1 - parity
         ibm._interpolate_field_serial(fluid_velocity, positions, kernel, periodic_y, velocity)
         for m in range(n_markers):
@@ -185,12 +187,12 @@ class ImmersedCell(MarkerState):
             return
         lat = self.lattice
         tables = lat._tables()  # (run_ptr, run_lo, run_hi, has_walls, wall_corr, link_ptr, link_z, link_q,
-        #                          consts, weights, cvel, cint, opp)
+        #                          consts, weights, cvel, cint, opp, link_a, link_b, link_near, memory, curved)
         (A, parity, nz, field, _, consts, has_walls, wall_corr, cint, opp, solid,
          has_solid) = ibm.lattice_arguments(lat)  # fmt: skip
         parity, done, j_min, max_speed = _coupled_steps(
             n_steps, A, parity, nz, field, consts, has_walls, wall_corr, cint, opp, solid, has_solid,
-            tables[0], tables[1], tables[2], tables[5], tables[6], tables[7], tables[9], tables[10],
+            tables[0], tables[1], tables[2], tables[5], tables[6], tables[7], tables[9], tables[10], *tables[13:18],
             self._fluid_velocity, self._box, self.positions, self._spread_positions, self._has_spread,
             self._marker_forces, self._velocity, self._kernel_id, ibm.KERNEL_SUPPORT[self.kernel],
             *self.forces.arguments(),

@@ -81,6 +81,7 @@ from elastocell.parameters.medium import (
 )
 from elastocell.parameters.units import ParameterError, parse_quantity, parse_temperature
 from elastocell.scenarios.pipe import (
+    CHANNEL_WALLS,
     PIPE_HYDRODYNAMIC_RADIUS_CORRECTION,
     PipeFlowParameters,
     pipe_lattice_units,
@@ -329,7 +330,8 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
          channel_width=None, channel_shape=None, channel_height=None, medium=None, temperature=None,
          flow_index=None, extrapolate: bool = False, coarse_resolution: float | None = None,
          stiffness_ratio: float | None = None, size_ratio: float | None = None,
-         channel_length=None, hydrodynamic_radius_correction: float | None = None) -> tuple[list[dict], dict]:
+         channel_length=None, hydrodynamic_radius_correction: float | None = None,
+         channel_wall: str | None = None) -> tuple[list[dict], dict]:
     """Check every input and return (grid points, settings); raises ParameterError (named option) on an
     impossible one, before anything runs. Each point holds its key and the keyword arguments of ``pipe``.
     ``channel_width`` (a square channel's W) replaces ``channel_radius`` (give None for it); ``channel_shape``
@@ -340,7 +342,9 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
     at R - c dx (default :data:`~elastocell.scenarios.pipe.PIPE_HYDRODYNAMIC_RADIUS_CORRECTION`; 0 with
     ``extrapolate`` is the default the pipe had before); ``stiffness_ratio``, ``size_ratio``:
     the nucleated cell model (:func:`cell_model`; the moduli are then the cytoplasm's E_c); ``channel_length``: the
-    shape at the end of a channel of that length (:func:`transit_length`) instead of the stationary shape."""
+    shape at the end of a channel of that length (:func:`transit_length`) instead of the stationary shape;
+    ``channel_wall``: how the lattice places a cylinder's wall, "staircase" (default) or "interpolated"
+    (:data:`~elastocell.scenarios.pipe.CHANNEL_WALLS`; a square duct's walls are the same either way)."""
     from pydantic import ValidationError
 
 
@@ -390,6 +394,11 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
         raise ParameterError("hydrodynamic_radius_correction", f"must be in [0, R/2) = [0, {0.5 * resolution:g}) dx "
                              f"at R/dx {resolution:g}, got {hydrodynamic_radius_correction}")
     flow["hydrodynamic_radius_correction"] = correction
+    wall = "staircase" if channel_wall is None else str(channel_wall)
+    if wall not in CHANNEL_WALLS:
+        raise ParameterError("channel_wall", f"must be one of {', '.join(CHANNEL_WALLS)}, got {channel_wall!r}")
+    if shape == "cylinder" and wall != "staircase":  # the staircase adds nothing: the keys of earlier points stay
+        flow["channel_wall"] = wall
     if not fluid.is_newtonian:
         flow.update(medium=fluid.name, temperature=fluid.temperature)
     coarse = requested_coarse_resolution(bool(extrapolate), resolution, coarse_resolution)
@@ -440,6 +449,7 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
                 "wall_shear_rate_1_s": driving["wall_shear_rate"], "poisson_ratio": float(poisson_ratio),
                 "material": material, "resolution": resolution, "coarse_resolution": coarse, "duration": duration,
                 "hydrodynamic_radius_correction": correction,
+                "channel_wall": wall if shape == "cylinder" else "plane (half-way)",
                 "stationary_tolerance": tolerance, "quick": bool(quick), **cell_settings(cell, poisson_ratio),
                 "state": "stationary" if length is None else f"transit {length * 1e6:g} um"}
     if grid is not None:
@@ -916,7 +926,7 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                 medium=None, temperature=None, flow_index=None, extrapolate: bool = False,
                 coarse_resolution: float | None = None, stiffness_ratio: float | None = None,
                 size_ratio: float | None = None, channel_length=None,
-                hydrodynamic_radius_correction: float | None = None) -> dict:
+                hydrodynamic_radius_correction: float | None = None, channel_wall: str | None = None) -> dict:
     """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``. ``security``:
     a ``distributed.Security`` for a TLS scheduler (docs/usage/cluster.md).
 
@@ -954,7 +964,8 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
                             temperature=temperature, flow_index=flow_index, extrapolate=extrapolate,
                             coarse_resolution=coarse_resolution, stiffness_ratio=stiffness_ratio,
                             size_ratio=size_ratio, channel_length=channel_length,
-                            hydrodynamic_radius_correction=hydrodynamic_radius_correction)
+                            hydrodynamic_radius_correction=hydrodynamic_radius_correction,
+                            channel_wall=channel_wall)
     lattice = check_lattice(points)
     identifier = identifier or f"elastocell-{out.stem}"
     runs = runs_directory(out)

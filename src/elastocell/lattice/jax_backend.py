@@ -19,7 +19,8 @@ One step (collide, then stream), written as whole-array operations that XLA fuse
   e_i = f^eq_i - w_i = w_i [(rho - 1) + rho (3 c_i.u + 9/2 (c_i.u)^2 - 3/2 u^2)] and the Guo source
   S_i = w_i [3 (c_i - u).F + 9 (c_i.u)(c_i.F)];
 * streaming d_i(x) = d*_i(x - c_i) (periodic roll), replaced by the bounce-back value d*_opp(i)(x) on a link
-  that starts in a solid node, and by d*_opp(i)(x) + 6 w_i c_i.u_w on a link that leaves a moving wall.
+  that starts in a solid node (with ``params.wall_fraction``, by its interpolated value, see
+  :mod:`elastocell.lattice.geometry`), and by d*_opp(i)(x) + 6 w_i c_i.u_w on a link that leaves a moving wall.
 
 A chunk of steps is one compiled ``lax.fori_loop``; Python acts only between chunks. On the CPU XLA runs this
 at a fraction of the Numba kernel's speed (``elastocell bench lattice --backend jax`` measures both); the
@@ -33,6 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from elastocell.body.materials import computes_in_float64
+from elastocell.lattice.geometry import build_line_geometry
 from elastocell.lattice.params import LatticeParams, check_body_force
 from elastocell.lattice.rheology import LOG_TWO, ROOT_ITERATIONS, SMALLEST_STRESS
 from elastocell.lattice.solver import Lattice, step_count
@@ -77,6 +79,18 @@ class LatticeTables:
                 bounce[i] = came_from_solid & ~solid
             self.bounce = jnp.asarray(bounce)
             self.fluid = jnp.asarray(~solid)
+        self.curved = self.has_solid and params.wall_fraction is not None
+        self.link_a = self.link_b = self.link_near = None
+        if self.curved:  # interpolated bounce-back, per arriving direction (lattice.geometry's coefficients)
+            geometry = build_line_geometry(params.shape, solid, params.has_walls, params.wall_fraction)
+            line = np.repeat(np.arange(nx * ny), np.diff(geometry.link_ptr))
+            arriving = np.asarray(OPPOSITE)[geometry.link_q]
+            where = (arriving, line // ny, line % ny, geometry.link_z)
+            dtype = params.numpy_dtype
+            a, b = np.ones((Q, nx, ny, nz), dtype), np.zeros((Q, nx, ny, nz), dtype)
+            near = np.zeros((Q, nx, ny, nz), dtype=bool)
+            a[where], b[where], near[where] = geometry.link_a, geometry.link_b, geometry.link_near
+            self.link_a, self.link_b, self.link_near = jnp.asarray(a), jnp.asarray(b), jnp.asarray(near)
         self.has_walls = bool(params.has_walls)
         self.wall_bottom = self.wall_top = (0.0,) * Q
         if self.has_walls:
@@ -85,15 +99,16 @@ class LatticeTables:
             self.wall_top = tuple(6.0 * WEIGHTS * (VELOCITIES @ top))  # for c_iy = -1, entering y = ny - 1
 
     _STATIC = ("omega_plus", "omega_minus", "has_body_force", "has_solid", "has_walls",
-               "wall_bottom", "wall_top", "has_rheology", "rheology")
+               "wall_bottom", "wall_top", "has_rheology", "rheology", "curved")
 
     def tree_flatten(self):
-        return (self.bounce, self.fluid, self.body_force), tuple(getattr(self, name) for name in self._STATIC)
+        arrays = (self.bounce, self.fluid, self.body_force, self.link_a, self.link_b, self.link_near)
+        return arrays, tuple(getattr(self, name) for name in self._STATIC)
 
     @classmethod
     def tree_unflatten(cls, static, arrays):
         tables = cls(None)
-        tables.bounce, tables.fluid, tables.body_force = arrays
+        tables.bounce, tables.fluid, tables.body_force, tables.link_a, tables.link_b, tables.link_near = arrays
         for name, value in zip(cls._STATIC, static, strict=True):
             setattr(tables, name, value)
         return tables
@@ -163,10 +178,15 @@ def collide_and_stream(deviations, force, tables: LatticeTables):
         source = w * (3.0 * (cf - jnp.sum(u * force, axis=0)) + 9.0 * cu * cf)
         post = (post + (1.0 - 0.5 * omega_plus) * 0.5 * (source + source[opposite])
                 + (1.0 - 0.5 * omega_minus) * 0.5 * (source - source[opposite]))  # fmt: skip
+    rolled = [jnp.roll(post[i], shift=tuple(int(s) for s in VELOCITIES[i]), axis=(0, 1, 2)) for i in range(Q)]
     streamed = []
     for i in range(Q):
-        shifted = jnp.roll(post[i], shift=tuple(int(s) for s in VELOCITIES[i]), axis=(0, 1, 2))
-        if tables.has_solid and i > 0:
+        shifted = rolled[i]
+        if tables.has_solid and i > 0 and tables.curved:  # f_i(x) of the link along c_k = -c_i into the solid
+            k = opposite[i]  # near: 2q f*_k(x) + (1-2q) f*_k(x - c_k); far: f*_k(x)/2q + (2q-1)/2q f*_i(x)
+            second = jnp.where(tables.link_near[i], rolled[k], post[i])
+            shifted = jnp.where(tables.bounce[i], tables.link_a[i] * post[k] + tables.link_b[i] * second, shifted)
+        elif tables.has_solid and i > 0:
             shifted = jnp.where(tables.bounce[i], post[opposite[i]], shifted)
         if tables.has_walls and VELOCITIES[i, 1] == 1:  # leaves the bottom wall into y = 0
             shifted = shifted.at[:, 0, :].set(post[opposite[i]][:, 0, :] + dtype.type(tables.wall_bottom[i]))

@@ -53,6 +53,18 @@ steps: the gather replaces the pull from the solid by ``A[x, j] + 6 w_j c_j . u_
 Solid nodes are never written (writes are restricted to the fluid runs of each
 line); their slots are don't-care storage.
 
+Interpolated (curved-wall) bounce-back (``curved``; coefficients in ``lattice.geometry``) stays race free:
+
+* odd-step gather (bounce-back of the even collision): a near link (q < 1/2) weights the even step's
+  f*_i(x), in A[x, opp(i)], with the population f_i(x) just pulled from x - c_i; a far link weights it with
+  the even step's f*_opp(i)(x), which the even step kept in ``memory[link]`` (its slot belongs to the
+  neighbour x - c_i in the odd step and may already be overwritten);
+* odd-step scatter (bounce-back of the odd collision): a far link writes its whole value from this node's
+  f*; a near link writes its part 2q f*_i(x), and the next local step adds (1 - 2q) A[x, i], the population
+  that arrived along the link, before it collides. After an odd step (parity 0) the slot of a near link thus
+  holds f_opp(i) - (1 - 2q) f_i: :meth:`elastocell.lattice.solver.Lattice.set_population_deviations` stores
+  that form, and every local pass (step, export, moments) completes it.
+
 Collision (per node, relative storage f~ = f - w)
 -------------------------------------------------
 rho = 1 + sum f~_i,  u = (sum c_i f~_i + F/2) / rho,
@@ -435,10 +447,13 @@ def _scatter_local(A, buf, x, y, z0, nb, line, run_ptr, run_lo, run_hi, opp):
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def _gather_neighbours(
-    A, buf, x, y, z0, nb, nz, line, has_walls, wall_corr, link_ptr, link_z, link_q, cint, opp
+    A, buf, x, y, z0, nb, nz, line, has_walls, wall_corr, link_ptr, link_z, link_q, cint, opp,
+    link_a, link_b, link_near, memory, curved,
 ):
     """Odd step: pull f_i(x) = A[x - c_i, opp(i)] (periodic) for the block, then replace
-    pulls out of a y-wall or a solid node by the bounce-back value A[x, i] + wall_corr."""
+    pulls out of a y-wall or a solid node by the bounce-back value A[x, i] + wall_corr (with ``curved``, the
+    interpolated value of ``lattice.geometry``: the even step's f* of the link, A[x, opp(i)], weighted with the
+    population just pulled along the link (near) or with the even step's f*_opp(i)(x) kept in ``memory`` (far))."""
     nx = A.shape[0]
     ny = A.shape[1]
     z1 = z0 + nb
@@ -482,11 +497,21 @@ def _gather_neighbours(
                 base = i * BLOCK - z0
                 for z in range(z0, z1):
                     buf[U(base + z)] = A[x, y, i, U(z)] + c
+    if not curved:
+        for n in range(link_ptr[line], link_ptr[line + 1]):
+            z = link_z[n]
+            if z0 <= z < z1:
+                j = opp[link_q[n]]  # population coming out of the solid
+                buf[U(j * BLOCK + z - z0)] = A[x, y, j, U(z)]
+        return
     for n in range(link_ptr[line], link_ptr[line + 1]):
         z = link_z[n]
         if z0 <= z < z1:
-            j = opp[link_q[n]]  # population coming out of the solid
-            buf[U(j * BLOCK + z - z0)] = A[x, y, j, U(z)]
+            i = link_q[n]  # population that went into the solid
+            j = opp[i]  # population coming out of it
+            k = z - z0
+            second = buf[U(i * BLOCK + k)] if link_near[n] else memory[n]
+            buf[U(j * BLOCK + k)] = link_a[n] * A[x, y, j, U(z)] + link_b[n] * second
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
@@ -509,9 +534,16 @@ def _scatter_neighbours(
     link_q,
     cint,
     opp,
+    link_a,
+    link_b,
+    link_near,
+    curved,
 ):
     """Odd step: push A[x + c_i, i] = f*_i from the fluid nodes of the block; links into a
-    y-wall or a solid node bounce back into A[x, opp(i)] (+ moving-wall term)."""
+    y-wall or a solid node bounce back into A[x, opp(i)] (+ moving-wall term). With ``curved`` the bounce-back
+    is interpolated (``lattice.geometry``): a far link writes its whole value from this node's f*; a near link
+    writes its part 2q f*_i(x), completed by the next (local) step with the population streamed along the
+    link (:func:`_complete_near_links`)."""
     nx = A.shape[0]
     ny = A.shape[1]
     z1 = z0 + nb
@@ -571,11 +603,48 @@ def _scatter_neighbours(
                     start = 1
                 for z in range(start, hi):
                     A[xd, yd, i, U(z - 1)] = buf[U(base + z)]
+    if not curved:
+        for n in range(link_ptr[line], link_ptr[line + 1]):
+            z = link_z[n]
+            if z0 <= z < z1:
+                i = link_q[n]  # population heading into the solid
+                A[x, y, opp[i], U(z)] = buf[U(i * BLOCK + z - z0)]
+        return
     for n in range(link_ptr[line], link_ptr[line + 1]):
         z = link_z[n]
         if z0 <= z < z1:
             i = link_q[n]  # population heading into the solid
-            A[x, y, opp[i], U(z)] = buf[U(i * BLOCK + z - z0)]
+            j = opp[i]
+            k = z - z0
+            value = link_a[n] * buf[U(i * BLOCK + k)]
+            if not link_near[n]:
+                value += link_b[n] * buf[U(j * BLOCK + k)]
+            A[x, y, j, U(z)] = value
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _complete_near_links(buf, z0, nb, line, link_ptr, link_z, link_q, link_b, link_near, opp):
+    """Local (even) step, after the gather: a near link's returning population f_opp(i)(x), of which the odd
+    step stored 2q f*_i(x), gains (1 - 2q) f_i(x) = (1 - 2q) f*_i(x - c_i), the population that arrived along
+    the link."""
+    z1 = z0 + nb
+    for n in range(link_ptr[line], link_ptr[line + 1]):
+        z = link_z[n]
+        if link_near[n] and z0 <= z < z1:
+            i = link_q[n]
+            k = z - z0
+            buf[U(opp[i] * BLOCK + k)] += link_b[n] * buf[U(i * BLOCK + k)]
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _remember_far_links(buf, z0, nb, line, link_ptr, link_z, link_q, link_near, opp, memory):
+    """Local (even) step, after the collision: keep f*_opp(i)(x) of each far link for the next (odd) step's
+    interpolated bounce-back, whose slot a neighbour overwrites in the meantime."""
+    z1 = z0 + nb
+    for n in range(link_ptr[line], link_ptr[line + 1]):
+        z = link_z[n]
+        if not link_near[n] and z0 <= z < z1:
+            memory[n] = buf[U(opp[link_q[n]] * BLOCK + z - z0)]
 
 
 @njit(cache=True, error_model="numpy")
@@ -660,6 +729,11 @@ def _sweep(
     cvel,
     cint,
     opp,
+    link_a,
+    link_b,
+    link_near,
+    memory,
+    curved,
     out,
     box,
 ):
@@ -691,6 +765,8 @@ def _sweep(
                 nb = min(BLOCK, nz - z0)
                 if local:
                     _gather_local(A, buf, x, y, z0, nb)
+                    if curved:
+                        _complete_near_links(buf, z0, nb, line, link_ptr, link_z, link_q, link_b, link_near, opp)
                 else:
                     _gather_neighbours(
                         A,
@@ -708,6 +784,11 @@ def _sweep(
                         link_q,
                         cint,
                         opp,
+                        link_a,
+                        link_b,
+                        link_near,
+                        memory,
+                        curved,
                     )
                 if moments:
                     _load_force(buf, force, has_field, x, y, z0, nb, consts)
@@ -728,6 +809,8 @@ def _sweep(
                 if store_line:
                     _store_velocity(buf, out, x, y, z0, nb, nz, line, run_ptr, run_lo, run_hi, box)
                 if local:
+                    if curved and mode == MODE_EVEN:
+                        _remember_far_links(buf, z0, nb, line, link_ptr, link_z, link_q, link_near, opp, memory)
                     _scatter_local(A, buf, x, y, z0, nb, line, run_ptr, run_lo, run_hi, opp)
                 else:
                     _scatter_neighbours(
@@ -749,6 +832,10 @@ def _sweep(
                         link_q,
                         cint,
                         opp,
+                        link_a,
+                        link_b,
+                        link_near,
+                        curved,
                     )
 
 
@@ -773,6 +860,11 @@ def run_steps(
     cvel,
     cint,
     opp,
+    link_a,
+    link_b,
+    link_near,
+    memory,
+    curved,
     out,
 ):
     """Advance n_steps time steps inside compiled code; returns the new AA parity
@@ -799,6 +891,11 @@ def run_steps(
             cvel,
             cint,
             opp,
+            link_a,
+            link_b,
+            link_near,
+            memory,
+            curved,
             out,
             no_box,
         )
@@ -811,7 +908,7 @@ def moments(A, parity, nz, force, has_field, tables, out):
     from the pre-collision populations, in the storage dtype.
 
     tables = (run_ptr, run_lo, run_hi, has_walls, wall_corr, link_ptr, link_z, link_q,
-    consts, weights, cvel, cint, opp), as for ``run_steps``."""
+    consts, weights, cvel, cint, opp, link_a, link_b, link_near, memory, curved), as for ``run_steps``."""
     mode = MODE_MOMENTS_ODD if parity else MODE_MOMENTS_EVEN
     _sweep(A, mode, nz, force, has_field, *tables, out, NO_BOX)
 

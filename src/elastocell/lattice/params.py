@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -71,7 +72,13 @@ class LatticeParams:
         y = -1/2 and y = ny - 1/2, with the given velocities (dx/dt); each entry is a
         scalar x-velocity or a tangential 3-vector (y-component 0). Couette: (-U, +U).
     solid : bool array (nx, ny, nz), optional
-        Solid nodes; half-way bounce-back on every fluid-solid link (walls at rest).
+        Solid nodes; bounce-back on every fluid-solid link (walls at rest).
+    wall_fraction : callable, optional
+        Where the wall of ``solid`` crosses each fluid-solid link: ``q = wall_fraction(x, c)`` for the fluid
+        nodes x (n, 3) and link directions c_i (n, 3) (float64, lattice units), the wall at x + q c_i with
+        0 < q <= 1; the links then bounce back linearly interpolated (Bouzidi et al. 2001, see
+        :mod:`elastocell.lattice.geometry`), so a curved wall is not a staircase. None (default): the wall lies
+        half-way on every link (q = 1/2, plain bounce-back).
     body_force : 3 floats
         Uniform body-force density g (force per volume, rho0 dx/dt^2), added to any
         per-node force density field given later with ``Lattice.set_force_density``.
@@ -95,6 +102,7 @@ class LatticeParams:
     body_force: tuple[float, float, float] = (0.0, 0.0, 0.0)
     velocity_limit: float = DEFAULT_VELOCITY_LIMIT
     rheology: PowerLaw | None = None
+    wall_fraction: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -181,6 +189,8 @@ class LatticeParams:
             solid = np.ascontiguousarray(solid, dtype=np.bool_).copy()
             solid.setflags(write=False)
             set_(self, "solid", solid if solid.any() else None)
+        if self.wall_fraction is not None and not callable(self.wall_fraction):
+            raise ValueError(f"wall_fraction must be None or a function q(x, c), got {self.wall_fraction!r}")
         # --- body force
         g = np.asarray(self.body_force, dtype=np.float64)
         if g.shape != (3,) or not np.all(np.isfinite(g)):

@@ -2,7 +2,8 @@
 
 It works on absolute populations f_i in the standard ``(19, nx, ny, nz)`` order and
 implements the same physics as :mod:`elastocell.lattice.kernels` independently:
-collide (TRT/BGK + Guo forcing) then stream with half-way bounce-back. Slow; tests only.
+collide (TRT/BGK + Guo forcing) then stream with half-way bounce-back, or the interpolated one where the
+parameters give a ``wall_fraction``. Slow; tests only.
 """
 
 from __future__ import annotations
@@ -68,6 +69,8 @@ def reference_stream(f_post: np.ndarray, params: LatticeParams) -> np.ndarray:
                 came_from_solid[:, 0 if VELOCITIES[i, 1] > 0 else ny - 1, :] = False
             mask = came_from_solid & ~solid
             f_new[i][mask] = f_post[OPPOSITE[i]][mask]
+            if params.wall_fraction is not None and mask.any():
+                _interpolated_bounce_back(f_new, f_post, params, i, mask)
     if params.has_walls:
         bottom, top = (np.asarray(v, dtype=np.float64) for v in params.wall_velocity)
         for i in range(Q):
@@ -83,6 +86,28 @@ def reference_stream(f_post: np.ndarray, params: LatticeParams) -> np.ndarray:
     if solid is not None:
         f_new[:, solid] = WEIGHTS[:, None]
     return f_new
+
+
+def _interpolated_bounce_back(f_new, f_post, params: LatticeParams, i: int, mask: np.ndarray) -> None:
+    """Bouzidi, Firdaouss & Lallemand (2001), written out for the links arriving along c_i at the fluid nodes of
+    ``mask`` from a solid node: the link goes out along c_k = -c_i with the wall at x + q c_k; with q < 1/2
+    f_i(x) = 2q f*_k(x) + (1 - 2q) f*_k(x - c_k), else f_i(x) = f*_k(x)/(2q) + (1 - 1/(2q)) f*_i(x); half-way
+    (f*_k(x)) where x - c_k is solid itself or beyond a y-wall."""
+    k = OPPOSITE[i]
+    nodes = np.argwhere(mask)
+    q = np.asarray(params.wall_fraction(nodes.astype(np.float64),
+                                        np.repeat(VELOCITIES[k][None].astype(np.float64), len(nodes), 0)))
+    for (x, y, z), fraction in zip(nodes, q, strict=True):
+        behind = np.array([x, y, z]) - VELOCITIES[k]
+        if params.has_walls and not 0 <= behind[1] < params.shape[1]:
+            continue
+        bx, by, bz = behind % np.asarray(params.shape)
+        if params.solid[bx, by, bz]:
+            continue
+        if fraction < 0.5:
+            f_new[i, x, y, z] = 2 * fraction * f_post[k, x, y, z] + (1 - 2 * fraction) * f_post[k, bx, by, bz]
+        else:
+            f_new[i, x, y, z] = f_post[k, x, y, z] / (2 * fraction) + (1 - 1 / (2 * fraction)) * f_post[i, x, y, z]
 
 
 def reference_step(

@@ -47,7 +47,7 @@ def step_count(n) -> int:
 
 
 class Lattice:
-    """D3Q19 lattice Boltzmann fluid (TRT or BGK, Guo forcing, half-way bounce-back).
+    """D3Q19 lattice Boltzmann fluid (TRT or BGK, Guo forcing, half-way or interpolated bounce-back).
 
     Lattice units throughout: dx = dt = 1, rho0 = 1, c_s^2 = 1/3; velocities in dx/dt,
     force densities in rho0 dx/dt^2, kinematic viscosity nu = (tau - 1/2)/3 in dx^2/dt.
@@ -83,7 +83,13 @@ class Lattice:
         self.time_step = 0
         """Number of time steps taken since the last :meth:`initialize` (dt)."""
 
-        self._geometry = build_line_geometry(self.shape, params.solid, params.has_walls)
+        self._geometry = build_line_geometry(self.shape, params.solid, params.has_walls, params.wall_fraction)
+        g = self._geometry
+        self._curved = params.wall_fraction is not None and g.n_links > 0
+        self._link_a = g.link_a.astype(self.dtype)
+        self._link_b = g.link_b.astype(self.dtype)
+        self._link_near = g.link_near.copy()
+        self._wall_memory = np.zeros(g.n_links, dtype=self.dtype)  # far links' f*_opp(i) of the last even step
         self._solid = params.solid
         self._consts = kernels.make_consts(
             1.0 / params.relaxation_time_plus,
@@ -170,6 +176,15 @@ class Lattice:
         self._storage[..., :nz] = np.moveaxis(f, 0, 2)
         self._storage[..., nz:] = 0
         self._parity = 0
+        if self._curved:  # a near link's slot holds f_opp(i) - (1 - 2q) f_i at parity 0 (see ``kernels``)
+            g = self._geometry
+            near = g.link_near
+            line = np.repeat(np.arange(g.link_ptr.size - 1), np.diff(g.link_ptr))[near]
+            x, y, z = line // self.shape[1], line % self.shape[1], g.link_z[near]
+            i = g.link_q[near]
+            self._storage[x, y, self._opp[i], z] = (f[self._opp[i], x, y, z]
+                                                    - g.link_b[near] * f[i, x, y, z]).astype(self.dtype)
+            self._wall_memory[:] = 0
         if self._solid is not None:
             # solid nodes at rest; the mask indexes (x, y, z), storage is (x, y, q, z)
             view = np.moveaxis(self._storage[..., :nz], 2, 0)
@@ -240,6 +255,7 @@ class Lattice:
             g.run_ptr, g.run_lo, g.run_hi, self.params.has_walls, self._wall_corr,
             g.link_ptr, g.link_z, g.link_q,
             self._consts, self._weights, self._cvel, self._cint, self._opp,
+            self._link_a, self._link_b, self._link_near, self._wall_memory, self._curved,
         )  # fmt: skip
 
     # ------------------------------------------------------------------ time stepping
@@ -267,10 +283,14 @@ class Lattice:
         field = np.zeros((3,) + self.shape, self.dtype) if self._force_field is None else self._force_field
         return {"storage": self._storage, "parity": np.array(self._parity),
                 "lattice_time_step": np.array(self.time_step), "force_density": field,
-                "has_force_density": np.array(self._force_field is not None)}
+                "has_force_density": np.array(self._force_field is not None), "wall_memory": self._wall_memory}
 
     def load_state_arrays(self, data) -> None:
         self._storage[...] = data["storage"]
+        if "wall_memory" in data and data["wall_memory"].shape == self._wall_memory.shape:
+            self._wall_memory[...] = data["wall_memory"]
+        elif self._curved:
+            raise ValueError("the state has no wall memory for this lattice's interpolated walls")
         self._parity = int(data["parity"])
         self.time_step = int(data["lattice_time_step"])
         self.set_force_density(data["force_density"] if bool(data["has_force_density"]) else None)

@@ -102,6 +102,37 @@ def channel_solid(shape: tuple[int, int, int], radius: float) -> np.ndarray:
     return np.broadcast_to(r2 > radius * radius, (nx, ny, nz)).copy()
 
 
+CHANNEL_WALLS = ("staircase", "interpolated")
+"""How the lattice places a cylinder's wall: "staircase" (half-way bounce-back on the solid nodes r > R_ch, the
+wall of each link half-way between its nodes) or "interpolated" (linearly interpolated bounce-back with the wall at
+r = R_ch on every link, Bouzidi et al. 2001; :mod:`elastocell.lattice.geometry`). A duct's plane walls lie
+half-way by construction: both are the same there."""
+
+
+def cylinder_wall_fraction(shape: tuple[int, int, int], radius: float):
+    """q(x, c) of the cylinder r = ``radius`` (dx) about the channel axis: the fraction of each link from a fluid
+    node x along c_i at which it crosses the wall, from |p + q d| = R_ch in the cross-section (p, d the (y, z)
+    parts of x - axis and c_i); for :class:`~elastocell.lattice.params.LatticeParams` ``wall_fraction``."""
+    ay, az = channel_axis(shape)
+
+    def wall_fraction(x: np.ndarray, c: np.ndarray) -> np.ndarray:
+        py, pz, dy, dz = x[:, 1] - ay, x[:, 2] - az, c[:, 1], c[:, 2]
+        a = dy * dy + dz * dz  # > 0: a link along x alone never leaves the cylinder
+        half_b = py * dy + pz * dz
+        inside = radius * radius - (py * py + pz * pz)  # >= 0 for a fluid node
+        return (-half_b + np.sqrt(half_b * half_b + a * inside)) / a
+
+    return wall_fraction
+
+
+def channel_wall_fraction(channel: str, wall: str, shape: tuple[int, int, int], half_width: float):
+    """The lattice's ``wall_fraction`` for a channel and a :data:`CHANNEL_WALLS` choice: None unless an
+    interpolated cylinder."""
+    if wall not in CHANNEL_WALLS:
+        raise ParameterError("channel_wall", f"must be one of {', '.join(CHANNEL_WALLS)}, got {wall!r}")
+    return cylinder_wall_fraction(shape, half_width) if channel == "cylinder" and wall == "interpolated" else None
+
+
 def radial_distance(shape: tuple[int, int, int]) -> np.ndarray:
     """Distance of every cross-section node (ny, nz) from the axis (dx)."""
     ay, az = channel_axis(shape)
@@ -238,17 +269,19 @@ def ideal_flow_rate(units: PipeUnits) -> float:
 
 def empty_channel(radius: float, length: int = 4, relaxation_time: float = 1.0, body_force: float = 1e-6,
                   dtype: str = "float64", initialize: bool = True, channel: str = "cylinder",
-                  aspect_ratio: float = 1.0, rheology: PowerLaw | None = None) -> Lattice:
+                  aspect_ratio: float = 1.0, rheology: PowerLaw | None = None, wall: str = "staircase") -> Lattice:
     """Lattice of an empty channel driven by ``body_force`` along x: a cylinder of radius ``radius`` (dx) or a
     duct (``channel`` "square"/"rectangle") of half-width ``radius`` and height/width ``aspect_ratio``; with
     ``initialize`` the fluid starts from the Newtonian closed form at the viscosity of ``relaxation_time`` (the
-    lattice then relaxes it to its own steady state). ``rheology``: a power-law medium (None: Newtonian)."""
+    lattice then relaxes it to its own steady state). ``rheology``: a power-law medium (None: Newtonian).
+    ``wall``: one of :data:`CHANNEL_WALLS`."""
     shape, solid, a, b = channel_geometry(channel, radius, aspect_ratio, length)
     viscosity = (relaxation_time - 0.5) / 3.0
     profile = newtonian_profile(shape, channel, body_force, viscosity, a, b)
     lattice = Lattice(LatticeParams(shape, relaxation_time=relaxation_time, dtype=dtype, solid=solid,
                                     body_force=(body_force, 0.0, 0.0), rheology=rheology,
-                                    velocity_limit=min(0.5, max(0.05, 1.5 * float(profile.max())))))
+                                    velocity_limit=min(0.5, max(0.05, 1.5 * float(profile.max()))),
+                                    wall_fraction=channel_wall_fraction(channel, wall, shape, a)))
     if initialize:
         velocity = np.zeros((3,) + shape)
         velocity[0] = profile[None]
@@ -269,16 +302,18 @@ def newtonian_profile(shape, channel: str, body_force: float, viscosity: float, 
 
 def steady_profile(shape, solid: np.ndarray, body_force: float, relaxation_time: float,
                    rheology: PowerLaw | None, channel: str, half_width: float, half_height: float,
-                   dtype: str = "float64", tolerance: float = 1e-7) -> np.ndarray:
+                   dtype: str = "float64", tolerance: float = 1e-7, wall: str = "staircase") -> np.ndarray:
     """The lattice's own steady u_x on the cross-section (ny, nz): one node-thick periodic slice of the channel
-    relaxed from the Newtonian closed form (a few thousand steps on ny nz nodes; any medium and cross-section)."""
+    relaxed from the Newtonian closed form (a few thousand steps on ny nz nodes; any medium and cross-section;
+    ``wall`` one of :data:`CHANNEL_WALLS`)."""
     viscosity = (relaxation_time - 0.5) / 3.0
     profile = newtonian_profile(shape, channel, body_force, viscosity, half_width, half_height)
     limit = min(0.5, max(0.05, 3.0 * float(profile.max())))
     section = (1, shape[1], shape[2])
     lattice = Lattice(LatticeParams(section, relaxation_time=relaxation_time, dtype=dtype,
                                     solid=solid[:1], body_force=(body_force, 0.0, 0.0), rheology=rheology,
-                                    velocity_limit=limit))
+                                    velocity_limit=limit,
+                                    wall_fraction=channel_wall_fraction(channel, wall, section, half_width)))
     velocity = np.zeros((3,) + section)
     velocity[0] = profile[None]
     lattice.initialize(velocity=velocity)
@@ -315,12 +350,12 @@ def relax_to_steady(lattice: Lattice, tolerance: float = 1e-7, chunk: int | None
 
 
 def poiseuille_error(radius: float, relaxation_time: float = 1.0, body_force: float = 1e-6, length: int = 2,
-                     dtype: str = "float64", tolerance: float = 1e-8) -> dict:
-    """Steady empty channel against the closed form at R_ch = ``radius`` dx.
+                     dtype: str = "float64", tolerance: float = 1e-8, wall: str = "staircase") -> dict:
+    """Steady empty channel (``wall`` one of :data:`CHANNEL_WALLS`) against the closed form at R_ch = ``radius`` dx.
 
     Returns the relative errors of the flow rate (Q_lattice/Q - 1), of the centre-line speed, and the L2
     error of the profile over the fluid nodes relative to the L2 norm of the closed form, plus the steps."""
-    lattice = empty_channel(radius, length, relaxation_time, body_force, dtype)
+    lattice = empty_channel(radius, length, relaxation_time, body_force, dtype, wall=wall)
     steps = relax_to_steady(lattice, tolerance)
     viscosity = lattice.kinematic_viscosity
     shape = lattice.shape
@@ -490,6 +525,12 @@ class PipeFlowParameters(FlowLatticeParameters):
         and H rounded to whole lattice nodes). For a duct R_ch is the half-width and Ca_w = G R_ch/(2 mu_ref) is
         the mean wall shear stress over mu_ref for the square (G A/P).
     channel_aspect_ratio: H/W of a rectangle (1 for the square).
+    channel_wall: how the lattice places the cylinder's wall (:data:`CHANNEL_WALLS`): "staircase" (default; the
+        wall half-way on every link to the solid nodes r > R_ch) or "interpolated" (the wall at r = R_ch on every
+        link, linearly interpolated bounce-back; the empty channel's profile error falls from 2-6 % to 0.3-1 % of
+        u_max at R_ch 6.6-14.6 dx, :func:`poiseuille_error`). A duct's walls are the same either way. The
+        default is left out of the parameters' dump, so that the keys of runs made before the choice existed
+        stay valid.
     hold_flow_rate: True (default): the flow rate Q is held at that of the nominal driving G in the ideal channel
         (a syringe pump, as RT-DC and dclab's tables: :func:`ideal_flow_rate`); the body force is rescaled after
         every record, G <- G (Q_ideal/Q)^n (n the flow index), so that the cell's own resistance in the periodic
@@ -512,6 +553,7 @@ class PipeFlowParameters(FlowLatticeParameters):
     max_steps_per_time: float = 1.0e6
     channel_shape: Literal["cylinder", "square", "rectangle"] = "cylinder"
     channel_aspect_ratio: float = 1.0
+    channel_wall: Literal["staircase", "interpolated"] = "staircase"
     medium: str = "newtonian"
     temperature: float | None = None
     flow_index: float | None = None
@@ -553,6 +595,8 @@ class PipeFlowParameters(FlowLatticeParameters):
         data = handler(self)
         if self.hydrodynamic_radius_correction == 0.0:
             data.pop("hydrodynamic_radius_correction", None)
+        if self.channel_wall == "staircase":  # what runs made before the choice existed had
+            data.pop("channel_wall", None)
         if not self.hold_flow_rate:  # G held: what runs without the field always did (their keys stay valid); so
             data.pop("hold_flow_rate", None)  # rebuild a model from dict(params), not from this dump
         return data
@@ -698,7 +742,7 @@ def pipe_lattice_units(cell, params: PipeFlowParameters) -> PipeUnits:
     rheology = None if fluid.is_newtonian else PowerLaw.matching(fluid.flow_index, viscosity, rate)
     if rheology is not None:  # the empty channel's own centre speed
         centre_speed = float(channel_profile(shape, params.channel_shape, channel_radius, half_height, body_force,
-                                             tau, rheology).max())
+                                             tau, rheology, params.channel_wall).max())
     return PipeUnits(
         radius=radius,
         channel_radius=channel_radius,
@@ -726,11 +770,11 @@ def pipe_lattice_units(cell, params: PipeFlowParameters) -> PipeUnits:
 
 @functools.lru_cache(maxsize=8)
 def channel_profile(shape, channel: str, half_width: float, half_height: float, body_force: float,
-                    relaxation_time: float, rheology: PowerLaw | None) -> np.ndarray:
+                    relaxation_time: float, rheology: PowerLaw | None, wall: str = "staircase") -> np.ndarray:
     """The steady u_x (ny, nz) of the empty channel on its lattice (:func:`steady_profile`, float64; cached)."""
     solid = channel_geometry(channel, half_width, half_height / half_width, 1)[1]
     out = steady_profile((1,) + tuple(shape[1:]), solid, body_force, relaxation_time, rheology, channel, half_width,
-                         half_height)
+                         half_height, wall=wall)
     out.setflags(write=False)
     return out
 
@@ -744,14 +788,15 @@ def pipe_setup(cell, params: PipeFlowParameters, units: PipeUnits | None = None)
     lattice_params = LatticeParams(
         shape, relaxation_time=units.relaxation_time, dtype=params.dtype, solid=solid,
         body_force=(units.body_force, 0.0, 0.0), rheology=units.rheology,
-        velocity_limit=max(params.velocity_limit, units.centre_speed) * 1.2)
+        velocity_limit=max(params.velocity_limit, units.centre_speed) * 1.2,
+        wall_fraction=channel_wall_fraction(units.channel, params.channel_wall, shape, units.channel_radius))
     velocity = np.zeros((3,) + shape)
     if units.channel == "cylinder" and units.rheology is None:
         velocity[0] = poiseuille_velocity(radial_distance(shape), units.body_force, units.viscosity,
                                           units.channel_radius)[None]
     else:  # the lattice's own steady empty channel
         velocity[0] = channel_profile(shape, units.channel, a, b, units.body_force, units.relaxation_time,
-                                      units.rheology)[None]
+                                      units.rheology, params.channel_wall)[None]
     return immersed_cell(params.backend, lattice_params, velocity, cell, units, params.kernel,
                          params.hydrodynamic_radius_correction)
 

@@ -1,0 +1,81 @@
+"""The RT-DC look-up tables that ship with elastocell, and their registration in dclab by one call.
+
+A shipped table is a file ``elastocell/data/lut_<name>.txt`` written by ``elastocell lut`` (dclab's text format,
+:mod:`elastocell.inverse.lut`), with its isoelastics beside it (``lut_<name>_isoelastics.txt``). Its metadata
+hold dclab's ``identifier``, channel, flow rate and fluid viscosity, and elastocell's settings (medium,
+temperature, resolution, which points reached a stationary shape).
+
+    import elastocell, dclab
+    elastocell.register_lut()            # every shipped table, by its identifier
+    ds = dclab.new_dataset("measurement.rtdc")
+    ds.config["calculation"] = {"emodulus lut": "elastocell-...", "emodulus medium": "0.59% MC-PBS",
+                                "emodulus temperature": 23.0, "emodulus viscosity model": "buyukurganci-2022"}
+    ds["emodulus"]
+
+dclab then scales the table to the measurement's flow rate, channel width and viscosity as for its own tables.
+"""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+from elastocell.inverse.lut import isoelastics_path, read_lut
+from elastocell.parameters.units import ParameterError
+
+SHIPPED_PREFIX = "lut_"
+"""File names of shipped tables: ``lut_<name>.txt`` in ``elastocell/data`` (the isoelastics end in
+``_isoelastics.txt``)."""
+
+
+def data_directory() -> Path:
+    """The package's data directory (``elastocell/data``)."""
+    return Path(str(resources.files("elastocell") / "data"))
+
+
+def shipped_luts(directory: Path | None = None) -> dict[str, dict]:
+    """The shipped tables by dclab identifier: ``{"path", "isoelastics" (or None), "metadata"}`` each, in file
+    name order. ``directory``: where to look (default :func:`data_directory`)."""
+    directory = data_directory() if directory is None else Path(directory)
+    tables = {}
+    for path in sorted(directory.glob(f"{SHIPPED_PREFIX}*.txt")):
+        if path.name.endswith("_isoelastics.txt"):
+            continue
+        _, metadata, _ = read_lut(path)
+        identifier = metadata["identifier"]
+        if identifier in tables:
+            raise ValueError(f"two shipped tables have the identifier {identifier!r}: {tables[identifier]['path']} "
+                             f"and {path}")
+        isoelastics = isoelastics_path(path)
+        tables[identifier] = {"path": path, "isoelastics": isoelastics if isoelastics.is_file() else None,
+                              "metadata": metadata}
+    return tables
+
+
+def register_lut(identifier: str | None = None, directory: Path | None = None) -> dict[str, Path]:
+    """Register the shipped tables (or the one named ``identifier``) with dclab
+    (``dclab.features.emodulus.register_lut``), so that dclab computes ``emodulus`` with ``"emodulus lut"`` set to
+    their identifier; returns {identifier: path}. A table already registered from the same file is left as it is
+    (calling twice is harmless); an identifier dclab already holds for another file is refused (ParameterError), as
+    is an unknown ``identifier`` or a package that ships no table."""
+    from dclab.features.emodulus import load  # lazy: dclab only for this call
+
+    tables = shipped_luts(directory)
+    if not tables:
+        raise ParameterError("identifier", f"this version of elastocell ships no look-up table (none in "
+                             f"{data_directory() if directory is None else directory}); make one with elastocell lut "
+                             "and register it with dclab.features.emodulus.register_lut(FILE)")
+    if identifier is not None:
+        if identifier not in tables:
+            raise ParameterError("identifier", f"no shipped table {identifier!r}; shipped: {', '.join(tables)}")
+        tables = {identifier: tables[identifier]}
+    registered = {}
+    for name, table in tables.items():
+        path = table["path"]
+        held = load.EXTERNAL_LUTS.get(name)
+        if held is not None and Path(held).resolve() != path.resolve():
+            raise ParameterError("identifier", f"dclab already holds a table {name!r} from {held}, not {path}")
+        if held is None:
+            load.register_lut(path, identifier=name)
+        registered[name] = path
+    return registered
