@@ -72,12 +72,13 @@ def test_plan_units_and_grid():
     assert settings["hydrodynamic_radius_correction"] == 0.0
     assert all(p["options"]["hydrodynamic_radius_correction"] == 0.0 for p in earlier)
     assert not {p["key"] for p in earlier} & {p["key"] for p in full}
-    # the cylinder's wall: the staircase (default) adds nothing to the options, so earlier points keep their keys;
-    # the interpolated wall is said in the options and the settings, and its points are other points
-    assert all("channel_wall" not in p["options"] for p in full) and settings["channel_wall"] == "staircase"
-    curved, curved_settings = plan("10um", "0.04uL/s", "15mPa*s", channel_wall="interpolated")
-    assert all(p["options"]["channel_wall"] == "interpolated" for p in curved)
-    assert curved_settings["channel_wall"] == "interpolated" and not {p["key"] for p in curved} & {p["key"] for p in full}
+    # the cylinder's wall, said in the options and the settings: the interpolated wall (default), or the staircase,
+    # which resolves as the points made before the choice (their keys stay) and makes other points
+    assert all(p["options"]["channel_wall"] == "interpolated" for p in full)
+    staircase, staircase_settings = plan("10um", "0.04uL/s", "15mPa*s", channel_wall="staircase")
+    assert all(p["options"]["channel_wall"] == "staircase" for p in staircase)
+    assert all("channel_wall" not in resolved_parameters("pipe", p["options"])["flow"].model_dump() for p in staircase)
+    assert staircase_settings["channel_wall"] == "staircase" and not {p["key"] for p in staircase} & {p["key"] for p in full}
     with pytest.raises(ParameterError, match="channel_wall"):
         plan("10um", "0.04uL/s", "15mPa*s", channel_wall="smooth")
     # extrapolated: a cell above R_ch/(1 + 2/6) = 7.5 um in R_ch = 10 um keeps the kernel's reach + 1 dx from the

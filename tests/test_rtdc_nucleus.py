@@ -71,14 +71,16 @@ def test_dclab_reads_its_own_table_back():
 # =========================================================================== the look-up table's nucleus options
 def test_a_homogeneous_table_keeps_its_keys():
     # The run keys of the quick grid as the table computed them before the nucleus options existed (a cache
-    # made then is read back, not recomputed): those runs held the pressure gradient with the markers at R, so a
-    # point holding G (hold_flow_rate=False) with c = 0 (both left out of the parameters) keeps that key, and one of
-    # the defaults (the flow rate held, the markers at R - 0.3 dx) has another.
+    # made then is read back, not recomputed): those runs held the pressure gradient with the markers at R on the
+    # staircase wall, so a point holding G (hold_flow_rate=False) with c = 0 on the staircase (all three left out of
+    # the parameters) keeps that key, and one of the defaults (the flow rate held, the markers at R - 0.3 dx, the
+    # interpolated wall) has another.
     from elastocell.inverse.lut import point_key
 
     points, settings = plan("10.94um", "0.04uL/s", "15mPa*s", quick=True)
     held_g = [point_key(p["radius_um"], p["emodulus_kpa"],
-                        {**p["options"], "hold_flow_rate": False, "hydrodynamic_radius_correction": 0.0})
+                        {**p["options"], "hold_flow_rate": False, "hydrodynamic_radius_correction": 0.0,
+                         "channel_wall": "staircase"})
               for p in points]
     assert held_g == ["R5um_E1kPa_66eca0adff", "R5um_E2kPa_25e4ba55e8", "R6um_E1kPa_755b393729",
                       "R6um_E2kPa_9b3eba19ac"]

@@ -11,7 +11,8 @@ The empty channel: a steady periodic slice of a cylinder of radius R_ch (dx), ta
 u = G (R_ch^2 - r^2)/(4 eta) (scenarios.pipe.poiseuille_error): the flow rate's error and the profile's L2 and
 largest errors (units of u_max).
 
-The cost: the lattice step of the 6 um cell's cylinder with each wall, stepped alternately in one process.
+The cost: the lattice step of the 6 um cell's cylinder with each wall, stepped alternately in one process. The
+mass: interpolated bounce-back does not conserve it exactly; its drift over the first steps of the 6 um cell's run.
 
 The cell: validation/pipe_stationary.py's runs (a centred homogeneous cell, neo-Hookean, nu 0.48, linear
 tetrahedra on the default mesh, LE-2D-FEM-19's cylinder R_ch = 1.094 x 10 um, Q = 0.04 uL/s held, eta = 15 mPa s,
@@ -55,7 +56,7 @@ def empty_channel_rows(radii: list[float]) -> list[dict]:
     return rows
 
 
-def step_cost_rows(channel_radius: float, length: int, steps: int = 200, repeats: int = 5) -> list[dict]:
+def step_cost_rows(channel_radius: float, length: int, steps: int = 400, repeats: int = 9) -> list[dict]:
     """The lattice step's cost with each wall in one process: the pipe's cylinder of ``channel_radius`` dx over
     ``length`` nodes (float32, tau 1, a body force), the two lattices stepped alternately ``repeats`` times;
     the best time of each."""
@@ -85,6 +86,33 @@ def step_cost_rows(channel_radius: float, length: int, steps: int = 200, repeats
              "links": lattices[wall]._geometry.n_links, "ms per step": 1e3 * best[wall],
              "MLUPS (fluid)": fluid / best[wall] / 1e6, "cost / staircase": best[wall] / best["staircase"]}
             for wall in WALLS]
+
+
+def mass_rows(resolution: float, steps: int = 3000) -> list[dict]:
+    """The fluid's mass with each wall over ``steps`` coupled steps of the 6 um / 2 kPa cell's run (nu 0.48, Ca_w
+    of LE-2D-FEM-19's flow, float32): interpolated bounce-back does not conserve mass exactly (Bouzidi et al.
+    2001); the drift per step and over 60 units of 1/gdot_w, the lut's cap."""
+    from pipe_resolution import FLOW_RATE_UL_S, POISSON_RATIO, VISCOSITY_MPA_S, capillary_number_wall
+
+    from elastocell.body.cell import Cell
+    from elastocell.parameters.flow import flow_cell
+    from elastocell.scenarios.pipe import PipeFlowParameters, pipe_lattice_units, pipe_setup
+
+    cell = Cell.from_parameters(flow_cell(None, {"nucleus": "none", "poisson_ratio": POISSON_RATIO}, resolution))
+    ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3, 2e3,
+                                 POISSON_RATIO)
+    rows = []
+    for wall in WALLS:
+        params = PipeFlowParameters(capillary_number_wall=ca_w, resolution=resolution, channel_wall=wall,
+                                    channel_radius_ratio=CHANNEL_RADIUS_UM / 6.0)
+        units = pipe_lattice_units(cell, params)
+        system = pipe_setup(cell, params, units)
+        start = system.lattice.total_mass()
+        system.advance(steps)
+        per_step = (system.lattice.total_mass() / start - 1.0) / steps
+        rows.append({"wall": wall, "steps": steps, "dM/M per step": per_step,
+                     "dM/M over 60/gdot_w": per_step * 60 * units.steps_per_time})
+    return rows
 
 
 def cell_rows(records: list[dict]) -> list[dict]:
@@ -148,6 +176,7 @@ def main() -> None:
         run_missing(todo, args.out, args.workers)
     channel = empty_channel_rows(args.radii)
     cost = step_cost_rows(CHANNEL_RADIUS_UM / 6.0 * args.resolution, int(round(8 * args.resolution)))
+    mass = mass_rows(args.resolution)
     cached = {r["key"]: r for r in read(args.out / "runs.jsonl")}
     records = with_table([cached[key(c)] for c in todo if key(c) in cached])
     rows = cell_rows(records)
@@ -169,8 +198,12 @@ def main() -> None:
         "L2 ratio": ".1f"})
     page.table(cost, "The lattice step's cost with each wall: the cylinder of the 6 um cell's runs (R_ch = "
                f"{CHANNEL_RADIUS_UM / 6.0 * args.resolution:.2f} dx, a box of 8 R), float32, one process stepping the "
-               "two lattices alternately, best of five times 200 steps, the machine's threads", formats={
+               "two lattices alternately, best of nine times 400 steps, the machine's threads", formats={
                    "ms per step": ".3f", "MLUPS (fluid)": ".1f", "cost / staircase": ".3f"})
+    page.table(mass, "The fluid's mass with each wall: the 6 um / 2 kPa cell's run at R/dx "
+               f"{args.resolution:g} (float32), the relative change per step over its first steps, and that rate "
+               "over 60 units of 1/gdot_w (the lut's cap)", formats={"dM/M per step": ".2e",
+                                                                      "dM/M over 60/gdot_w": ".2e"})
     if rows:
         page.table(rows, f"The cell at t = {args.duration:g}/gdot_w against LE-2D-FEM-19, both walls", formats={
             "R [um]": "g", "R/R_ch": ".3f", "E [kPa]": "g", "D interp/stair": ".3f", "wall_s interpolated": ".0f",

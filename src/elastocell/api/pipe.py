@@ -135,7 +135,7 @@ def pipe(
     capillary_number_wall: Ca_w = G R_ch/(2 mu_c) (mu_eff with ``equivalent``). cell: CellParameters or the
     CELL OPTIONS of ``cell_parameters`` (default mesh: uniform p1 with edges of 2 dx, as shear flow).
     channel_shape: "cylinder" (default), "square" or "rectangle" (width 2 R_ch, height channel_aspect_ratio times
-    the width). channel_wall: "staircase" (default) or "interpolated", how the lattice places a cylinder's wall
+    the width). channel_wall: "interpolated" (default) or "staircase", how the lattice places a cylinder's wall
     (:data:`~elastocell.scenarios.pipe.CHANNEL_WALLS`). medium: "newtonian" (default), "0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS" (at ``temperature``:
     "23degC", "23°C", "296.15K" or a bare number in degC) or "power-law" (with ``flow_index``); see :class:`PipeFlowParameters`.
     hold_flow_rate: hold the flow rate the nominal G drives through the ideal channel (default True, as RT-DC's

@@ -255,10 +255,10 @@ OPTIONS: dict[str, Opt] = _declare(
     Opt("channel_shape", ChannelShape | None, None, "Cross-section: cylinder | square | rectangle (a duct of width "
         "W = 2 R_ch and height H, plane walls; RT-DC chips are square).",
         shown="square with --channel-width, rectangle with a different --channel-height, else cylinder"),
-    Opt("channel_wall", ChannelWall, ChannelWall.staircase, "How the lattice places a cylinder's wall: staircase "
-        "(bounce-back half-way to the nodes outside R_ch) | interpolated (interpolated bounce-back, the wall at R_ch "
-        "on every link: the empty channel's profile error 0.3-1 % instead of 2-6 % of u_max). A duct's walls are "
-        "the same either way."),
+    Opt("channel_wall", ChannelWall, ChannelWall.interpolated, "How the lattice places a cylinder's wall: "
+        "interpolated (interpolated bounce-back, the wall at R_ch on every link: the empty channel's profile error "
+        "0.3-1 % instead of 2-6 % of u_max) | staircase (bounce-back half-way to the nodes outside R_ch, the only "
+        "wall of earlier versions). A duct's walls are the same either way."),
     Opt("channel_aspect_ratio", float | None, None, "H/W of a rectangular channel.", units=_DIMENSIONLESS,
         shown="1, or --channel-height/--channel-width"),
     Opt("channel_height", str | None, None, "Height H of a rectangular channel (with --channel-width).",

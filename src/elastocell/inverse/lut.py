@@ -82,6 +82,7 @@ from elastocell.parameters.medium import (
 from elastocell.parameters.units import ParameterError, parse_quantity, parse_temperature
 from elastocell.scenarios.pipe import (
     CHANNEL_WALLS,
+    PIPE_CHANNEL_WALL,
     PIPE_HYDRODYNAMIC_RADIUS_CORRECTION,
     PipeFlowParameters,
     pipe_lattice_units,
@@ -343,7 +344,7 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
     ``extrapolate`` is the default the pipe had before); ``stiffness_ratio``, ``size_ratio``:
     the nucleated cell model (:func:`cell_model`; the moduli are then the cytoplasm's E_c); ``channel_length``: the
     shape at the end of a channel of that length (:func:`transit_length`) instead of the stationary shape;
-    ``channel_wall``: how the lattice places a cylinder's wall, "staircase" (default) or "interpolated"
+    ``channel_wall``: how the lattice places a cylinder's wall, "interpolated" (default, the pipe's) or "staircase"
     (:data:`~elastocell.scenarios.pipe.CHANNEL_WALLS`; a square duct's walls are the same either way)."""
     from pydantic import ValidationError
 
@@ -394,10 +395,10 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
         raise ParameterError("hydrodynamic_radius_correction", f"must be in [0, R/2) = [0, {0.5 * resolution:g}) dx "
                              f"at R/dx {resolution:g}, got {hydrodynamic_radius_correction}")
     flow["hydrodynamic_radius_correction"] = correction
-    wall = "staircase" if channel_wall is None else str(channel_wall)
+    wall = PIPE_CHANNEL_WALL if channel_wall is None else str(channel_wall)
     if wall not in CHANNEL_WALLS:
         raise ParameterError("channel_wall", f"must be one of {', '.join(CHANNEL_WALLS)}, got {channel_wall!r}")
-    if shape == "cylinder" and wall != "staircase":  # the staircase adds nothing: the keys of earlier points stay
+    if shape == "cylinder":  # said in full; the staircase resolves as runs before the choice (their keys stay)
         flow["channel_wall"] = wall
     if not fluid.is_newtonian:
         flow.update(medium=fluid.name, temperature=fluid.temperature)

@@ -3,12 +3,14 @@ rectangular duct, in a Newtonian or shear-thinning medium.
 
 Channel (docs/theory.md, "Pipe (capillary) flow"): a cylinder of radius R_ch along x, periodic along x,
 driven by a uniform body-force density G along x (the pressure gradient). Lattice nodes (integer indices)
-whose distance from the axis exceeds R_ch are solid; every fluid-solid link is a half-way bounce-back
-(the staircase of the lattice, no interpolation). The empty channel reproduces Poiseuille flow
+whose distance from the axis exceeds R_ch are solid; every fluid-solid link bounces back with the wall at r = R_ch
+on the link (interpolated bounce-back, ``channel_wall`` "interpolated", the default) or half-way between its nodes
+(the lattice's staircase, "staircase"). The empty channel reproduces Poiseuille flow
 
     u(r) = G (R_ch^2 - r^2) / (4 eta),      Q = pi G R_ch^4 / (8 eta),
 
-to the accuracy measured by :func:`poiseuille_error` (the staircase makes the error first order in dx).
+to the accuracy measured by :func:`poiseuille_error` (second order with the interpolated wall, first order with
+the staircase).
 
 The channel may instead be a rectangular duct (``channel_shape`` "square" or "rectangle", RT-DC's chips):
 width W = 2 R_ch along y, height H along z, plane walls half-way between nodes (the Newtonian series of
@@ -101,6 +103,12 @@ def channel_solid(shape: tuple[int, int, int], radius: float) -> np.ndarray:
     r2 = y[:, None] ** 2 + z[None, :] ** 2
     return np.broadcast_to(r2 > radius * radius, (nx, ny, nz)).copy()
 
+
+PIPE_CHANNEL_WALL = "interpolated"
+"""The cylinder's default wall (:data:`CHANNEL_WALLS`): the empty channel's profile error is 7-64 times the
+staircase's smaller at R_ch 4.3-20.3 dx, and at the six LE-2D-FEM-19 cells of docs/validation/pipe_dclab.md
+(section "pipe_wall.py") the deformation's error ranges -7.6/+15.9 % instead of -3.3/+25.4 %, for 1.08-1.17 times the
+lattice step's cost."""
 
 CHANNEL_WALLS = ("staircase", "interpolated")
 """How the lattice places a cylinder's wall: "staircase" (half-way bounce-back on the solid nodes r > R_ch, the
@@ -525,12 +533,12 @@ class PipeFlowParameters(FlowLatticeParameters):
         and H rounded to whole lattice nodes). For a duct R_ch is the half-width and Ca_w = G R_ch/(2 mu_ref) is
         the mean wall shear stress over mu_ref for the square (G A/P).
     channel_aspect_ratio: H/W of a rectangle (1 for the square).
-    channel_wall: how the lattice places the cylinder's wall (:data:`CHANNEL_WALLS`): "staircase" (default; the
-        wall half-way on every link to the solid nodes r > R_ch) or "interpolated" (the wall at r = R_ch on every
-        link, linearly interpolated bounce-back; the empty channel's profile error falls from 2-6 % to 0.3-1 % of
-        u_max at R_ch 6.6-14.6 dx, :func:`poiseuille_error`). A duct's walls are the same either way. The
-        default is left out of the parameters' dump, so that the keys of runs made before the choice existed
-        stay valid.
+    channel_wall: how the lattice places the cylinder's wall (:data:`CHANNEL_WALLS`): "interpolated" (default,
+        :data:`PIPE_CHANNEL_WALL`: the wall at r = R_ch on every link, linearly interpolated bounce-back; the empty
+        channel's profile error 0.3-1 % of u_max at R_ch 6.6-14.6 dx instead of 2-6 %, :func:`poiseuille_error`)
+        or "staircase" (the wall half-way on every link to the solid nodes r > R_ch, the only wall before the
+        choice existed: it is left out of the parameters' dump, so that the keys of runs made so stay valid). A
+        duct's walls are the same either way.
     hold_flow_rate: True (default): the flow rate Q is held at that of the nominal driving G in the ideal channel
         (a syringe pump, as RT-DC and dclab's tables: :func:`ideal_flow_rate`); the body force is rescaled after
         every record, G <- G (Q_ideal/Q)^n (n the flow index), so that the cell's own resistance in the periodic
@@ -553,7 +561,7 @@ class PipeFlowParameters(FlowLatticeParameters):
     max_steps_per_time: float = 1.0e6
     channel_shape: Literal["cylinder", "square", "rectangle"] = "cylinder"
     channel_aspect_ratio: float = 1.0
-    channel_wall: Literal["staircase", "interpolated"] = "staircase"
+    channel_wall: Literal["staircase", "interpolated"] = PIPE_CHANNEL_WALL
     medium: str = "newtonian"
     temperature: float | None = None
     flow_index: float | None = None
