@@ -56,7 +56,7 @@ def main(argv=None) -> None:
     start = time.perf_counter()
     result = compute_lut(args.out / "lut.txt", None, "0.04uL/s", "15mPa*s", radii=args.radii, moduli=args.moduli,
                          resolution=args.resolution, duration=args.duration, workers=args.workers,
-                         channel_width="20um")
+                         channel_width="20um", channel_wall="staircase")  # the wall its runs had
     records = result["records"]
     area = np.array([r["area_um"] for r in records])
     deform = np.array([r["deform"] for r in records])

@@ -98,6 +98,10 @@ def main(argv=None) -> None:
     parser.add_argument("--channel-shape", choices=tuple(TABLES_BY_SHAPE), default="square",
                         help="square: the 20 um duct itself (against HE-3D-FEM-22); cylinder: R_ch = 1.094 x 10 um "
                              "(against HE-2D-FEM-22, the same convention); its section is lut_cylinder.py's")
+    parser.add_argument("--channel-wall", choices=("staircase", "interpolated"), default="staircase",
+                        help="the cylinder's wall on the lattice (as elastocell lut; staircase: as the page's runs "
+                             "were made); an interpolated cylinder writes its own section, "
+                             "lut_cylinder.py:interpolated")
     parser.add_argument("--out", type=Path, default=Path("results/lut-square"))
     args = parser.parse_args(argv)
     shape = args.channel_shape
@@ -108,7 +112,11 @@ def main(argv=None) -> None:
     geometry = ("a SQUARE channel of width 20 um" if shape == "square" else
                 "a CYLINDER of radius R_ch = 1.094 x 10 um (the equivalent radius of the 20 um square channel, the "
                 "convention of dclab's axisymmetric tables)")
-    page = Page("lut_square", "lut_square.py" if shape == "square" else "lut_cylinder.py", intro=(
+    curved = shape == "cylinder" and args.channel_wall == "interpolated"
+    section = ("lut_square.py" if shape == "square" else
+               "lut_cylinder.py:interpolated" if curved else "lut_cylinder.py")
+    geometry += ", its wall interpolated on every lattice link" if curved else ""
+    page = Page("lut_square", section, intro=(
         f"Stationary shapes of a homogeneous cell (neo-Hookean, nu = 0.48, lattice Boltzmann + immersed boundary) "
         f"centred in {geometry}, at Q = 0.04 uL/s in {args.medium} at {args.temperature:g} degC "
         f"(power law of Buyukurganci et al. 2022), run by `elastocell lut --channel-shape {shape}` "
@@ -138,7 +146,7 @@ def main(argv=None) -> None:
     result = compute_lut(args.out / "lut.txt", None, "0.04uL/s", None, radii=args.radii, moduli=args.moduli,
                          resolution=args.resolution, duration=args.duration, workers=args.workers,
                          channel_width="20um", channel_shape=shape, medium=args.medium,
-                         temperature=args.temperature)
+                         temperature=args.temperature, channel_wall=args.channel_wall)
     records, settings = result["records"], result["settings"]
     result_runs = Path(result["runs"])
     area = np.array([r["area_um"] for r in records])

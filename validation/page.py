@@ -95,8 +95,9 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     "flow_default": ("Cost of the flow defaults", {
         "flow_default_cost.py": ("elastocell shear at its defaults (R/dx 8 and 6, extrapolated) against one R/dx 8 run",
                                  "nice python validation/flow_default_cost.py --page"),
-        "pipe_default_cost.py": ("elastocell pipe at its default (R/dx 8 alone, markers at R - 0.3 dx) against the "
-                                 "extrapolated pair it replaced", "nice python validation/pipe_default_cost.py --page"),
+        "pipe_default_cost.py": ("elastocell pipe at its default (R/dx 8 alone, markers at R - 0.3 dx, the "
+                                 "cylinder's wall interpolated) against the extrapolated pair on the staircase it "
+                                 "replaced", "nice python validation/pipe_default_cost.py --page"),
     }),
     "pipe": ("Cell in pipe flow", {
         "pipe.py": ("Poiseuille flow, the centred cell, and the cost of a coupled step",
@@ -126,6 +127,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                                "nice python validation/pipe_stationary.py --poisson-ratios 0.48 0.49 --extra "
                                "6:3:0.3:8,6:3:0.4:8,6:3:0.45:8,6:3:0.495:8,6:3:0.48:10,6:3:0.49:10,6:3:0.48:8:p2,"
                                "6:3:0.49:8:p2"),
+        "pipe_wall.py": ("The cylinder's wall: the staircase against interpolated bounce-back, empty and with the cell",
+                         "nice python validation/pipe_wall.py --out /work/results/pipe-stationary"),
     }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",
@@ -141,6 +144,10 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                             "nice python validation/lut_cylinder.py --radii 5,6 --moduli 2 --duration 20 "
                             "--workers 2 "
                             "--out /work/results/lut-cylinder-r8"),
+        "lut_cylinder.py:interpolated": (
+            "Cylinder MC-PBS points against dclab's HE-2D-FEM-22, the wall interpolated",
+            "nice python validation/lut_cylinder.py --radii 5,6 --moduli 2 --duration 20 --workers 2 --channel-wall "
+            "interpolated --out /work/results/lut-cylinder-r8-interp"),
         "lut_relaxation.py": ("How long a point must run: the cell's relaxation in the channel",
                               "nice python validation/lut_relaxation.py --runs /work/results/lut-square-r8/lut_runs/R* "
                               "/work/results/lut-square-long/lut_runs/R5um_E1kPa_6766fc3991 "

@@ -141,7 +141,8 @@ def grid_points(points, resolution: float, coarse_resolution: float | None, dura
         point = planned[0]
         # the correction said in full (lut's points carry the pipe's default, 0.3): c = 0 resolves as the runs made
         # before that default, so their keys and this page's cache stay
-        options = {**point["options"], "hydrodynamic_radius_correction": float(correction)}
+        options = {**point["options"], "hydrodynamic_radius_correction": float(correction),
+                   "channel_wall": "staircase"}  # the wall the page's runs had (left out of their keys)
         if correction:
             options["flow_options"] = {"hydrodynamic_radius_correction": float(correction)}
         point = {**point, "options": options, "key": point_key(radius, modulus, options)}

@@ -122,7 +122,7 @@ def run_case(case: dict, out: Path) -> dict:
     ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
                                  case["emodulus_kpa"] * 1e3, poisson_ratio(case))
     flow = {"hold_flow_rate": bool(case.get("hold", False)), "hydrodynamic_radius_correction": float(case["c"]),
-            **({"channel_wall": case["wall"]} if case.get("wall", "staircase") != "staircase" else {})}
+            "channel_wall": case.get("wall", "staircase")}  # said: the runs of the pages were made on the staircase
     directory = out / key(case)
     start = time.perf_counter()
     summary = pipe(directory, capillary_number_wall=ca_w, channel_radius_ratio=CHANNEL_RADIUS_UM / case["radius_um"],

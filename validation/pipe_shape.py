@@ -32,7 +32,8 @@ def one_run(ratio: float, cell_capillary: float, resolution: float, duration: fl
     mesh = shear_mesh_size(resolution)
     cell = Cell.from_parameters(cell_parameters(nucleus="none", element="p1", mesh_size=mesh, pole_size=mesh))
     params = PipeFlowParameters(capillary_number_wall=cell_capillary * ratio, channel_radius_ratio=ratio,
-                                resolution=resolution, hydrodynamic_radius_correction=0.0)  # markers at R, as on its page
+                                resolution=resolution, hydrodynamic_radius_correction=0.0,  # markers at R and
+                                channel_wall="staircase")  # the staircase, as on its page
     start = time.perf_counter()
     result = run_pipe(cell, params, duration=duration, record_interval=0.5)
     s = result.summary
