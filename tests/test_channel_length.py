@@ -17,8 +17,8 @@ from elastocell.parameters.units import ParameterError
 CHEAP = {"resolution": 4, "extrapolate": False, "radius": "5um", "progress": False, "vtk_interval": None,
          "channel_wall": "staircase"}
 """R/dx 4, one resolution, a 5 um cell in the default cylinder (R_ch/R = 2) with the staircase wall, as the
-numbers below were measured (with the interpolated wall the cell reaches the 1e-3 stationarity only after 30
-units: D drifts by +0.4 %/unit there, as it does on the staircase after t = 9)."""
+numbers below were measured (the stationary reference needs the stationarity stop to be met within the run's
+30 units, which it was on the staircase)."""
 
 
 # =========================================================================== the stop and the state

@@ -124,6 +124,25 @@ def test_velocity_read_from_populations_equals_interpolated_lattice_velocity(par
                                atol=1e-15)
 
 
+@pytest.mark.parametrize("parity_steps", [0, 1])
+def test_the_velocity_at_markers_near_an_interpolated_wall_is_the_lattices(parity_steps):
+    # Reference: Lattice.velocity() interpolated at the markers, on a cylinder with interpolated bounce-back, at
+    # either AA parity (after an odd step a near link's slot holds only part of its population, after an even
+    # step a far link's value lives in the lattice's memory). float64: round-off (tolerance 1e-15 dx/dt).
+    from elastocell.scenarios.pipe import channel_shape, channel_solid, cylinder_wall_fraction
+
+    radius = 6.3
+    shape = channel_shape(radius, 4)
+    lattice = Lattice(LatticeParams(shape, relaxation_time=1.0, dtype="float64", solid=channel_solid(shape, radius),
+                                    body_force=(1e-5, 0, 0), wall_fraction=cylinder_wall_fraction(shape, radius)))
+    lattice.step(40 + parity_steps)
+    rng = np.random.default_rng(2)
+    positions = np.column_stack([rng.uniform(0, 4, 50), rng.uniform(1, shape[1] - 2, 50),
+                                 rng.uniform(1, shape[2] - 2, 50)])
+    expected = ibm.interpolate(lattice.velocity(), positions, "peskin4", periodic_y=True)
+    np.testing.assert_allclose(ibm.interpolate_lattice_velocity(lattice, positions, "peskin4"), expected, atol=1e-15)
+
+
 # --------------------------------------------------------------------------- compiled elastic forces
 @pytest.mark.parametrize("element", ["p1", "p2"])
 @pytest.mark.parametrize("law", ["neo-hookean", "mooney-rivlin"])

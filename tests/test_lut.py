@@ -81,6 +81,12 @@ def test_plan_units_and_grid():
     assert staircase_settings["channel_wall"] == "staircase" and not {p["key"] for p in staircase} & {p["key"] for p in full}
     with pytest.raises(ParameterError, match="channel_wall"):
         plan("10um", "0.04uL/s", "15mPa*s", channel_wall="smooth")
+    # a square duct's plane walls are the same either way: its points keep the keys they had before the choice
+    # existed (this one computed at commit 2332759), whatever wall is asked for
+    for wall in (None, "staircase", "interpolated"):
+        duct, _ = plan(None, "0.04uL/s", None, radii=[5], moduli=[2000], channel_width="20um", channel_shape="square",
+                       medium="0.59%MC-PBS", temperature=23, channel_wall=wall)
+        assert duct[0]["key"] == "R5um_E2kPa_342663270e"
     # extrapolated: a cell above R_ch/(1 + 2/6) = 7.5 um in R_ch = 10 um keeps the kernel's reach + 1 dx from the
     # wall at R/dx 8, not at the coarse R/dx 6: its points run at one resolution; the others are extrapolated; the
     # default grid's largest cell is the largest R/dx 8 takes (R_ch/R >= 1.25)
@@ -466,7 +472,9 @@ def test_register_lut_registers_the_shipped_tables_in_dclab_by_one_call(tmp_path
     other = tmp_path / "other"
     other.mkdir()
     write_lut(other / "lut_clash.txt", records, meta)
+    write_lut(other / "lut_a_fresh.txt", records, lut_metadata(settings, "elastocell-shipped-fresh"))
     with pytest.raises(ParameterError, match="already holds"):
         register_lut(directory=other)
+    assert "elastocell-shipped-fresh" not in emodulus.load.EXTERNAL_LUTS  # refused before any was registered
     assert elastocell.register_lut is register_lut and elastocell.shipped_luts is shipped_luts
     emodulus.load.EXTERNAL_LUTS.pop(identifier)

@@ -182,8 +182,9 @@ def main() -> None:
     rows = cell_rows(records)
     page.intro = (
         "The cylinder's wall on the lattice: `staircase` (half-way bounce-back on the solid nodes r > R_ch, the "
-        "pipe's default) against `interpolated` (linearly interpolated bounce-back with the wall at r = R_ch on "
-        "every link, Bouzidi et al. 2001; `elastocell pipe --channel-wall interpolated`). First the empty channel, "
+        "pipe's wall before the choice existed; `elastocell pipe --channel-wall staircase`) against `interpolated` "
+        "(linearly interpolated bounce-back with the wall at r = R_ch on every link, Bouzidi et al. 2001; the "
+        "pipe's default, chosen on these measurements). First the empty channel, "
         "a steady periodic slice at tau 1 in float64, against Poiseuille's closed form (Q err: the flow rate; L2 "
         "and max err: the profile, relative to the closed form's L2 norm and to u_max). Then the cell of "
         f"validation/pipe_stationary.py (nu 0.48, linear tetrahedra, LE-2D-FEM-19's cylinder R_ch = "

@@ -78,6 +78,10 @@ def resolved_parameters(scenario: str, options: dict) -> dict:
         value = arguments.pop(name)
         if value is not None:
             flow_options[name] = value
+    if scenario == "pipe" and (flow_options.get("channel_shape") or arguments.get("channel_shape")
+                               or "cylinder") != "cylinder":
+        flow_options["channel_wall"] = "staircase"  # a duct's plane walls are the same either way: one key, the
+        #                                             one its runs had before the choice existed
     stop = {"duration": arguments.pop("duration"), "wall_clock": arguments.pop("wall_clock"),
             "stationary_tolerance": arguments.pop("stationary_tolerance")}
     if scenario == "shear":

@@ -257,7 +257,7 @@ OPTIONS: dict[str, Opt] = _declare(
         shown="square with --channel-width, rectangle with a different --channel-height, else cylinder"),
     Opt("channel_wall", ChannelWall, ChannelWall.interpolated, "How the lattice places a cylinder's wall: "
         "interpolated (interpolated bounce-back, the wall at R_ch on every link: the empty channel's profile error "
-        "0.3-1 % instead of 2-6 % of u_max) | staircase (bounce-back half-way to the nodes outside R_ch, the only "
+        "at most 0.3-1.0 % instead of 3.8-6.2 % of u_max) | staircase (bounce-back half-way to the nodes outside R_ch, the only "
         "wall of earlier versions). A duct's walls are the same either way."),
     Opt("channel_aspect_ratio", float | None, None, "H/W of a rectangular channel.", units=_DIMENSIONLESS,
         shown="1, or --channel-height/--channel-width"),

@@ -348,7 +348,8 @@ def lattice_arguments(lattice) -> tuple:
     ``(A, parity, nz, force, has_field, consts, has_walls, wall_corr, cint, opp, solid, has_solid)``.
 
     Uses the lattice's storage layout (AA pattern, ``(nx, ny, 19, nz_row)`` deviations); this is the one
-    place outside ``elastocell.lattice`` that depends on it."""
+    place outside ``elastocell.lattice`` that depends on it. It knows the half-way bounce-back only: a lattice
+    with interpolated walls is read through ``Lattice.velocity`` (:func:`interpolate_lattice_velocity`)."""
     force, has_field = lattice._force_arguments()
     solid = lattice.solid
     has_solid = solid is not None
@@ -365,7 +366,11 @@ def interpolate_lattice_velocity(lattice, positions, kernel: str = "trilinear") 
     ``u = (sum_i c_i f_i + F/2)/rho`` with the current force (body force + field).
 
     Equal to ``interpolate(lattice.velocity(), positions)`` (up to the storage precision), but reads the
-    populations at the support nodes only, so its cost scales with the markers, not with the lattice."""
+    populations at the support nodes only, so its cost scales with the markers, not with the lattice. A lattice
+    with interpolated walls (``LatticeParams.wall_fraction``) is read through ``lattice.velocity()`` itself: its
+    links' populations need the kernels' interpolation, which the support-node reader does not repeat."""
+    if getattr(lattice, "_curved", False):
+        return interpolate(lattice.velocity(), positions, kernel, periodic_y=not lattice.params.has_walls)
     x = _positions(positions)
     out = np.empty((x.shape[0], 3))
     _interpolate_populations(*lattice_arguments(lattice), x, kernel_id(kernel), out)

@@ -42,7 +42,9 @@ def shipped_luts(directory: Path | None = None) -> dict[str, dict]:
         if path.name.endswith("_isoelastics.txt"):
             continue
         _, metadata, _ = read_lut(path)
-        identifier = metadata["identifier"]
+        identifier = metadata.get("identifier")
+        if not identifier:
+            raise ParameterError("identifier", f"the shipped table {path} names no identifier in its metadata")
         if identifier in tables:
             raise ValueError(f"two shipped tables have the identifier {identifier!r}: {tables[identifier]['path']} "
                              f"and {path}")
@@ -53,12 +55,17 @@ def shipped_luts(directory: Path | None = None) -> dict[str, dict]:
 
 
 def register_lut(identifier: str | None = None, directory: Path | None = None) -> dict[str, Path]:
-    """Register the shipped tables (or the one named ``identifier``) with dclab
+    """Register the shipped tables (or the one named ``identifier``: a table's identifier, not a path; a table of
+    your own is registered with dclab's ``dclab.features.emodulus.register_lut(path)``) with dclab
     (``dclab.features.emodulus.register_lut``), so that dclab computes ``emodulus`` with ``"emodulus lut"`` set to
     their identifier; returns {identifier: path}. A table already registered from the same file is left as it is
     (calling twice is harmless); an identifier dclab already holds for another file is refused (ParameterError), as
     is an unknown ``identifier`` or a package that ships no table."""
-    from dclab.features.emodulus import load  # lazy: dclab only for this call
+    try:
+        from dclab.features.emodulus import load  # lazy: dclab only for this call
+    except ImportError:
+        raise ParameterError("identifier", "registering a table needs dclab (pip install dclab), which computes "
+                             "the moduli from it") from None
 
     tables = shipped_luts(directory)
     if not tables:
@@ -69,13 +76,14 @@ def register_lut(identifier: str | None = None, directory: Path | None = None) -
         if identifier not in tables:
             raise ParameterError("identifier", f"no shipped table {identifier!r}; shipped: {', '.join(tables)}")
         tables = {identifier: tables[identifier]}
-    registered = {}
-    for name, table in tables.items():
-        path = table["path"]
+    for name, table in tables.items():  # every clash refused before any table is registered
         held = load.EXTERNAL_LUTS.get(name)
-        if held is not None and Path(held).resolve() != path.resolve():
-            raise ParameterError("identifier", f"dclab already holds a table {name!r} from {held}, not {path}")
-        if held is None:
-            load.register_lut(path, identifier=name)
-        registered[name] = path
-    return registered
+        if held is not None and Path(held).resolve() != table["path"].resolve():
+            raise ParameterError("identifier", f"dclab already holds a table {name!r} from {held}, not "
+                                 f"{table['path']}")
+        if name in load.get_internal_lut_names_dict():
+            raise ParameterError("identifier", f"{name!r} is the name of one of dclab's own tables")
+    for name, table in tables.items():
+        if name not in load.EXTERNAL_LUTS:
+            load.register_lut(table["path"], identifier=name)
+    return {name: table["path"] for name, table in tables.items()}

@@ -107,8 +107,8 @@ def channel_solid(shape: tuple[int, int, int], radius: float) -> np.ndarray:
 PIPE_CHANNEL_WALL = "interpolated"
 """The cylinder's default wall (:data:`CHANNEL_WALLS`): the empty channel's profile error is 7-64 times the
 staircase's smaller at R_ch 4.3-20.3 dx, and at the six LE-2D-FEM-19 cells of docs/validation/pipe_dclab.md
-(section "pipe_wall.py") the deformation's error ranges -7.6/+15.9 % instead of -3.3/+25.4 %, for 1.08-1.17 times the
-lattice step's cost."""
+(section "pipe_wall.py") the deformation's error ranges -7.6/+15.9 % instead of -3.3/+25.4 %; a whole run costs 1.03
+times the same run on the staircase (docs/validation/flow_default.md)."""
 
 CHANNEL_WALLS = ("staircase", "interpolated")
 """How the lattice places a cylinder's wall: "staircase" (half-way bounce-back on the solid nodes r > R_ch, the
@@ -128,7 +128,8 @@ def cylinder_wall_fraction(shape: tuple[int, int, int], radius: float):
         a = dy * dy + dz * dz  # > 0: a link along x alone never leaves the cylinder
         half_b = py * dy + pz * dz
         inside = radius * radius - (py * py + pz * pz)  # >= 0 for a fluid node
-        return (-half_b + np.sqrt(half_b * half_b + a * inside)) / a
+        q = (-half_b + np.sqrt(half_b * half_b + np.maximum(a * inside, 0.0))) / a
+        return np.clip(q, np.finfo(float).tiny, 1.0)  # a node on the wall itself, or round-off past the solid node
 
     return wall_fraction
 
@@ -535,14 +536,15 @@ class PipeFlowParameters(FlowLatticeParameters):
     channel_aspect_ratio: H/W of a rectangle (1 for the square).
     channel_wall: how the lattice places the cylinder's wall (:data:`CHANNEL_WALLS`): "interpolated" (default,
         :data:`PIPE_CHANNEL_WALL`: the wall at r = R_ch on every link, linearly interpolated bounce-back; the empty
-        channel's profile error 0.3-1 % of u_max at R_ch 6.6-14.6 dx instead of 2-6 %, :func:`poiseuille_error`)
+        channel's largest profile error 0.3-1.0 % of u_max at R_ch 6.6-14.6 dx instead of 3.8-6.2 %,
+        :func:`poiseuille_error`)
         or "staircase" (the wall half-way on every link to the solid nodes r > R_ch, the only wall before the
         choice existed: it is left out of the parameters' dump, so that the keys of runs made so stay valid). A
-        duct's walls are the same either way.
+        duct's walls are the same either way (left out of its dump too).
     hold_flow_rate: True (default): the flow rate Q is held at that of the nominal driving G in the ideal channel
         (a syringe pump, as RT-DC and dclab's tables: :func:`ideal_flow_rate`); the body force is rescaled after
         every record, G <- G (Q_ideal/Q)^n (n the flow index), so that the cell's own resistance in the periodic
-        box and the staircase wall's error in Q do not slow the flow. False: G is held (a pressure-driven
+        box and the wall's error in Q (the staircase's) do not slow the flow. False: G is held (a pressure-driven
         periodic channel; the field is then left out of the parameters' dump, as runs without it held G), and
         the flow rate falls below Q_ideal: by about a tenth for a cell of R/R_ch 0.70 in the default box at
         R/dx 8, which then deforms less (docs/validation/pipe_dclab.md, section "The flow rate held").
@@ -603,8 +605,8 @@ class PipeFlowParameters(FlowLatticeParameters):
         data = handler(self)
         if self.hydrodynamic_radius_correction == 0.0:
             data.pop("hydrodynamic_radius_correction", None)
-        if self.channel_wall == "staircase":  # what runs made before the choice existed had
-            data.pop("channel_wall", None)
+        if self.channel_wall == "staircase" or self.channel_shape != "cylinder":  # what runs made before the
+            data.pop("channel_wall", None)  # choice existed had; a duct's plane walls are the same either way
         if not self.hold_flow_rate:  # G held: what runs without the field always did (their keys stay valid); so
             data.pop("hold_flow_rate", None)  # rebuild a model from dict(params), not from this dump
         return data
