@@ -155,7 +155,7 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     }),
     "rtdc_nucleus": ("The modulus RT-DC assigns a cell with a stiff nucleus", {
         "rtdc_nucleus.py": ("Nucleus cells and the random cell read through homogeneous tables",
-                            "nice python validation/rtdc_nucleus.py --dir results/rtdc-nucleus"),
+                            "nice python validation/rtdc_nucleus.py --dir /work/results/rtdc-nucleus-interp"),
     }),
     "rtdc": ("Real RT-DC measurements through look-up tables", {
         "rtdc_coverage.py": ("Coverage and moduli of dclab's test measurements, dclab's tables and elastocell's",
