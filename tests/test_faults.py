@@ -271,7 +271,9 @@ def test_a_short_pipe_run_is_flagged_not_stationary_with_a_warning(tmp_path):
         summary = elastocell.pipe(out=tmp_path, capillary_number_wall=0.2, resolution=3, duration=1.0,
                                   start_offset=0.0, progress=False, vtk_interval=None)
     assert summary["stationary"] is False
-    assert not summary["stationary_observables"]["strain_axial"]["stationary"]
+    # the deformation is flagged drifting on both walls (drift 6.7e-4 on the interpolated one, 7.6e-4 on the
+    # staircase); strain_axial is borderline (flagged stationary on the interpolated wall, not on the staircase)
+    assert not summary["stationary_observables"]["deformation"]["stationary"]
     saved = json.loads((tmp_path / "summary.json").read_text())
     assert saved["stationary"] is False
 
