@@ -129,6 +129,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                                "6:3:0.49:8:p2"),
         "pipe_wall.py": ("The cylinder's wall: the staircase against interpolated bounce-back, empty and with the cell",
                          "nice python validation/pipe_wall.py --out /work/results/pipe-stationary"),
+        "pipe_orientation.py": ("The cell's mesh turned: how much one orientation decides in a pipe",
+                                "nice python validation/pipe_orientation.py --out /work/results/pipe-orientation"),
     }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",
