@@ -9,9 +9,13 @@ much that one orientation decides: the default mesh of the pipe (uniform, edges 
 run at the pipe's defaults otherwise. The spread of D over the orientations is an error of one run that no
 resolution-independent correction removes; the mean over orientations is what the model gives without it.
 
-    nice python validation/pipe_orientation.py [--points 6:3] [--orientations 4] [--resolution 8]
-                                               [--duration 16] [--workers 2] [--out results/pipe-orientation]
-                                               [--cached-only]
+The side view the pipe reads (along z) sees one azimuth of a shape the mesh makes slightly non-axisymmetric, so each
+run's last state is also read from VIEWS side views about the channel axis and averaged (the continuum shape of a
+centred cell is axisymmetric: every view reads the same D). Each reading at R/dx 6 and 8 is combined by Richardson
+extrapolation (order 2), the remedy the shear flow uses, per orientation and of the orientations' means.
+
+    nice python validation/pipe_orientation.py [--set 6:3/4/16 --set 7.66:3,6:3/1/40 ...] [--resolutions 6 8]
+                                               [--workers 2] [--out results/pipe-orientation] [--cached-only]
 
 The cell and the reading are validation/pipe_stationary.py's (a centred homogeneous cell, neo-Hookean, nu 0.48,
 LE-2D-FEM-19's cylinder R_ch = 1.094 x 10 um, Q = 0.04 uL/s held, eta = 15 mPa s, the markers at R - 0.3 dx, the
@@ -38,6 +42,15 @@ except ImportError:  # a source checkout without installing
 from page import Page
 from pipe_dclab import DRIFT_WINDOW, parse_points
 from pipe_resolution import CHANNEL_RADIUS_UM, cases, key, read, run_case, with_table
+
+DEFAULT_SETS = ("6:3/4/16", "7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5/1/40")
+"""The runs on the page: POINTS/ORIENTATIONS/DURATION (see --set)."""
+
+
+def parse_set(text: str) -> tuple[list[tuple[float, float]], int, float]:
+    """"R:E,R:E/ORIENTATIONS/DURATION" -> (points, orientations, duration)."""
+    points, orientations, duration = text.split("/")
+    return parse_points(points), int(orientations), float(duration)
 
 
 def rotation(orientation: int) -> np.ndarray:
@@ -88,20 +101,128 @@ def run_missing(todo: list[dict], out: Path, workers: int) -> None:
                   flush=True)
 
 
+def extrapolated_rows(records: list[dict], resolutions: list[float]) -> list[dict]:
+    """Richardson (order 2) of D and the area from the runs at ``resolutions`` (coarse, fine) of each point and
+    orientation, and of the orientations' means, each read against the table at its extrapolated area."""
+    from elastocell.simulation.extrapolation import richardson
+
+    coarse_resolution, fine_resolution = resolutions
+    pairs = {}
+    for r in records:
+        pairs.setdefault((r["radius_um"], r["emodulus_kpa"], r["duration"], r["orientation"]), {})[r["resolution"]] = r
+    rows, pseudo = [], []
+    complete = {k: v for k, v in pairs.items() if coarse_resolution in v and fine_resolution in v}
+    groups = [(k, [v]) for k, v in sorted(complete.items())]
+    for point in sorted({k[:3] for k in complete}):
+        members = [v for k, v in complete.items() if k[:3] == point]
+        if len(members) > 1:
+            groups.append(((*point, "mean"), members))
+    for (radius, modulus, duration, orientation), members in groups:
+        mean = {name: {res: float(np.mean([m[res][name] for m in members])) for res in resolutions}
+                for name in ("deform", "area_r2")}
+        value = {name: float(richardson(mean[name][fine_resolution], mean[name][coarse_resolution],
+                                        fine_resolution / coarse_resolution)) for name in mean}
+        fine = members[0][fine_resolution]
+        pseudo.append({**fine, "deform": value["deform"], "area_r2": value["area_r2"]})
+        rows.append({"R [um]": radius, "E [kPa]": modulus, "t": duration, "orientation": orientation,
+                     "runs": 2 * len(members),
+                     "D coarse": mean["deform"][coarse_resolution], "D fine": mean["deform"][fine_resolution],
+                     "D extrapolated": value["deform"],
+                     "D err % fine": float(np.mean([m[fine_resolution]["D_err"] for m in members]))})
+    for row, reading in zip(rows, with_table(pseudo), strict=True):
+        row.update({"D_t": reading["D_t"], "D err % extrapolated": reading["D_err"],
+                    "A err % extrapolated": reading["A_err"]})
+    return rows
+
+
+VIEWS = 6
+"""Side views averaged about the channel axis: angles k pi/VIEWS, k = 0 .. VIEWS - 1 (view 0: the pipe's own, along
+z)."""
+
+
+def view_readings(record: dict, out: Path, views: int = VIEWS) -> dict:
+    """The run's last state (its checkpoint) read from ``views`` side views about the channel axis through the
+    cell's centroid, each as the pipe reads its own view (the smooth outline fitted through the surface nodes, the
+    nodes' hull where the fit is not trusted; lengths in the markers' radius): view 0's D and area, their means over
+    the views, the views' range of D and how many views fell back to the hull."""
+    from elastocell.body.cell import Cell
+    from elastocell.body.observables import moments, smooth_outline_checked
+    from elastocell.parameters.flow import flow_cell
+
+    cell = Cell.from_parameters(flow_cell(None, {"nucleus": "none", "element": record["element"],
+                                                 "poisson_ratio": 0.48}, record["resolution"]))
+    directory = out / f"o{record['orientation']}" / record["key"].rsplit("-o", 1)[0]
+    with np.load(directory / "checkpoint.npz") as data:
+        x = data["positions"] / (record["resolution"] - record["c"])  # the markers' radius, as the pipe reads
+    centre = moments(x, cell.mesh.elements).centre
+    surface = x[cell.mesh.surface_nodes] - centre
+    areas, deformations, fitted = [], [], []
+    for angle in np.arange(views) * np.pi / views:
+        turn = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(angle), -np.sin(angle)], [0.0, np.sin(angle), np.cos(angle)]])
+        area, perimeter, ok = smooth_outline_checked(surface @ turn.T, np.zeros(3))
+        areas.append(area)
+        deformations.append(1.0 - 2.0 * np.sqrt(np.pi * area) / perimeter)
+        fitted.append(ok)
+    return {"D view 0": deformations[0], "area view 0": areas[0], "D views": float(np.mean(deformations)),
+            "area views": float(np.mean(areas)), "D views min": min(deformations), "D views max": max(deformations),
+            "hull views": views - sum(fitted)}
+
+
+def views_rows(records: list[dict], out: Path, resolutions: list[float]) -> list[dict]:
+    """Per point and orientation: the last state's view 0 and view mean at each resolution, and the Richardson
+    (order 2) of the view means of the two finest, each against LE-2D-FEM-19 at its own area."""
+    from elastocell.simulation.extrapolation import richardson
+
+    readings = {r["key"]: {**r, **view_readings(r, out)} for r in records}
+    ordered = sorted(resolutions)
+    coarse_resolution, fine_resolution = (ordered[-2], ordered[-1]) if len(ordered) > 1 else (None, ordered[0])
+    groups: dict = {}
+    for r in readings.values():
+        groups.setdefault((r["radius_um"], r["emodulus_kpa"], r["duration"], r["orientation"]), {})[r["resolution"]] = r
+    rows, pseudo = [], []
+    for (radius, modulus, duration, orientation), runs in sorted(groups.items()):
+        for resolution, r in sorted(runs.items()):
+            for reading in ("view 0", "views"):
+                pseudo.append({**r, "deform": r[f"D {reading}"], "area_r2": r[f"area {reading}"]})
+                rows.append({"R [um]": radius, "E [kPa]": modulus, "t": duration,
+                             "orientation": orientation, "R/dx": f"{resolution:g}", "reading": reading,
+                             "deform": r[f"D {reading}"],
+                             "views' D range %": 100 * (r["D views max"] - r["D views min"]) / r["D views"],
+                             "hull views": r["hull views"]})
+        if coarse_resolution in runs and fine_resolution in runs:
+            for reading in ("view 0", "views"):
+                value = {name: float(richardson(runs[fine_resolution][f"{name} {reading}"],
+                                                runs[coarse_resolution][f"{name} {reading}"],
+                                                fine_resolution / coarse_resolution)) for name in ("D", "area")}
+                pseudo.append({**runs[fine_resolution], "deform": value["D"], "area_r2": value["area"]})
+                rows.append({"R [um]": radius, "E [kPa]": modulus, "t": duration,
+                             "orientation": orientation,
+                             "R/dx": f"{fine_resolution:g}/{coarse_resolution:g} extrapolated", "reading": reading,
+                             "deform": value["D"], "views' D range %": float("nan"),
+                             "hull views": max(runs[fine_resolution]["hull views"],
+                                               runs[coarse_resolution]["hull views"])})
+    for row, reading in zip(rows, with_table(pseudo), strict=True):
+        row.update({"D_t": reading["D_t"], "D err %": reading["D_err"], "A err %": reading["A_err"],
+                    "target met": "yes" if max(abs(reading["D_err"]), abs(reading["A_err"])) <= 10 else "no"})
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--points", default="6:3", help="R:E,R:E (um, kPa)")
-    parser.add_argument("--orientations", type=int, default=4, help="the identity and this many - 1 random ones")
-    parser.add_argument("--resolution", type=float, default=8.0, help="R/dx")
-    parser.add_argument("--duration", type=float, default=16.0, help="units of 1/gdot_w")
+    parser.add_argument("--set", dest="sets", action="append", default=None,
+                        help="POINTS/ORIENTATIONS/DURATION, repeatable: the points R:E,R:E (um, kPa), each run on "
+                             "the identity and ORIENTATIONS - 1 random orientations for DURATION units of 1/gdot_w "
+                             f"(default {' '.join(DEFAULT_SETS)})")
+    parser.add_argument("--resolutions", type=float, nargs="+", default=[6.0, 8.0], help="R/dx, each run")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("results/pipe-orientation"))
     parser.add_argument("--cached-only", action="store_true")
     args = parser.parse_args()
+    sets = [parse_set(text) for text in (args.sets or DEFAULT_SETS)]
     todo = [{**c, "hold": True, "wall": "interpolated", "orientation": k}
-            for point in parse_points(args.points)
-            for c in cases(point, [args.resolution], [0.3], args.duration, meshes=False)
-            for k in range(args.orientations)]
+            for points, orientations, duration in sets for point in points
+            for c in cases(point, args.resolutions, [0.3], duration, meshes=False)
+            for k in range(orientations)]
     page = Page("pipe_dclab", "pipe_orientation.py", versions=("dclab", "numba"))
     if not args.cached_only:
         run_missing(todo, args.out, args.workers)
@@ -111,13 +232,22 @@ def main() -> None:
         "The pipe's default mesh of the cell (uniform linear tetrahedra, edges of 2 dx) turned by rigid rotations "
         "(orientation 0: as generated; 1, 2, ...: scipy's uniformly random rotations seeded with that number), "
         "each run at the pipe's defaults otherwise (nu 0.48, LE-2D-FEM-19's cylinder R_ch = "
-        f"{CHANNEL_RADIUS_UM:.2f} um, Q = 0.04 uL/s held, eta = 15 mPa s, R/dx {args.resolution:g}, markers at "
-        f"R - 0.3 dx, the interpolated wall, {args.duration:g} units of 1/gdot_w; D and the area the means over "
+        f"{CHANNEL_RADIUS_UM:.2f} um, Q = 0.04 uL/s held, eta = 15 mPa s, R/dx "
+        f"{' and '.join(f'{r:g}' for r in args.resolutions)}, markers at "
+        "R - 0.3 dx, the interpolated wall, t units of 1/gdot_w; D and the area the means over "
         "the last unit, read against the table as on pipe_stationary.py's section; D drift the slope of D over "
         f"the last {DRIFT_WINDOW:g} units). The stationary cell in a pipe does not turn, so the flow sees one "
         "orientation of the mesh's directional stiffness and of its markers against the lattice for the whole "
         "run (in shear flow tank treading averages them): the spread over orientations is how much one mesh's "
-        f"orientation decides. {len(records)} of {len(todo)} runs; wall_s is each run's own wall time (runs two "
+        "orientation decides. The last table reads each run's last state from its own side view (view 0, along z, "
+        f"what the time series holds) and as the mean over {VIEWS} side views about the channel axis (the "
+        "continuum shape of a centred cell is axisymmetric), and combines R/dx 6 and 8 by Richardson "
+        "extrapolation of order 2 (the shear flow's remedy); a run with views read on the nodes' hull (`hull "
+        "views`, the fallback where the smooth fit is not trusted: the coarse runs of the larger deformations) "
+        "cannot be extrapolated. "
+        "The R/dx 8 runs of 40 units are pipe_wall.py's interpolated runs (the same run function and case), "
+        "their records and directories taken over as orientation 0. "
+        f"{len(records)} of {len(todo)} runs; wall_s is each run's own wall time (runs two "
         "at a time beside other work on the 2-core machine).")
     rows = [{"R [um]": r["radius_um"], "E [kPa]": r["emodulus_kpa"], "orientation": r["orientation"],
              "t [1/gdot_w]": r["end"], "reading": "outline" if r["fallback_last_unit"] == 0 else "hull",
@@ -128,19 +258,42 @@ def main() -> None:
         "deform": ".4f", "D_t": ".4f", "D err %": "+.1f", "A err %": "+.1f", "D drift %/t": "+.2f",
         "dV/V end": "+.4f", "wall_s": ".0f", "t [1/gdot_w]": "g"})
     summary = []
-    for point in parse_points(args.points):
-        runs = [r for r in records if (r["radius_um"], r["emodulus_kpa"]) == point]
-        if len(runs) < 2:
-            continue
-        d = np.array([r["deform"] for r in runs])
-        errors = np.array([r["D_err"] for r in runs])
-        summary.append({"R [um]": point[0], "E [kPa]": point[1], "orientations": len(runs), "mean D": d.mean(),
-                        "std D / mean %": 100 * d.std(ddof=1) / d.mean(),
-                        "(max - min) / mean %": 100 * (d.max() - d.min()) / d.mean(),
-                        "mean D err %": errors.mean(), "min D err %": errors.min(), "max D err %": errors.max()})
+    for points, _, duration in sets:
+        for point, resolution in ((p, r) for p in points for r in args.resolutions):
+            runs = [r for r in records if (r["radius_um"], r["emodulus_kpa"], r["duration"]) == (*point, duration)
+                    and r["resolution"] == resolution]
+            if len(runs) < 2:
+                continue
+            d = np.array([r["deform"] for r in runs])
+            errors = np.array([r["D_err"] for r in runs])
+            summary.append({"R [um]": point[0], "E [kPa]": point[1], "t": duration, "R/dx": resolution,
+                            "orientations": len(runs),
+                            "mean D": d.mean(), "std D / mean %": 100 * d.std(ddof=1) / d.mean(),
+                            "(max - min) / mean %": 100 * (d.max() - d.min()) / d.mean(),
+                            "mean D err %": errors.mean(), "min D err %": errors.min(),
+                            "max D err %": errors.max()})
     page.table(summary, "The spread over orientations", formats={
         "mean D": ".4f", "std D / mean %": ".1f", "(max - min) / mean %": ".1f", "mean D err %": "+.1f",
-        "min D err %": "+.1f", "max D err %": "+.1f"})
+        "min D err %": "+.1f", "max D err %": "+.1f", "R/dx": "g"})
+    if len(args.resolutions) >= 2:
+        page.table(extrapolated_rows(records, sorted(args.resolutions)[-2:]),
+                   "Richardson (order 2) from the two finest resolutions, per orientation and of the orientations' "
+                   "mean D and area, against LE-2D-FEM-19 at the extrapolated area", formats={
+                       "D coarse": ".4f", "D fine": ".4f", "D extrapolated": ".4f", "D_t": ".4f",
+                       "D err % fine": "+.1f", "D err % extrapolated": "+.1f", "A err % extrapolated": "+.1f"})
+    views = views_rows(records, args.out, args.resolutions)
+    page.table(views,
+               f"The last state read from one side view (view 0, the pipe's) and averaged over {VIEWS} side views "
+               "about the channel axis, each resolution and extrapolated, against LE-2D-FEM-19 at its own area",
+               formats={"deform": ".4f", "D_t": ".4f", "D err %": "+.1f", "A err %": "+.1f",
+                        "views' D range %": ".1f"})
+    for reading in ("view 0", "views"):
+        rows = [r for r in views if r["reading"] == reading and r["R/dx"].endswith("extrapolated")]
+        clean = [r for r in rows if r["hull views"] == 0]
+        page.print(f"extrapolated, {reading}: D and A within 10 % at {sum(r['target met'] == 'yes' for r in clean)} "
+                   f"of {len(clean)} read on the outline at both resolutions (D err "
+                   + ", ".join(f"{r['D err %']:+.1f} %" for r in clean) + f"); {len(rows) - len(clean)} more with "
+                   "a view of a run read on the nodes' hull")
     missing = [oriented_key(c) for c in todo if oriented_key(c) not in cached]
     if missing:
         page.print("Not run (no record in the cache): " + ", ".join(missing))
