@@ -250,6 +250,30 @@ def test_checkpoint_refuses_other_parameters(tmp_path, cell):
         other.load(tmp_path / "c.npz")
 
 
+def test_a_checkpoint_written_before_the_side_view_columns_continues_with_nan_for_its_records(tmp_path, cell):
+    # A checkpoint of the same layout version but without the columns PIPE_ADDED_COLUMNS names (written before
+    # they existed) loads: those columns are NaN for its records and measured from the next record on.
+    from elastocell.scenarios.pipe import PIPE_ADDED_COLUMNS
+
+    params = PipeFlowParameters(capillary_number_wall=0.2, **SMALL)
+    run = PipeRun(cell, params, record_interval=0.5)
+    run.save(tmp_path / "c.npz")
+    with np.load(tmp_path / "c.npz") as data:
+        arrays = {name: data[name] for name in data.files if name.removeprefix("series_") not in PIPE_ADDED_COLUMNS}
+    np.savez(tmp_path / "old.npz", **arrays)
+    resumed = PipeRun(cell, params, record_interval=0.5)
+    resumed.load(tmp_path / "old.npz")
+    assert all(np.isnan(resumed.series[name]).all() for name in PIPE_ADDED_COLUMNS)
+    resumed.advance_record()
+    assert np.isfinite(resumed.series["deformation_views"][-1])
+    assert resumed.series["outline_fallback_views"][-1] == 0.0
+    assert len(resumed.series["deformation_views"]) == len(resumed.series["time"])
+    other = {k: v for k, v in arrays.items() if k != "series_deformation"}  # a column that was always there
+    np.savez(tmp_path / "damaged.npz", **other)
+    with pytest.raises(ParameterError, match="resume"):
+        PipeRun(cell, params, record_interval=0.5).load(tmp_path / "damaged.npz")
+
+
 def test_checkpoint_fingerprint_ignores_field_order_and_a_sweep_restarts_a_stale_checkpoint(tmp_path, cell,
                                                                                         monkeypatch):
     # The fingerprint is of the parameter values, not of their declaration order; a checkpoint another version

@@ -168,6 +168,40 @@ def view_readings(record: dict, out: Path, views: int = VIEWS) -> dict:
             "hull views": views - sum(fitted)}
 
 
+def views_cost(record: dict, out: Path, repeats: int = 20) -> str:
+    """The side views' cost per record in the pipe: :func:`side_views_outline` against the one view of
+    :func:`smooth_outline_checked` on ``record``'s last state (best of ``repeats``), and the run's wall time per
+    record."""
+    import time
+
+    from elastocell.body.cell import Cell
+    from elastocell.body.observables import moments, side_views_outline, smooth_outline_checked
+    from elastocell.parameters.flow import flow_cell
+
+    cell = Cell.from_parameters(flow_cell(None, {"nucleus": "none", "element": record["element"],
+                                                 "poisson_ratio": 0.48}, record["resolution"]))
+    directory = out / f"o{record['orientation']}" / record["key"].rsplit("-o", 1)[0]
+    with np.load(directory / "checkpoint.npz") as data:
+        x = data["positions"] / (record["resolution"] - record["c"])
+    centre, surface = moments(x, cell.mesh.elements).centre, x[cell.mesh.surface_nodes]
+
+    def best(function) -> float:
+        times = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            function(surface, centre)
+            times.append(time.perf_counter() - start)
+        return min(times)
+
+    one, views = best(smooth_outline_checked), best(side_views_outline)
+    records = round(record["end"] / 0.1) + 1
+    per_record = record["wall_s"] / records
+    return (f"cost per record, R {record['radius_um']:g} um, R/dx {record['resolution']:g}: one view {1e3 * one:.1f} "
+            f"ms, {VIEWS} views {1e3 * views:.1f} ms (the pipe computes both: {1e3 * views:.1f} ms added); the run's "
+            f"wall time per record {1e3 * per_record:.0f} ms ({records} records), so the views add "
+            f"{100 * views / per_record:.1f} % to it")
+
+
 def views_rows(records: list[dict], out: Path, resolutions: list[float]) -> list[dict]:
     """Per point and orientation: the last state's view 0 and view mean at each resolution, and the Richardson
     (order 2) of the view means of the two finest, each against LE-2D-FEM-19 at its own area."""
@@ -287,6 +321,10 @@ def main() -> None:
                "about the channel axis, each resolution and extrapolated, against LE-2D-FEM-19 at its own area",
                formats={"deform": ".4f", "D_t": ".4f", "D err %": "+.1f", "A err %": "+.1f",
                         "views' D range %": ".1f"})
+    fine = [r for r in records if r["resolution"] == max(args.resolutions) and r["orientation"] == 0
+            and (r["radius_um"], r["emodulus_kpa"]) == (6.0, 3.0)]
+    if fine:
+        page.print(views_cost(max(fine, key=lambda r: r["end"]), args.out))
     for reading in ("view 0", "views"):
         rows = [r for r in views if r["reading"] == reading and r["R/dx"].endswith("extrapolated")]
         clean = [r for r in rows if r["hull views"] == 0]

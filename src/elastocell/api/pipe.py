@@ -36,13 +36,14 @@ from elastocell.simulation.output import directory_summary, run_in_directory, wa
 from elastocell.simulation.runner import StopCriteria, check_run_cost
 
 EXTRAPOLATED = ("strain_axial_mean", "strain_radial_mean", "strain_transverse_mean", "deformation_mean",
-                "projected_area_mean", "axial_velocity_mean")
+                "projected_area_mean", "deformation_views_mean", "projected_area_views_mean", "axial_velocity_mean")
 """The stationary shape and velocity an extrapolated run reports extrapolated (the others, the radial migration
 among them, are the finer run's)."""
 
 TRANSIT_COLUMNS = ("deformation", "projected_area", "strain_axial", "strain_radial", "strain_transverse",
-                   "axial_velocity", "radial_position", "volume_change")
-"""The observables a transit run reports at the end of the channel (``summary["transit"]``)."""
+                   "axial_velocity", "radial_position", "volume_change", "deformation_views", "projected_area_views")
+"""The observables a transit run reports at the end of the channel (``summary["transit"]``; NaN for a column a
+series written before it existed lacks)."""
 
 
 @dataclass(frozen=True)
@@ -89,12 +90,13 @@ def transit_values(series: dict, channel_length: float) -> dict:
     interpolated linearly between the two records around it (the last record's if the run ended short of it)."""
     distance = np.asarray(series["axial_position"], dtype=float)
     after = np.nonzero(distance >= channel_length)[0]
-    names = ("time",) + TRANSIT_COLUMNS
+    names = [name for name in ("time",) + TRANSIT_COLUMNS if name in series]
+    missing = {name: float("nan") for name in TRANSIT_COLUMNS if name not in series}
     if after.size == 0 or after[0] == 0:
-        return {name: float(series[name][-1]) for name in names}
+        return {**{name: float(series[name][-1]) for name in names}, **missing}
     i = int(after[0])
     w = (channel_length - distance[i - 1]) / (distance[i] - distance[i - 1])
-    return {name: float((1 - w) * series[name][i - 1] + w * series[name][i]) for name in names}
+    return {**{name: float((1 - w) * series[name][i - 1] + w * series[name][i]) for name in names}, **missing}
 
 
 def pipe(

@@ -235,12 +235,11 @@ def smooth_outline(x_surface: np.ndarray, centre: np.ndarray | None = None, plan
     return area, perimeter
 
 
-def fitted_outline_hull(x_surface: np.ndarray, centre: np.ndarray | None = None, plane: tuple[int, int] = (0, 1),
-                        degree: int = OUTLINE_DEGREE, samples: int = OUTLINE_SAMPLES):
-    """The convex hull (``scipy.spatial.ConvexHull``, 2D: ``volume`` is the area, ``area`` the perimeter) of the
-    projected radial fit of :func:`smooth_outline_checked`, without its guard: what the fit alone reads."""
-    from scipy.spatial import ConvexHull  # lazy: qhull only where an outline is measured
-
+def fitted_surface(x_surface: np.ndarray, centre: np.ndarray | None = None, degree: int = OUTLINE_DEGREE,
+                   samples: int = OUTLINE_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
+    """(points, centre): the smooth surface of :func:`smooth_outline_checked` (the radial function about ``centre``
+    fitted through the nodes by least squares) evaluated on the dense grid :func:`sphere_grid`, (n, 3), and the
+    centre used (default: the middle of the nodes' bounding box)."""
     x = np.asarray(x_surface, dtype=np.float64)
     centre = 0.5 * (x.min(axis=0) + x.max(axis=0)) if centre is None else np.asarray(centre, dtype=np.float64)
     offsets = x - centre
@@ -250,9 +249,29 @@ def fitted_outline_hull(x_surface: np.ndarray, centre: np.ndarray | None = None,
         raise ValueError(f"{len(x)} surface nodes cannot fix a smooth surface (at least 8 are needed)")
     basis = harmonic_basis(offsets / radii[:, None], degree)
     coefficients = np.linalg.lstsq(basis, radii, rcond=None)[0]
-    directions = sphere_grid(samples)[:, list(plane)]
-    projected = (grid_basis(samples, degree) @ coefficients)[:, None] * directions + centre[list(plane)]
-    return ConvexHull(np.ascontiguousarray(projected))
+    return (grid_basis(samples, degree) @ coefficients)[:, None] * sphere_grid(samples) + centre, centre
+
+
+def fitted_outline_hull(x_surface: np.ndarray, centre: np.ndarray | None = None, plane: tuple[int, int] = (0, 1),
+                        degree: int = OUTLINE_DEGREE, samples: int = OUTLINE_SAMPLES):
+    """The convex hull (``scipy.spatial.ConvexHull``, 2D: ``volume`` is the area, ``area`` the perimeter) of the
+    projected radial fit of :func:`smooth_outline_checked`, without its guard: what the fit alone reads."""
+    from scipy.spatial import ConvexHull  # lazy: qhull only where an outline is measured
+
+    points, _ = fitted_surface(x_surface, centre, degree, samples)
+    return ConvexHull(np.ascontiguousarray(points[:, list(plane)]))
+
+
+def _guarded_outline(fitted_2d: np.ndarray, nodes_2d: np.ndarray) -> tuple[float, float, bool]:
+    """(area, perimeter, fitted) of one projection: the hull of the fitted surface's projection, or the nodes' own
+    hull where the fit's area leaves [1, :data:`OUTLINE_MAX_AREA_RATIO`] x theirs."""
+    from scipy.spatial import ConvexHull  # lazy: qhull only where an outline is measured
+
+    hull = ConvexHull(np.ascontiguousarray(fitted_2d))
+    nodes = ConvexHull(np.ascontiguousarray(nodes_2d))
+    if not nodes.volume <= hull.volume <= OUTLINE_MAX_AREA_RATIO * nodes.volume:
+        return float(nodes.volume), float(nodes.area), False  # not star-shaped from the centre: the nodes' own hull
+    return float(hull.volume), float(hull.area), True  # 2D: volume = area, area = perimeter
 
 
 def smooth_outline_checked(x_surface: np.ndarray, centre: np.ndarray | None = None, plane: tuple[int, int] = (0, 1),
@@ -278,14 +297,49 @@ def smooth_outline_checked(x_surface: np.ndarray, centre: np.ndarray | None = No
     then (the outline is that hull, not the fit). The switch is discontinuous in D: a flow cell whose rear flattens
     to a rim the degree-6 fit rounds off (fit 1.3 % inside the hull) read D 0.056 by the fit and 0.082-0.100 by
     the hull, whose perimeter keeps the mesh-scale roughness (validation/pipe_resolution.py)."""
-    from scipy.spatial import ConvexHull  # lazy: qhull only where an outline is measured
-
     x = np.asarray(x_surface, dtype=np.float64)
-    hull = fitted_outline_hull(x, centre, plane, degree, samples)
-    nodes = ConvexHull(np.ascontiguousarray(x[:, list(plane)]))
-    if not nodes.volume <= hull.volume <= OUTLINE_MAX_AREA_RATIO * nodes.volume:
-        return float(nodes.volume), float(nodes.area), False  # not star-shaped from the centre: the nodes' own hull
-    return float(hull.volume), float(hull.area), True  # 2D: volume = area, area = perimeter
+    points, _ = fitted_surface(x, centre, degree, samples)
+    return _guarded_outline(points[:, list(plane)], x[:, list(plane)])
+
+
+OUTLINE_VIEWS = 6
+"""Side views about the channel axis that :func:`side_views_outline` averages: azimuths k pi/6, k = 0..5 (view 0 is
+the x-y plane, the pipe's own side view along z). A centred cell's continuum shape is axisymmetric, so every view
+reads the same D; the discrete cell's mesh makes it slightly non-axisymmetric, and one view reads one azimuth of
+that. Measured on the last states of pipe runs at R/dx 8 (validation/pipe_orientation.py, docs/validation/
+pipe_dclab.md): D differs by 3-10 % between views; the mean over six views, extrapolated from R/dx 6 and 8, is
+within 10 % of LE-2D-FEM-19 in D and area at 6 of 6 pairs read on the smooth outline, one view at 3 of 6."""
+
+
+def side_view_coordinates(points: np.ndarray, centre: np.ndarray, views: int = OUTLINE_VIEWS) -> list[np.ndarray]:
+    """The (n, 2) coordinates of ``points`` in each of ``views`` side views about the x axis through ``centre``:
+    (x - c_x, (y - c_y) cos phi + (z - c_z) sin phi), phi = k pi/views (view 0 is the x-y plane, shifted)."""
+    offsets = np.asarray(points, dtype=np.float64) - np.asarray(centre, dtype=np.float64)
+    return [np.stack([offsets[:, 0], offsets[:, 1] * math.cos(phi) + offsets[:, 2] * math.sin(phi)], axis=1)
+            for phi in np.arange(views) * math.pi / views]
+
+
+def circularity_deformation(area: float, perimeter: float) -> float:
+    """RT-DC's deformation 1 - circularity, circularity = 2 sqrt(pi A)/P of an outline of area A and perimeter
+    P."""
+    return 1.0 - 2.0 * math.sqrt(math.pi * area) / perimeter
+
+
+def side_views_outline(x_surface: np.ndarray, centre: np.ndarray | None = None, views: int = OUTLINE_VIEWS,
+                       degree: int = OUTLINE_DEGREE, samples: int = OUTLINE_SAMPLES) -> tuple[float, float, int]:
+    """(mean area, mean deformation, views read on the nodes' hull) of the outline of
+    :func:`smooth_outline_checked` seen from ``views`` side views about the x axis through ``centre``
+    (:func:`side_view_coordinates`): the same fitted surface, projected on each view's plane, each projection
+    guarded as :func:`smooth_outline_checked` guards its one (the nodes' hull where the fit is not trusted).
+    Deformation: 1 - circularity of each view, then averaged (:data:`OUTLINE_VIEWS` says why)."""
+    x = np.asarray(x_surface, dtype=np.float64)
+    points, centre = fitted_surface(x, centre, degree, samples)
+    readings = [_guarded_outline(fit, nodes) for fit, nodes in zip(side_view_coordinates(points, centre, views),
+                                                                      side_view_coordinates(x, centre, views),
+                                                                      strict=True)]
+    return (float(np.mean([area for area, _, _ in readings])),
+            float(np.mean([circularity_deformation(area, perimeter) for area, perimeter, _ in readings])),
+            sum(not fitted for _, _, fitted in readings))
 
 
 ELEMENT_OUTLINE_SUBDIVISIONS = 16
@@ -329,13 +383,33 @@ def element_surface_outline(x: np.ndarray, triangles: np.ndarray, plane: tuple[i
     (:func:`elastocell.body.mesh.outer_surface_triangles`)."""
     from scipy.spatial import ConvexHull  # lazy: qhull only where an outline is measured
 
+    points = element_surface_points(np.asarray(x, dtype=np.float64)[:, list(plane)], triangles, subdivisions)
+    hull = ConvexHull(np.ascontiguousarray(points))
+    return float(hull.volume), float(hull.area)  # 2D: volume = area, area = perimeter
+
+
+def element_surface_points(x: np.ndarray, triangles: np.ndarray,
+                           subdivisions: int = ELEMENT_OUTLINE_SUBDIVISIONS) -> np.ndarray:
+    """Points of a surface of 6-node (quadratic) triangles: the barycentric grid of ``subdivisions`` per edge on
+    each, mapped by its shape functions, (n_faces x samples, d) for positions ``x`` of dimension d."""
     triangles = np.asarray(triangles)
     if triangles.ndim != 2 or triangles.shape[1] != 6:
         raise ValueError(f"element_surface_outline takes 6-node triangles, got shape {triangles.shape}")
-    corners = np.asarray(x, dtype=np.float64)[:, list(plane)][triangles]  # (n_faces, 6, 2)
-    points = np.einsum("sk,fkd->fsd", _triangle6_samples(subdivisions), corners).reshape(-1, 2)
-    hull = ConvexHull(np.ascontiguousarray(points))
-    return float(hull.volume), float(hull.area)  # 2D: volume = area, area = perimeter
+    corners = np.asarray(x, dtype=np.float64)[triangles]  # (n_faces, 6, d)
+    return np.einsum("sk,fkd->fsd", _triangle6_samples(subdivisions), corners).reshape(-1, corners.shape[-1])
+
+
+def element_side_views_outline(x: np.ndarray, triangles: np.ndarray, centre: np.ndarray,
+                               views: int = OUTLINE_VIEWS,
+                               subdivisions: int = ELEMENT_OUTLINE_SUBDIVISIONS) -> tuple[float, float]:
+    """(mean area, mean deformation) of :func:`element_surface_outline` seen from ``views`` side views about the x
+    axis through ``centre`` (:func:`side_view_coordinates`; :data:`OUTLINE_VIEWS` says why)."""
+    from scipy.spatial import ConvexHull  # lazy: qhull only where an outline is measured
+
+    hulls = [ConvexHull(np.ascontiguousarray(view)) for view in
+             side_view_coordinates(element_surface_points(x, triangles, subdivisions), centre, views)]
+    return (float(np.mean([h.volume for h in hulls])),
+            float(np.mean([circularity_deformation(h.volume, h.area) for h in hulls])))
 
 
 # --------------------------------------------------------------------------- tank treading

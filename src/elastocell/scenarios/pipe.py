@@ -59,7 +59,13 @@ import numpy as np
 from pydantic import model_serializer, model_validator
 
 from elastocell.body.mesh import outer_surface_triangles
-from elastocell.body.observables import element_surface_outline, moments, smooth_outline_checked
+from elastocell.body.observables import (
+    element_side_views_outline,
+    element_surface_outline,
+    moments,
+    side_views_outline,
+    smooth_outline_checked,
+)
 from elastocell.coupling import ibm
 from elastocell.coupling.immersed import ImmersedCell, immersed_cell
 from elastocell.coupling.markers import FlowError
@@ -826,6 +832,7 @@ PIPE_COLUMNS = (
     "time", "radial_position", "axial_velocity", "local_capillary_number", "strain_axial", "strain_radial",
     "strain_transverse", "projected_area", "deformation", "volume_change", "axial_position", "centre_y",
     "centre_z", "nucleus_radial_position", "nucleus_axial_offset", "max_speed", "outline_fallback",
+    "projected_area_views", "deformation_views", "outline_fallback_views",
 )  # fmt: skip
 """Time-series columns: time (1/gdot_w); radial_position |r_c|/R_ch of the volume centroid; axial_velocity
 (u_max); local_capillary_number Ca_w r_c/R_ch; strain_axial l_x/(2R); strain_radial l_y/(2R);
@@ -835,7 +842,16 @@ nucleus_radial_position (R_ch) and nucleus_axial_offset (R, ahead of the cell ce
 nucleus); max_speed (largest marker speed in the last step, dx/dt); outline_fallback 1 where the side view of a
 linear-element cell is the nodes' hull because the smooth fit left its trusted band
 (:func:`~elastocell.body.observables.smooth_outline_checked`; D is then biased high by the mesh-scale roughness),
-else 0."""
+else 0; projected_area_views (R^2) and deformation_views: their means over
+:data:`~elastocell.body.observables.OUTLINE_VIEWS` side views about the channel axis through the centroid (view 0
+the one along z; a centred cell's continuum shape is axisymmetric, the discrete cell's is not quite, and the mean
+is the better estimate of its D: :func:`~elastocell.body.observables.side_views_outline`), with
+outline_fallback_views the number of those views read on the nodes' hull. A run continued from a checkpoint written
+before the last three columns existed has NaN in them up to where it continued (:data:`PIPE_ADDED_COLUMNS`)."""
+
+PIPE_ADDED_COLUMNS = ("projected_area_views", "deformation_views", "outline_fallback_views")
+"""Columns a checkpoint of the current layout may lack because it was written before they existed: a resumed run
+fills them with NaN for the records before (``FlowRun.ADDED_COLUMNS``)."""
 
 MAX_CAPILLARY_NUMBER_WALL = 50.0
 """Largest wall capillary number accepted (the RT-DC tables reach about 5)."""
@@ -861,6 +877,7 @@ class PipeRun(FlowRun):
     """
 
     COLUMNS = PIPE_COLUMNS
+    ADDED_COLUMNS = PIPE_ADDED_COLUMNS
     TIME_UNIT = "units of 1/gdot_w"
     WHEN = "time {:.3g}/gdot_w"
     DRIVING = "capillary_number_wall"
@@ -939,9 +956,12 @@ class PipeRun(FlowRun):
         if triangles is not None:  # quadratic elements: their own curved surface
             area, perimeter = element_surface_outline(x / size, triangles)
             fitted = True
+            views_area, views_deformation = element_side_views_outline(x / size, triangles, centre / size)
+            views_fallback = 0
         else:
-            area, perimeter, fitted = smooth_outline_checked(x[self.cell.mesh.surface_nodes] / size,
-                                                             m.centre * units.radius / size)
+            surface = x[self.cell.mesh.surface_nodes] / size
+            area, perimeter, fitted = smooth_outline_checked(surface, centre / size)
+            views_area, views_deformation, views_fallback = side_views_outline(surface, centre / size)
         circularity = 2.0 * math.sqrt(math.pi * area) / perimeter
         if self._nucleus_mask is not None:
             nc = moments(x / units.radius, elements, self._nucleus_mask).centre * units.radius
@@ -958,7 +978,8 @@ class PipeRun(FlowRun):
             "volume_change": m.volume * (units.radius / size) ** 3 / self.volume0 - 1.0,  # volume0 in marker radii
             "axial_position": (centre[0] - self._x0) / units.radius, "centre_y": cy, "centre_z": cz,
             "nucleus_radial_position": nucleus_r, "nucleus_axial_offset": nucleus_dx, "max_speed": max_speed,
-            "outline_fallback": 0.0 if fitted else 1.0,
+            "outline_fallback": 0.0 if fitted else 1.0, "projected_area_views": views_area,
+            "deformation_views": views_deformation, "outline_fallback_views": float(views_fallback),
         }  # fmt: skip
 
     def _check_walls(self) -> None:
@@ -1003,6 +1024,11 @@ class PipeRun(FlowRun):
             values = s[name][keep]
             out[f"{name}_mean"] = float(values.mean()) if values.size else float("nan")
             out[f"{name}_std"] = float(values.std()) if values.size else float("nan")
+        for name in ("deformation_views", "projected_area_views"):  # NaN before a resume from an older checkpoint
+            values = s[name][keep][np.isfinite(s[name][keep])]
+            out[f"{name}_mean"] = float(values.mean()) if values.size else float("nan")
+            out[f"{name}_std"] = float(values.std()) if values.size else float("nan")
+        out["outline_fallback_views_records"] = int((s["outline_fallback_views"][keep] > 0).sum())
         out.update(window_verdict(s, keep, WINDOW_OBSERVABLES))
         out["radial_position_initial"] = float(s["radial_position"][0])
         fallback = np.asarray(s["outline_fallback"], dtype=float)

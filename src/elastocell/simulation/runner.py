@@ -203,6 +203,9 @@ class FlowRun:
     """
 
     COLUMNS: tuple[str, ...] = ()
+    ADDED_COLUMNS: tuple[str, ...] = ()
+    """Columns of :attr:`COLUMNS` that a checkpoint of this :data:`CHECKPOINT_VERSION` may lack, written before they
+    existed: loading it fills them with NaN for its records (the run continues; its later records have them)."""
     TIME_UNIT = "strain"
     WHEN = "strain {:.3g}"
     """How the guards name the moment of a failure (formatted with the current time)."""
@@ -450,7 +453,10 @@ class FlowRun:
             self.elapsed = float(data["elapsed"])
             self.wall_time_before = float(data["wall_time"]) if "wall_time" in data.files else self.elapsed
             self._session_start = time.perf_counter()
-            self.series = {name: [float(v) for v in data[f"series_{name}"]] for name in self.COLUMNS}
+            length = len(data[f"series_{self.time_column}"])
+            self.series = {name: ([float(v) for v in data[f"series_{name}"]]
+                                  if f"series_{name}" in data.files or name not in self.ADDED_COLUMNS
+                                  else [float("nan")] * length) for name in self.COLUMNS}
             self._load_extra(data)
 
 
