@@ -276,7 +276,7 @@ def test_the_lookup_table_reads_the_flag_where_it_reads_the_shape(tmp_path):
     from elastocell.inverse.lut import FINAL_WINDOW, final_shape
 
     n = 11
-    table = pd.DataFrame({**{name: np.full(n, 1.0) for name in TRANSIT_COLUMNS if not name.endswith("_views")},
+    table = pd.DataFrame({**{name: np.full(n, 1.0) for name in TRANSIT_COLUMNS},
                           "time": 0.1 * np.arange(n), "axial_position": np.arange(n, dtype=float),
                           "deformation": np.full(n, 0.02), "projected_area": np.full(n, 3.2),
                           "outline_fallback": [0.0, 0.0, 0.0, 1.0] + [0.0] * (n - 5) + [1.0]})
@@ -289,56 +289,3 @@ def test_the_lookup_table_reads_the_flag_where_it_reads_the_shape(tmp_path):
     assert final_shape(path, channel_length=50.0)["outline_fallback"] == 1.0  # short of L: the last record
     table.drop(columns="outline_fallback").to_csv(path, index=False)
     assert math.isnan(final_shape(path)["outline_fallback"])
-
-
-def test_the_lookup_table_reads_the_side_views_where_the_whole_window_has_them(tmp_path):
-    """final_shape reads the equivalent side views' means (and their hull flag) where every record it reads has
-    them; a window with a record from before a resume from an older checkpoint (NaN views) is read along z, and
-    says so; an extrapolated point whose two runs would be read differently is read along z in both."""
-    import pandas as pd
-
-    from elastocell.inverse.lut import OUTLINE_READINGS, final_shape
-
-    n = 11
-    table = pd.DataFrame({"time": 0.1 * np.arange(n), "axial_position": np.arange(n, dtype=float),
-                          "deformation": np.full(n, 0.02), "projected_area": np.full(n, 3.2),
-                          "outline_fallback": np.zeros(n), "deformation_views": np.full(n, 0.03),
-                          "projected_area_views": np.full(n, 3.3),
-                          "outline_fallback_views": [0.0] * (n - 1) + [2.0]})
-    path = tmp_path / "timeseries.csv"
-    table.to_csv(path, index=False)
-    shape = final_shape(path)
-    assert (shape["deformation"], shape["projected_area"]) == pytest.approx((0.03, 3.3), rel=1e-12)
-    assert shape["reading"] == OUTLINE_READINGS[0]
-    assert shape["outline_fallback"] == pytest.approx(1 / 10)  # the last record has views on the hull
-    assert final_shape(path, views=False)["deformation"] == pytest.approx(0.02, rel=1e-12)
-    table.loc[3, "deformation_views"] = np.nan  # t = 0.3, inside the final window (t > 0)
-    table.to_csv(path, index=False)
-    shape = final_shape(path)
-    assert shape["deformation"] == pytest.approx(0.02, rel=1e-12)
-    assert shape["reading"] == OUTLINE_READINGS[1]
-    assert final_shape(path, channel_length=7.5)["reading"] == OUTLINE_READINGS[0]  # records 7 and 8 have them
-
-
-def test_an_extrapolated_point_whose_runs_are_read_differently_is_read_along_z_in_both(tmp_path):
-    import json
-
-    import pandas as pd
-
-    from elastocell.inverse.lut import OUTLINE_READINGS, point_shape
-    from elastocell.simulation.extrapolation import part_directory
-
-    n = 11
-    for resolution, views in ((8.0, True), (6.0, False)):  # the coarse run written before the views existed
-        part = part_directory(tmp_path, resolution)
-        part.mkdir(parents=True)
-        columns = {"time": 0.1 * np.arange(n), "deformation": np.full(n, 0.02 if resolution == 8 else 0.03),
-                   "projected_area": np.full(n, 3.2), "outline_fallback": np.zeros(n)}
-        if views:
-            columns.update(deformation_views=np.full(n, 0.05), projected_area_views=np.full(n, 3.3),
-                           outline_fallback_views=np.zeros(n))
-        pd.DataFrame(columns).to_csv(part / "timeseries.csv", index=False)
-        (part / "summary.json").write_text(json.dumps({"stop_reason": "stationary"}))
-    shape, _ = point_shape(tmp_path, {"extrapolation": {"fine_resolution": 8.0, "coarse_resolution": 6.0}})
-    assert shape["reading"] == OUTLINE_READINGS[1]
-    assert shape["deformation"] == pytest.approx(0.02 + (0.02 - 0.03) / ((8 / 6) ** 2 - 1), rel=1e-12)

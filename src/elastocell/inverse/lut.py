@@ -670,46 +670,28 @@ summary's means over the second half would mix in the approach to the steady sha
 E = 2 kPa, 20 um channel, 0.04 uL/s: deformation 0.0365 over the second half against 0.039 at the end)."""
 
 
-OUTLINE_READINGS = ("side views", "side view along z")
-"""How a point's area and deformation are read (``outline_reading`` in its record): the mean over the side views
-its channel makes equivalent (the pipe's ``projected_area_views``/``deformation_views``: six in a cylinder, z and
-y in a square duct; the default), or the pipe's one view along z, for a series written before the views existed
-(or whose final window lacks them)."""
-
-
-def final_shape(timeseries: Path, channel_length: float | None = None, views: bool = True) -> dict:
-    """Means of the area and the deformation (and the deformation's standard deviation) over the last
+def final_shape(timeseries: Path, channel_length: float | None = None) -> dict:
+    """Means of ``deformation`` and ``projected_area`` (and the deformation's standard deviation) over the last
     :data:`FINAL_WINDOW` of a pipe run's time series; with ``channel_length`` (units of R) their values where the
-    cell had travelled that far (``api.pipe.transit_values``; the standard deviation is then 0). Read from the
-    equivalent side views' means (``deformation_views``, ``projected_area_views``) where every record read has
-    them (and ``views``), else from the view along z (``deformation``, ``projected_area``); ``reading`` says which
-    (:data:`OUTLINE_READINGS`). ``outline_fallback``: the share of those records whose side view along z is the
-    nodes' hull, not the smooth outline (the pipe's column of that name; for a transit run 0 or 1, from the two
-    records :func:`transit_values` reads; NaN, unknown, for a series written before the column existed), or, read
-    from the views, whose views include one on the hull."""
+    cell had travelled that far (``api.pipe.transit_values``; the standard deviation is then 0).
+    ``outline_fallback``: the share of those records whose side view is the nodes' hull, not the smooth outline
+    (the pipe's column of that name; for a transit run 0 or 1, from the two records :func:`transit_values` reads;
+    NaN, unknown, for a series written before the column existed)."""
     import pandas as pd
 
     table = pd.read_csv(timeseries)
-    if channel_length is not None:
-        after = np.nonzero(table["axial_position"].to_numpy() >= channel_length)[0]  # as transit_values picks
-        rows = np.array([len(table) - 1] if after.size == 0 or after[0] == 0 else [int(after[0]) - 1,
-                                                                                     int(after[0])])
-    else:
-        rows = np.nonzero((table["time"] > table["time"].iloc[-1] - FINAL_WINDOW).to_numpy())[0]
-    views = (views and "deformation_views" in table
-             and bool(np.isfinite(table["deformation_views"].to_numpy()[rows]).all()))
-    deformation, area = ("deformation_views", "projected_area_views") if views else ("deformation", "projected_area")
-    flag = "outline_fallback_views" if views else "outline_fallback"
-    fallback = (table[flag] > 0).astype(float) if flag in table else pd.Series(float("nan"), index=table.index)
-    reading = OUTLINE_READINGS[0] if views else OUTLINE_READINGS[1]
+    fallback = (table["outline_fallback"] if "outline_fallback" in table
+                else pd.Series(float("nan"), index=table.index))
     if channel_length is not None:
         values = transit_values({c: table[c].to_numpy() for c in table.columns}, channel_length)
-        return {"deformation": values[deformation], "deformation_std": 0.0, "projected_area": values[area],
-                "outline_fallback": float(fallback.iloc[rows].max()), "reading": reading}
-    last = table.iloc[rows]
-    return {"deformation": float(last[deformation].mean()), "deformation_std": float(last[deformation].std(ddof=0)),
-            "projected_area": float(last[area].mean()), "outline_fallback": float(fallback.iloc[rows].mean()),
-            "reading": reading}
+        after = np.nonzero(table["axial_position"].to_numpy() >= channel_length)[0]  # as transit_values picks
+        rows = [len(table) - 1] if after.size == 0 or after[0] == 0 else [int(after[0]) - 1, int(after[0])]
+        return {"deformation": values["deformation"], "deformation_std": 0.0,
+                "projected_area": values["projected_area"], "outline_fallback": float(fallback.iloc[rows].max())}
+    window = table["time"] > table["time"].iloc[-1] - FINAL_WINDOW
+    last = table[window]
+    return {"deformation": float(last["deformation"].mean()), "deformation_std": float(last["deformation"].std(ddof=0)),
+            "projected_area": float(last["projected_area"].mean()), "outline_fallback": float(fallback[window].mean())}
 
 
 def point_shape(directory: Path, summary: dict) -> tuple[dict, str]:
@@ -731,16 +713,12 @@ def point_shape(directory: Path, summary: dict) -> tuple[dict, str]:
         states.add(run_state(json.loads((part / "summary.json").read_text()).get("stop_reason"),
                              summary.get("channel_length_um")))
     state = states.pop() if len(states) == 1 else "cap"
-    if shapes[fine_r]["reading"] != shapes[coarse_r]["reading"]:  # one run lacks the views: both along z
-        shapes = {r: final_shape(part_directory(directory, r) / "timeseries.csv", length, views=False)
-                  for r in (fine_r, coarse_r)}
     values = extrapolate_values({k: shapes[fine_r][k] for k in ("deformation", "projected_area")}, shapes[coarse_r],
                                 fine_r, coarse_r)
     final = {k: v["value"] for k, v in values.items()}
     final["deformation_std"] = shapes[fine_r]["deformation_std"]
     final["outline_fallback"] = float(np.fmax(shapes[fine_r]["outline_fallback"],
                                               shapes[coarse_r]["outline_fallback"]))  # NaN only if both unknown
-    final["reading"] = shapes[fine_r]["reading"]
     final["extrapolation"] = {"fine_resolution": fine_r, "coarse_resolution": coarse_r, "values": values}
     return final, state
 
@@ -777,7 +755,7 @@ def run_point(task: tuple[dict, str]) -> dict:
         "key": point["key"], "radius_um": radius, "emodulus_kpa": point["emodulus_kpa"],
         "area_um": final["projected_area"] * radius**2,
         "deform": final["deformation"], "deform_std": final["deformation_std"],
-        "outline_fallback": final["outline_fallback"], "outline_reading": final["reading"],
+        "outline_fallback": final["outline_fallback"],
         "extrapolation": final.get("extrapolation"),
         "final_window": FINAL_WINDOW,
         "deformation_mean_second_half": summary["deformation_mean"],
@@ -968,10 +946,7 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     mean, not a steady shape); points whose final window holds records read through the nodes' hull rather than
     the smooth outline (the pipe's ``outline_fallback``; the hull's deform is biased high, and an extrapolation
     carries that bias either way) are listed under ``elastocell.outline_fallback`` (also in the returned summary)
-    and keep the share in their record. Each point's area and deformation are the means over the side views its
-    channel makes equivalent (:data:`OUTLINE_READINGS`; metadata ``elastocell.outline_reading``); a point read
-    along z alone, from a run written before the views existed, is listed under ``elastocell.read_along_z``.
-    ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
+    and keep the share in their record. ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
     0.5): a table for the cell with a centred spherical nucleus (the metadata's ``elastocell.cell_model``; its
     ``emodulus`` column is the cytoplasm's E_c); without them the cell is homogeneous. ``channel_length`` (a
     quantity, bare number in um): each point is read at the end of a channel of that length, the cell started
@@ -1011,13 +986,11 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
         metadata = lut_metadata(settings, identifier)
         not_stationary = [r["key"] for r in records if point_state(r) == "cap"]
         hull_outline = [r["key"] for r in records if r.get("outline_fallback", 0.0) > 0]
-        along_z = [r["key"] for r in records if r.get("outline_reading", OUTLINE_READINGS[1]) != OUTLINE_READINGS[0]]
         single = [p["key"] for p in points if settings["coarse_resolution"] is not None
                   and p["options"].get("extrapolate") is False]
         metadata["elastocell"] = {**settings, "points": len(points), "finished": len(records),
                                   "failed": [f["key"] for f in failures], "not_stationary": not_stationary,
                                   "not_extrapolated": single, "outline_fallback": hull_outline,
-                                  "outline_reading": OUTLINE_READINGS[0], "read_along_z": along_z,
                                   "point_states": {r["key"]: point_state(r) for r in records}}
         result = {"lut": str(out), "isoelastics": str(isoelastics_path(out)), "runs": str(runs),
                   "records": records, "failures": failures, "wall_time_s": time.perf_counter() - start,
