@@ -243,12 +243,13 @@ def test_a_run_reports_where_its_outline_is_the_nodes_hull(monkeypatch, tmp_path
     params = PipeFlowParameters(capillary_number_wall=0.1, resolution=4, channel_radius_ratio=2.5, box_length=6)
     calls = []
 
-    def outline(*args, **kwargs):
-        area, perimeter, _ = observables.smooth_outline_checked(*args, **kwargs)
+    def outline(*args, **kwargs):  # the side views of a record; view 0 is the one along z
+        readings = observables.side_view_readings(*args, **kwargs)
         calls.append(None)
-        return area, perimeter, len(calls) not in (2, 4, 5)  # on the hull at t = 0.1 (the transient), 0.3, 0.4
+        area, perimeter, _ = readings[0]
+        return [(area, perimeter, len(calls) not in (2, 4, 5))] + readings[1:]  # hull at t = 0.1, 0.3, 0.4
 
-    monkeypatch.setattr(pipe_module, "smooth_outline_checked", outline)
+    monkeypatch.setattr(pipe_module, "side_view_readings", outline)
     run = run_pipe(cell, params, duration=0.4, record_interval=0.1)
     assert list(run.series["outline_fallback"]) == [0.0, 1.0, 0.0, 1.0, 1.0]
     summary = run.summary
@@ -289,3 +290,19 @@ def test_the_lookup_table_reads_the_flag_where_it_reads_the_shape(tmp_path):
     assert final_shape(path, channel_length=50.0)["outline_fallback"] == 1.0  # short of L: the last record
     table.drop(columns="outline_fallback").to_csv(path, index=False)
     assert math.isnan(final_shape(path)["outline_fallback"])
+
+
+def test_a_side_view_on_the_nodes_hull_is_left_out_of_the_mean_unless_every_view_is():
+    """A view read on the nodes' hull (D biased high by the mesh-scale roughness) does not enter the views' mean;
+    where every view is on the hull, the mean is theirs; the count says how many were."""
+    from elastocell.body.observables import circularity_deformation, mean_side_view
+
+    readings = [(3.1, 6.3, True), (3.0, 6.5, False), (3.2, 6.4, True)]
+    area, mean_deformation, hull_views = mean_side_view(readings)
+    assert hull_views == 1
+    assert area == pytest.approx(3.15, rel=1e-12)
+    assert mean_deformation == pytest.approx(0.5 * (circularity_deformation(3.1, 6.3)
+                                                    + circularity_deformation(3.2, 6.4)), rel=1e-12)
+    on_hull = [(a, p, False) for a, p, _ in readings]
+    assert mean_side_view(on_hull)[0] == pytest.approx(3.1, rel=1e-12)
+    assert mean_side_view(on_hull)[2] == 3

@@ -276,15 +276,15 @@ def test_a_checkpoint_written_before_the_side_view_columns_continues_with_nan_fo
 
 def test_the_side_views_averaged_are_those_the_channel_makes_equivalent():
     # A cylinder's centred cell is axisymmetric: every azimuth; a square duct's has its four-fold symmetry: the
-    # views along z (RT-DC's camera) and y; a rectangle's only its own view along z.
+    # views along z (RT-DC's camera) and y; a rectangle's only its own view along z; an off-axis cell's too.
     from elastocell.body.observables import OUTLINE_VIEWS
     from elastocell.scenarios.pipe import equivalent_side_views
 
     def views(**options):
         return equivalent_side_views(PipeFlowParameters(capillary_number_wall=0.2, **options))
 
-    assert (views(), views(channel_shape="square"), views(channel_shape="rectangle", channel_aspect_ratio=1.5)) \
-        == (OUTLINE_VIEWS, 2, 1)
+    assert (views(), views(channel_shape="square"), views(channel_shape="rectangle", channel_aspect_ratio=1.5),
+            views(start_offset=0.2), views(channel_shape="square", start_offset=0.2)) == (OUTLINE_VIEWS, 2, 1, 1, 1)
 
 
 def test_checkpoint_fingerprint_ignores_field_order_and_a_sweep_restarts_a_stale_checkpoint(tmp_path, cell,

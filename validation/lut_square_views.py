@@ -23,6 +23,7 @@ docs/validation/lut_square.md.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 import warnings
@@ -66,6 +67,13 @@ def last_state_readings(directory: Path, record: dict, views: int) -> dict:
             "area views": views_area * scale, "D views": views_deformation, "hull views": hull_views}
 
 
+def predicted(row: dict, resolution: float) -> float:
+    """The D at ``resolution`` that order-2 convergence through the R/dx 6 and 8 views' readings predicts:
+    D_inf + (D_8 - D_inf) (8/resolution)^2."""
+    limit, fine = row["8/6 views"][1], row["8 views"][1]
+    return limit + (fine - limit) * (8.0 / resolution) ** 2
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--radii", default="4,5,6,7")
@@ -74,6 +82,9 @@ def main(argv=None) -> None:
     parser.add_argument("--duration", type=float, default=20.0, help="cap per point, 1/gdot_w")
     parser.add_argument("--fine", type=Path, default=Path("/work/results/lut-square-r8"))
     parser.add_argument("--coarse", type=Path, default=Path("/work/results/lut-square-r6"))
+    parser.add_argument("--finest", type=Path, default=Path("/work/results/lut-square-r10"),
+                        help="finished points of a finer resolution (not run here: made by compute_lut with that "
+                             "resolution into this folder), shown beside the extrapolation that predicts them")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--views", type=int, default=2,
                         help="side views about the axis (k pi/views): 2, along z and y, the duct's equivalent ones")
@@ -94,6 +105,10 @@ def main(argv=None) -> None:
                                     workers=args.workers, **common)
     wall = time.perf_counter() - start
     coarse_by_point = {(r["radius_um"], r["emodulus_kpa"]): r for r in results["coarse"]["records"]}
+    finest_by_point = {}
+    for marker in sorted(args.finest.glob("*_runs/*/point.json")):
+        record = json.loads(marker.read_text())
+        finest_by_point[(record["radius_um"], record["emodulus_kpa"])] = (marker.parent, record)
     rows = []
     for fine in results["fine"]["records"]:
         point = (fine["radius_um"], fine["emodulus_kpa"])
@@ -109,8 +124,15 @@ def main(argv=None) -> None:
                                                           readings["coarse"][f"{q} {reading}"], 8.0 / 6.0))
                                           for q in ("area", "D"))
         row["hull views 8/6"] = f"{readings['fine']['hull views']}/{readings['coarse']['hull views']}"
+        if point in finest_by_point:
+            directory, record = finest_by_point[point]
+            finest = last_state_readings(directory, record, args.views)
+            row["finest"] = (finest["area views"], finest["D views"])
+            row["finest R/dx"] = record["options"]["resolution"]
+        else:
+            row["finest"] = (float("nan"), float("nan"))
         rows.append(row)
-    readings_names = ("lut", "8 one", "8 views", "8/6 one", "8/6 views")
+    readings_names = ("lut", "8 one", "8 views", "8/6 one", "8/6 views", "finest")
     ratios = {}
     for name in readings_names:
         area = np.array([r[name][0] for r in rows])
@@ -150,6 +172,15 @@ def main(argv=None) -> None:
                    f"{finite.min():.3f}-{finite.max():.3f}, median {np.median(finite):.3f}); on the {len(clean)} "
                    f"points whose views all read the smooth outline at both resolutions: "
                    f"{int(np.sum(np.abs(ratio[clean] - 1) <= TARGET))}")
+    for r in rows:
+        if "finest R/dx" in r:
+            i = rows.index(r)
+            page.print(f"R {r['R [um]']:g} um, E {r['E [kPa]']:g} kPa at R/dx {r['finest R/dx']:g} "
+                       f"({args.views} views): "
+                       f"D {r['finest'][1]:.4f}, E ratio {ratios['finest'][i]:.3f}; R/dx 8 {r['8 views'][1]:.4f} "
+                       f"({ratios['8 views'][i]:.3f}), 8/6 extrapolated {r['8/6 views'][1]:.4f} "
+                       f"({ratios['8/6 views'][i]:.3f}); order 2 from 8 and 6 predicts R/dx "
+                       f"{r['finest R/dx']:g} at {predicted(r, r['finest R/dx']):.4f}")
     page.print(f"wall time {wall:.0f} s (finished points read back from {args.fine} and {args.coarse})")
     page.write()
 

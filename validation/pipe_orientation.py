@@ -43,14 +43,16 @@ from page import Page
 from pipe_dclab import DRIFT_WINDOW, parse_points
 from pipe_resolution import CHANNEL_RADIUS_UM, cases, key, read, run_case, with_table
 
-DEFAULT_SETS = ("6:3/4/16", "7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5/1/40")
-"""The runs on the page: POINTS/ORIENTATIONS/DURATION (see --set)."""
+DEFAULT_SETS = ("6:3/4/16", "7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5/1/40", "6:3/1/40/10")
+"""The runs on the page: POINTS/ORIENTATIONS/DURATION[/RESOLUTIONS] (see --set)."""
 
 
-def parse_set(text: str) -> tuple[list[tuple[float, float]], int, float]:
-    """"R:E,R:E/ORIENTATIONS/DURATION" -> (points, orientations, duration)."""
-    points, orientations, duration = text.split("/")
-    return parse_points(points), int(orientations), float(duration)
+def parse_set(text: str, resolutions: list[float]) -> tuple[list[tuple[float, float]], int, float, list[float]]:
+    """"R:E,R:E/ORIENTATIONS/DURATION[/R1+R2...]" -> (points, orientations, duration, resolutions R/dx; default
+    ``resolutions``)."""
+    points, orientations, duration, *own = text.split("/")
+    own_resolutions = [float(r) for r in own[0].split("+")] if own else list(resolutions)
+    return parse_points(points), int(orientations), float(duration), own_resolutions
 
 
 def rotation(orientation: int) -> np.ndarray:
@@ -142,11 +144,16 @@ z)."""
 
 def view_readings(record: dict, out: Path, views: int = VIEWS) -> dict:
     """The run's last state (its checkpoint) read from ``views`` side views about the channel axis through the
-    cell's centroid, each as the pipe reads its own view (the smooth outline fitted through the surface nodes, the
-    nodes' hull where the fit is not trusted; lengths in the markers' radius): view 0's D and area, their means over
-    the views, the views' range of D and how many views fell back to the hull."""
+    cell's centroid as the pipe reads them (elastocell.body.observables.side_view_readings, lengths in the markers'
+    radius): view 0's D and area, their means over the views read on the smooth outline (mean_side_view), the
+    range of D over those views and how many views fell back to the nodes' hull."""
     from elastocell.body.cell import Cell
-    from elastocell.body.observables import moments, smooth_outline_checked
+    from elastocell.body.observables import (
+        circularity_deformation,
+        mean_side_view,
+        moments,
+        side_view_readings,
+    )
     from elastocell.parameters.flow import flow_cell
 
     cell = Cell.from_parameters(flow_cell(None, {"nucleus": "none", "element": record["element"],
@@ -154,18 +161,12 @@ def view_readings(record: dict, out: Path, views: int = VIEWS) -> dict:
     directory = out / f"o{record['orientation']}" / record["key"].rsplit("-o", 1)[0]
     with np.load(directory / "checkpoint.npz") as data:
         x = data["positions"] / (record["resolution"] - record["c"])  # the markers' radius, as the pipe reads
-    centre = moments(x, cell.mesh.elements).centre
-    surface = x[cell.mesh.surface_nodes] - centre
-    areas, deformations, fitted = [], [], []
-    for angle in np.arange(views) * np.pi / views:
-        turn = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(angle), -np.sin(angle)], [0.0, np.sin(angle), np.cos(angle)]])
-        area, perimeter, ok = smooth_outline_checked(surface @ turn.T, np.zeros(3))
-        areas.append(area)
-        deformations.append(1.0 - 2.0 * np.sqrt(np.pi * area) / perimeter)
-        fitted.append(ok)
-    return {"D view 0": deformations[0], "area view 0": areas[0], "D views": float(np.mean(deformations)),
-            "area views": float(np.mean(areas)), "D views min": min(deformations), "D views max": max(deformations),
-            "hull views": views - sum(fitted)}
+    readings = side_view_readings(x[cell.mesh.surface_nodes], moments(x, cell.mesh.elements).centre, views)
+    area, deformation, hull_views = mean_side_view(readings)
+    fitted = [circularity_deformation(a, p) for a, p, ok in readings if ok] or [deformation]
+    return {"D view 0": circularity_deformation(*readings[0][:2]), "area view 0": readings[0][0],
+            "D views": deformation, "area views": area, "D views min": min(fitted), "D views max": max(fitted),
+            "hull views": hull_views}
 
 
 def views_cost(record: dict, out: Path, repeats: int = 20) -> str:
@@ -202,14 +203,13 @@ def views_cost(record: dict, out: Path, repeats: int = 20) -> str:
             f"{100 * views / per_record:.1f} % to it")
 
 
-def views_rows(records: list[dict], out: Path, resolutions: list[float]) -> list[dict]:
+def views_rows(records: list[dict], out: Path, pair: list[float]) -> list[dict]:
     """Per point and orientation: the last state's view 0 and view mean at each resolution, and the Richardson
     (order 2) of the view means of the two finest, each against LE-2D-FEM-19 at its own area."""
     from elastocell.simulation.extrapolation import richardson
 
     readings = {r["key"]: {**r, **view_readings(r, out)} for r in records}
-    ordered = sorted(resolutions)
-    coarse_resolution, fine_resolution = (ordered[-2], ordered[-1]) if len(ordered) > 1 else (None, ordered[0])
+    coarse_resolution, fine_resolution = pair
     groups: dict = {}
     for r in readings.values():
         groups.setdefault((r["radius_um"], r["emodulus_kpa"], r["duration"], r["orientation"]), {})[r["resolution"]] = r
@@ -247,15 +247,18 @@ def main() -> None:
                         help="POINTS/ORIENTATIONS/DURATION, repeatable: the points R:E,R:E (um, kPa), each run on "
                              "the identity and ORIENTATIONS - 1 random orientations for DURATION units of 1/gdot_w "
                              f"(default {' '.join(DEFAULT_SETS)})")
-    parser.add_argument("--resolutions", type=float, nargs="+", default=[6.0, 8.0], help="R/dx, each run")
+    parser.add_argument("--resolutions", type=float, nargs="+", default=[6.0, 8.0],
+                        help="R/dx, each run of a set that names none")
+    parser.add_argument("--pair", type=float, nargs=2, default=[6.0, 8.0],
+                        help="the coarse and fine R/dx combined by Richardson extrapolation")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("results/pipe-orientation"))
     parser.add_argument("--cached-only", action="store_true")
     args = parser.parse_args()
-    sets = [parse_set(text) for text in (args.sets or DEFAULT_SETS)]
+    sets = [parse_set(text, args.resolutions) for text in (args.sets or DEFAULT_SETS)]
     todo = [{**c, "hold": True, "wall": "interpolated", "orientation": k}
-            for points, orientations, duration in sets for point in points
-            for c in cases(point, args.resolutions, [0.3], duration, meshes=False)
+            for points, orientations, duration, resolutions in sets for point in points
+            for c in cases(point, resolutions, [0.3], duration, meshes=False)
             for k in range(orientations)]
     page = Page("pipe_dclab", "pipe_orientation.py", versions=("dclab", "numba"))
     if not args.cached_only:
@@ -267,7 +270,8 @@ def main() -> None:
         "(orientation 0: as generated; 1, 2, ...: scipy's uniformly random rotations seeded with that number), "
         "each run at the pipe's defaults otherwise (nu 0.48, LE-2D-FEM-19's cylinder R_ch = "
         f"{CHANNEL_RADIUS_UM:.2f} um, Q = 0.04 uL/s held, eta = 15 mPa s, R/dx "
-        f"{' and '.join(f'{r:g}' for r in args.resolutions)}, markers at "
+        f"{' and '.join(f'{r:g}' for r in sorted({r for *_, rs in sets for r in rs}))} as each set of runs "
+        "says, markers at "
         "R - 0.3 dx, the interpolated wall, t units of 1/gdot_w; D and the area the means over "
         "the last unit, read against the table as on pipe_stationary.py's section; D drift the slope of D over "
         f"the last {DRIFT_WINDOW:g} units). The stationary cell in a pipe does not turn, so the flow sees one "
@@ -292,8 +296,8 @@ def main() -> None:
         "deform": ".4f", "D_t": ".4f", "D err %": "+.1f", "A err %": "+.1f", "D drift %/t": "+.2f",
         "dV/V end": "+.4f", "wall_s": ".0f", "t [1/gdot_w]": "g"})
     summary = []
-    for points, _, duration in sets:
-        for point, resolution in ((p, r) for p in points for r in args.resolutions):
+    for points, _, duration, resolutions in sets:
+        for point, resolution in ((p, r) for p in points for r in resolutions):
             runs = [r for r in records if (r["radius_um"], r["emodulus_kpa"], r["duration"]) == (*point, duration)
                     and r["resolution"] == resolution]
             if len(runs) < 2:
@@ -309,13 +313,12 @@ def main() -> None:
     page.table(summary, "The spread over orientations", formats={
         "mean D": ".4f", "std D / mean %": ".1f", "(max - min) / mean %": ".1f", "mean D err %": "+.1f",
         "min D err %": "+.1f", "max D err %": "+.1f", "R/dx": "g"})
-    if len(args.resolutions) >= 2:
-        page.table(extrapolated_rows(records, sorted(args.resolutions)[-2:]),
-                   "Richardson (order 2) from the two finest resolutions, per orientation and of the orientations' "
-                   "mean D and area, against LE-2D-FEM-19 at the extrapolated area", formats={
-                       "D coarse": ".4f", "D fine": ".4f", "D extrapolated": ".4f", "D_t": ".4f",
-                       "D err % fine": "+.1f", "D err % extrapolated": "+.1f", "A err % extrapolated": "+.1f"})
-    views = views_rows(records, args.out, args.resolutions)
+    page.table(extrapolated_rows(records, list(args.pair)),
+               f"Richardson (order 2) from R/dx {args.pair[0]:g} and {args.pair[1]:g}, per orientation and of the "
+               "orientations' mean D and area, against LE-2D-FEM-19 at the extrapolated area", formats={
+                   "D coarse": ".4f", "D fine": ".4f", "D extrapolated": ".4f", "D_t": ".4f",
+                   "D err % fine": "+.1f", "D err % extrapolated": "+.1f", "A err % extrapolated": "+.1f"})
+    views = views_rows(records, args.out, list(args.pair))
     page.table(views,
                f"The last state read from one side view (view 0, the pipe's) and averaged over {VIEWS} side views "
                "about the channel axis, each resolution and extrapolated, against LE-2D-FEM-19 at its own area",

@@ -61,11 +61,10 @@ from pydantic import model_serializer, model_validator
 from elastocell.body.mesh import outer_surface_triangles
 from elastocell.body.observables import (
     OUTLINE_VIEWS,
-    element_side_views_outline,
-    element_surface_outline,
+    element_side_view_readings,
+    mean_side_view,
     moments,
-    side_views_outline,
-    smooth_outline_checked,
+    side_view_readings,
 )
 from elastocell.coupling import ibm
 from elastocell.coupling.immersed import ImmersedCell, immersed_cell
@@ -855,8 +854,11 @@ def equivalent_side_views(params: PipeFlowParameters) -> int:
     cell, so that their mean reads it with less of the mesh's own scatter: every azimuth in a cylinder
     (:data:`~elastocell.body.observables.OUTLINE_VIEWS`), the views along z (RT-DC's camera, through the height)
     and y in a square duct (its four-fold symmetry; the diagonal ones see another outline), the one along z in a
-    rectangle. Measured in the square duct (validation/lut_square_views.py): six views read E 3.7-4 % apart from
-    the two equivalent ones on the 7 um cells (E 1.5-3 kPa) against HE-3D-FEM-22."""
+    rectangle or for a cell started off the axis (``start_offset``). In the square duct six views would read E
+    3.7-4 % apart from the two equivalent ones on the 7 um cells (E 1.5-3 kPa; validation/lut_square_views.py
+    with --views 6 and 2)."""
+    if params.start_offset != 0.0:  # an off-axis cell: no two views see the same shape
+        return 1
     if params.channel_shape == "cylinder":
         return OUTLINE_VIEWS
     return 2 if params.channel_shape == "square" or params.channel_aspect_ratio == 1.0 else 1
@@ -971,16 +973,11 @@ class PipeRun(FlowRun):
         extent = (x.max(axis=0) - x.min(axis=0)) / size / self.reference_extent
         triangles = self._quadratic_surface()
         if triangles is not None:  # quadratic elements: their own curved surface
-            area, perimeter = element_surface_outline(x / size, triangles)
-            fitted = True
-            views_area, views_deformation = element_side_views_outline(x / size, triangles, centre / size,
-                                                                       self._side_views)
-            views_fallback = 0
+            readings = element_side_view_readings(x / size, triangles, centre / size, self._side_views)
         else:
-            surface = x[self.cell.mesh.surface_nodes] / size
-            area, perimeter, fitted = smooth_outline_checked(surface, centre / size)
-            views_area, views_deformation, views_fallback = side_views_outline(surface, centre / size,
-                                                                               self._side_views)
+            readings = side_view_readings(x[self.cell.mesh.surface_nodes] / size, centre / size, self._side_views)
+        area, perimeter, fitted = readings[0]  # view 0: the one along z
+        views_area, views_deformation, views_fallback = mean_side_view(readings)
         circularity = 2.0 * math.sqrt(math.pi * area) / perimeter
         if self._nucleus_mask is not None:
             nc = moments(x / units.radius, elements, self._nucleus_mask).centre * units.radius
@@ -1044,7 +1041,7 @@ class PipeRun(FlowRun):
             out[f"{name}_mean"] = float(values.mean()) if values.size else float("nan")
             out[f"{name}_std"] = float(values.std()) if values.size else float("nan")
         for name in ("deformation_views", "projected_area_views"):  # NaN before a resume from an older checkpoint
-            values = s[name][keep][np.isfinite(s[name][keep])]
+            values = s[name][keep]  # NaN unless every record of the window has them (the same window as the rest)
             out[f"{name}_mean"] = float(values.mean()) if values.size else float("nan")
             out[f"{name}_std"] = float(values.std()) if values.size else float("nan")
         out["outline_fallback_views_records"] = int((s["outline_fallback_views"][keep] > 0).sum())

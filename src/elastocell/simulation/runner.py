@@ -112,7 +112,8 @@ CHECKPOINT_VERSION = 6
 """Version of the checkpoint layout and of what its fingerprint (:meth:`FlowRun.fingerprint`) hashes; raised when
 the state a checkpoint holds, or how a run continues from it, changes for the same parameters (5: a quadratic
 cell's pipe outline is its elements' own surface, so that a resumed series does not switch outline; 6: the pipe's
-series has the column outline_fallback)."""
+series has the column outline_fallback). Columns a scenario adds later without raising it are its
+``FlowRun.ADDED_COLUMNS``: a checkpoint without them loads, NaN in them for its records."""
 
 
 class _StopAtRecord:
