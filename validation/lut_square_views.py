@@ -67,6 +67,23 @@ def last_state_readings(directory: Path, record: dict, views: int) -> dict:
             "area views": views_area * scale, "D views": views_deformation, "hull views": hull_views}
 
 
+def table_deformation(emodulus, area_um: float, modulus_kpa: float) -> float:
+    """The deformation at which HE-3D-FEM-22 (this page's conditions) assigns ``modulus_kpa`` to a cell of area
+    ``area_um``: E(deform) on a fine logarithmic grid, interpolated (E falls with deform); NaN outside the table."""
+    deform = np.geomspace(5e-4, 0.15, 4000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        e = np.asarray(emodulus.get_emodulus(area_um=np.full_like(deform, area_um), deform=deform,
+                                             medium="0.59% MC-PBS", channel_width=20.0, flow_rate=0.04, px_um=0,
+                                             temperature=23.0, visc_model="buyukurganci-2022",
+                                             lut_data="HE-3D-FEM-22"))
+    inside = np.isfinite(e)
+    if not inside.any() or not (e[inside].min() <= modulus_kpa <= e[inside].max()):
+        return float("nan")
+    order = np.argsort(e[inside])
+    return float(np.interp(modulus_kpa, e[inside][order], deform[inside][order]))
+
+
 def predicted(row: dict, resolution: float) -> float:
     """The D at ``resolution`` that order-2 convergence through the R/dx 6 and 8 views' readings predicts:
     D_inf + (D_8 - D_inf) (8/resolution)^2."""
@@ -118,7 +135,8 @@ def main(argv=None) -> None:
         row = {"R [um]": point[0], "E [kPa]": point[1], "state 8": fine["state"], "state 6": coarse["state"],
                "lut": (fine["area_um"], fine["deform"]),
                "8 one": (readings["fine"]["area one"], readings["fine"]["D one"]),
-               "8 views": (readings["fine"]["area views"], readings["fine"]["D views"])}
+               "8 views": (readings["fine"]["area views"], readings["fine"]["D views"]),
+               "6 views": (readings["coarse"]["area views"], readings["coarse"]["D views"])}
         for reading in ("one", "views"):
             row[f"8/6 {reading}"] = tuple(float(richardson(readings["fine"][f"{q} {reading}"],
                                                           readings["coarse"][f"{q} {reading}"], 8.0 / 6.0))
@@ -172,6 +190,14 @@ def main(argv=None) -> None:
                    f"{finite.min():.3f}-{finite.max():.3f}, median {np.median(finite):.3f}); on the {len(clean)} "
                    f"points whose views all read the smooth outline at both resolutions: "
                    f"{int(np.sum(np.abs(ratio[clean] - 1) <= TARGET))}")
+    from pipe_orientation import three_resolution_line
+
+    for r in rows:
+        if r.get("finest R/dx") == 10.0:
+            d_t = table_deformation(emodulus, r["finest"][0], r["E [kPa]"])
+            page.print(three_resolution_line(f"R {r['R [um]']:g} um, E {r['E [kPa]']:g} kPa, {args.views} views",
+                                             {6.0: r["6 views"][1], 8.0: r["8 views"][1], 10.0: r["finest"][1]},
+                                             d_t))
     for r in rows:
         if "finest R/dx" in r:
             i = rows.index(r)
