@@ -308,9 +308,9 @@ the x-y plane, the pipe's own side view along z). A centred cell's continuum sha
 reads the same D; the discrete cell's mesh makes it slightly non-axisymmetric, and one view reads one azimuth of
 that. Measured on the last states of pipe runs at R/dx 8 (validation/pipe_orientation.py, docs/validation/
 pipe_dclab.md): D differs by 3-10 % between views. Extrapolated from R/dx 6 and 8, the mean over six views came
-within 10 % of LE-2D-FEM-19 in D and area at every pair read on the smooth outline (three cells, one of them in
-four orientations at t = 16, not yet stationary), one view at half of them; in the square duct the same
-extrapolation reads E 7-17 % above HE-3D-FEM-22 (docs/validation/lut_square.md)."""
+within 10 % of LE-2D-FEM-19 in D and area at every pair read on the smooth outline (two cells, R/R_ch 0.55 and
+0.70, the first also at t = 16 in four orientations, not yet stationary there), one view at half of them; in the
+square duct the same extrapolation reads E 7-17 % above HE-3D-FEM-22 (docs/validation/lut_square.md)."""
 
 
 def side_view_coordinates(points: np.ndarray, centre: np.ndarray, views: int = OUTLINE_VIEWS) -> list[np.ndarray]:
