@@ -269,7 +269,8 @@ def test_a_checkpoint_written_before_the_side_view_columns_continues_with_nan_fo
     assert resumed.series["outline_fallback_views"][-1] == 0.0
     assert len(resumed.series["deformation_views"]) == len(resumed.series["time"])
     summary = resumed.summary(transient=0.0)  # the window holds the record from before the resume:
-    # no views mean rather than a partial one    assert np.isnan(summary["deformation_views_mean"]) and np.isfinite(summary["deformation_mean"])
+    # no views mean rather than a partial one
+    assert np.isnan(summary["deformation_views_mean"]) and np.isfinite(summary["deformation_mean"])
     other = {k: v for k, v in arrays.items() if k != "series_deformation"}  # a column that was always there
     np.savez(tmp_path / "damaged.npz", **other)
     with pytest.raises(ParameterError, match="resume"):
