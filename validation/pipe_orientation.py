@@ -43,7 +43,7 @@ from page import Page
 from pipe_dclab import DRIFT_WINDOW, parse_points
 from pipe_resolution import CHANNEL_RADIUS_UM, cases, key, read, run_case, with_table
 
-DEFAULT_SETS = ("6:3/4/16", "7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5/1/40", "6:3/1/40/10")
+DEFAULT_SETS = ("6:3/4/16", "7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5/1/40", "6:3,7.66:4.5/1/40/10")
 """The runs on the page: POINTS/ORIENTATIONS/DURATION[/RESOLUTIONS] (see --set)."""
 
 
