@@ -27,9 +27,7 @@ run already there is not repeated). The section goes into docs/validation/pipe_d
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +39,7 @@ except ImportError:  # a source checkout without installing
 
 from page import Page
 from pipe_dclab import DRIFT_WINDOW, parse_points
-from pipe_resolution import CHANNEL_RADIUS_UM, cases, key, read, run_case, with_table
+from pipe_resolution import CHANNEL_RADIUS_UM, cases, key, read, run_case, run_missing, with_table
 
 DEFAULT_SETS = ("6:3/4/16", "7.66:3,7.66:4.5,6:2,6:3,5:1.5,6.5:2.5/1/40", "6:3,7.66:4.5/1/40/10")
 """The runs on the page: POINTS/ORIENTATIONS/DURATION[/RESOLUTIONS] (see --set)."""
@@ -111,23 +109,6 @@ def run_oriented(case: dict, out: Path) -> dict:
     cell_module.build_mesh = turned
     record = run_case(case, out / f"o{case['orientation']}")
     return {**record, "key": oriented_key(case), "orientation": case["orientation"]}
-
-
-def run_missing(todo: list[dict], out: Path, workers: int) -> None:
-    path = out / "runs.jsonl"
-    done = {r["key"] for r in read(path)}
-    todo = [c for c in todo if oriented_key(c) not in done]
-    if not todo:
-        return
-    out.mkdir(parents=True, exist_ok=True)
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        futures = [pool.submit(run_oriented, c, out) for c in todo]
-        for future in as_completed(futures):
-            record = future.result()
-            with path.open("a") as handle:
-                handle.write(json.dumps(record) + "\n")
-            print(f"{record['key']}: D {record['deform']:.4f} (t={record['end']:g}, {record['wall_s']:.0f} s)",
-                  flush=True)
 
 
 def extrapolated_rows(records: list[dict], resolutions: list[float]) -> list[dict]:
@@ -290,7 +271,7 @@ def main() -> None:
             for k in range(orientations)]
     page = Page("pipe_dclab", "pipe_orientation.py", versions=("dclab", "numba"))
     if not args.cached_only:
-        run_missing(todo, args.out, args.workers)
+        run_missing(todo, args.out, args.workers, key_of=oriented_key, run=run_oriented)
     cached = {r["key"]: r for r in read(args.out / "runs.jsonl")}
     records = with_table([cached[oriented_key(c)] for c in todo if oriented_key(c) in cached])
     page.intro = (

@@ -145,15 +145,17 @@ def read(path: Path) -> list[dict]:
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
-def run_missing(todo: list[dict], out: Path, workers: int) -> None:
+def run_missing(todo: list[dict], out: Path, workers: int, key_of=key, run=run_case) -> None:
+    """Run the cases of ``todo`` whose ``key_of`` is not yet in ``out/runs.jsonl`` with ``run(case, out)`` (in
+    worker processes; the finest first), appending each record as it finishes."""
     path = out / "runs.jsonl"
     done = {r["key"] for r in read(path)}
-    todo = [c for c in todo if key(c) not in done]
+    todo = [c for c in todo if key_of(c) not in done]
     if not todo:
         return
     out.mkdir(parents=True, exist_ok=True)
     with ProcessPoolExecutor(max_workers=workers) as pool:  # the finest first: the longest runs start early
-        futures = [pool.submit(run_case, c, out) for c in sorted(todo, key=lambda c: -c["resolution"])]
+        futures = [pool.submit(run, c, out) for c in sorted(todo, key=lambda c: -c["resolution"])]
         for future in as_completed(futures):
             record = future.result()
             with path.open("a") as handle:
