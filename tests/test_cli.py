@@ -206,7 +206,7 @@ EXPECTED_OPTIONS = {
             '--offset=0.0 --offset-axis=x --semi-axes=0.8,0.4,0.4 --nucleus-axis=x --random=False --seed=None '
             '--mesh-size=None --pole-size=None --interface-size=None --poisson-ratio=0.48 --youngs-modulus=1 '
             '--radius=1 --material=neo-hookean --element=p1 --volumetric=standard --equivalent=False --channel-radius-ratio=2.0 '
-            '--start-offset=0.0 --resolution=8.0 --extrapolate=False --coarse-resolution=None '
+            '--start-offset=0.0 --resolution=8.0 --extrapolate=None --coarse-resolution=None '
             '--hold-flow-rate=True --hydrodynamic-radius-correction=0.3 --channel-shape=None '
             '--channel-wall=interpolated --channel-width=None --channel-height=None '
             '--channel-aspect-ratio=None --medium=newtonian --temperature=None --flow-index=None '

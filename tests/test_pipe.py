@@ -332,7 +332,9 @@ def test_checkpoint_fingerprint_ignores_field_order_and_a_sweep_restarts_a_stale
         (["--capillary-number-wall", "0.2", "--medium", "power-law"], "--flow-index"),
         (["--capillary-number-wall", "0.2", "--resolution", "4", "--extrapolate", "--coarse-resolution", "4"],
          "--coarse-resolution"),
-        (["--capillary-number-wall", "0.2", "--resolution", "8", "--coarse-resolution", "6"], "--coarse-resolution"),
+        (["--capillary-number-wall", "0.2", "--no-extrapolate", "--coarse-resolution", "6"], "--coarse-resolution"),
+        (["--capillary-number-wall", "0.2", "--channel-shape", "square", "--coarse-resolution", "6"],
+         "--coarse-resolution"),  # a duct's default is one resolution
     ],
 )
 def test_cli_refuses_impossible_input_in_one_line(tmp_path, arguments, option):
@@ -485,8 +487,9 @@ def test_cli_passes_the_flow_rate_hold_and_the_radius_correction(tmp_path):
 
 
 def test_the_command_line_and_the_api_share_the_pipe_defaults():
-    """One run per point with the markers at R - 0.3 dx, whichever way the pipe (or a LUT) is asked for: the
-    command line's defaults are the API's (the CLI declares them without importing the scenario)."""
+    """The markers at R - 0.3 dx and the extrapolation decided by the channel (a LUT: one run per point), whichever
+    way the pipe is asked for: the command line's defaults are the API's (the CLI declares them without importing
+    the scenario)."""
     import inspect
 
     import typer
@@ -500,7 +503,7 @@ def test_the_command_line_and_the_api_share_the_pipe_defaults():
     cli = {param.name: param.default for param in commands["pipe"].params}
     assert PipeFlowParameters.model_fields["hydrodynamic_radius_correction"].default == 0.3
     assert cli["hydrodynamic_radius_correction"] == PIPE_HYDRODYNAMIC_RADIUS_CORRECTION
-    assert cli["extrapolate"] is inspect.signature(pipe).parameters["extrapolate"].default is False
+    assert cli["extrapolate"] is inspect.signature(pipe).parameters["extrapolate"].default is None  # by the channel
     lut = {param.name: param.default for param in commands["lut"].params}
     assert lut["extrapolate"] is inspect.signature(compute_lut).parameters["extrapolate"].default is False
     assert lut["hydrodynamic_radius_correction"] == PIPE_HYDRODYNAMIC_RADIUS_CORRECTION
@@ -511,7 +514,9 @@ def test_a_coarse_resolution_without_the_extrapolation_is_refused_by_the_api():
     from elastocell.parameters.units import ParameterError
 
     with pytest.raises(ParameterError, match="coarse_resolution.*extrapolation, which is off"):
-        pipe("never-written", 0.2, nucleus="none", coarse_resolution=6, progress=False)
+        pipe("never-written", 0.2, nucleus="none", coarse_resolution=6, extrapolate=False, progress=False)
+    with pytest.raises(ParameterError, match="coarse_resolution.*extrapolation, which is off"):  # a duct: one run
+        pipe("never-written", 0.2, nucleus="none", coarse_resolution=6, channel_shape="square", progress=False)
     assert not Path("never-written").exists()
 
 
@@ -539,3 +544,72 @@ def test_a_held_pressure_gradient_reaches_both_runs_of_an_extrapolated_pipe(tmp_
         assert summary["hold_flow_rate"] is False and summary["pressure_gradient_ratio"] == 1.0, part
         # c = 0 is left out of the dump too, and the default is 0.3: both runs keep the markers at R
         assert "hydrodynamic_radius_correction" not in summary["flow"], part
+
+
+@pytest.mark.parametrize(("flow", "expected"), [
+    ({}, True), ({"start_offset": 0.2}, False), ({"channel_shape": "square"}, False),
+    ({"channel_shape": "rectangle", "channel_aspect_ratio": 1.5}, False)])
+def test_the_pipe_extrapolates_by_default_in_a_cylinder_with_the_cell_on_its_axis(flow, expected):
+    """Where the six side views converge (the centred cell in a cylinder) the default is the R/dx 8 and 6 pair;
+    in a duct R/dx 8 alone (docs/validation/lut_square.md, section lut_square_views.py), off the axis too."""
+    from elastocell.api.pipe import extrapolated_by_default
+
+    assert extrapolated_by_default(PipeFlowParameters(capillary_number_wall=0.5, **flow)) is expected
+
+
+def _fake_parts(monkeypatch, hull_records: dict[float, int]):
+    """Replace the pipe's one-resolution run by one writing a summary whose readings are 10 x R/dx (so the
+    Richardson values are known) and ``hull_records[R/dx]`` records on the nodes' hull; returns the calls."""
+    import elastocell.api.pipe as api
+    from elastocell.files import write_json
+
+    calls = []
+
+    def single(out, params, *arguments, part=""):
+        r = params.resolution
+        calls.append((params.channel_shape, r))
+        Path(out).mkdir(parents=True, exist_ok=True)
+        summary = {"resolution": r, "stop_reason": "duration", "label": "fake", "capillary_number_wall": 0.5,
+                   "outline_fallback_records": 0, "outline_fallback_views_records": hull_records.get(r, 0),
+                   **{name: 10.0 * r for name in api.EXTRAPOLATED}}
+        write_json(Path(out) / "summary.json", summary)
+        return summary, {"time": np.array([0.0, 1.0]), "deformation": np.array([0.0, 0.0])}
+
+    monkeypatch.setattr(api, "_single", single)
+    monkeypatch.setattr(api, "plot_pipe", lambda *a, **k: None)
+    return calls
+
+
+def test_a_default_cylinder_run_is_the_extrapolated_pair_and_a_duct_run_one_resolution(tmp_path, monkeypatch):
+    """The wiring of the default: a cylinder runs R/dx 8 then 6 and reports the Richardson values (reference:
+    X_8 + (X_8 - X_6) / ((8/6)^2 - 1), written out, with X = 10 R/dx: 80 + 20 / (7/9) = 105.714...); a square duct
+    runs R/dx 8 once."""
+    import elastocell.api.pipe as api
+
+    calls = _fake_parts(monkeypatch, {})
+    summary = api.pipe(tmp_path / "cylinder", 0.5, nucleus="none", progress=False)
+    assert calls == [("cylinder", 8.0), ("cylinder", 6.0)]
+    for name in api.EXTRAPOLATED:
+        assert summary[name] == pytest.approx(80.0 + 20.0 / (16.0 / 9.0 - 1.0), rel=1e-12)
+    assert "outline_guard" not in summary["extrapolation"]
+    calls.clear()
+    summary = api.pipe(tmp_path / "square", 0.5, nucleus="none", channel_shape="square", progress=False)
+    assert calls == [("square", 8.0)] and "extrapolation" not in summary
+
+
+def test_an_extrapolation_with_hull_read_records_keeps_the_finer_runs_outline(tmp_path, monkeypatch):
+    """Records read on the nodes' hull in either run (here 3 at R/dx 6): the deformation and area stay the R/dx 8
+    run's (80), their corrections NaN, a warning and ``outline_guard`` say why; the strains and velocity are still
+    extrapolated."""
+    import elastocell.api.pipe as api
+
+    _fake_parts(monkeypatch, {6.0: 3})
+    with pytest.warns(UserWarning, match="nodes' hull.*R/dx 6: 3"):
+        summary = api.pipe(tmp_path / "run", 0.5, nucleus="none", progress=False)
+    for name in api.OUTLINE_EXTRAPOLATED:
+        assert summary[name] == 80.0 and np.isnan(summary[f"{name}_correction"]), name
+    assert summary["strain_axial_mean"] == pytest.approx(80.0 + 20.0 / (16.0 / 9.0 - 1.0), rel=1e-12)
+    assert "R/dx 8 run's" in summary["extrapolation"]["outline_guard"]
+    on_disk = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert on_disk["deformation_views_mean"] == 80.0 and "outline_guard" in on_disk["extrapolation"]
+    assert api.rtdc_reading(summary) == (80.0, 80.0, "side views")

@@ -95,9 +95,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     "flow_default": ("Cost of the flow defaults", {
         "flow_default_cost.py": ("elastocell shear at its defaults (R/dx 8 and 6, extrapolated) against one R/dx 8 run",
                                  "nice python validation/flow_default_cost.py --page"),
-        "pipe_default_cost.py": ("elastocell pipe at its default (R/dx 8 alone, markers at R - 0.3 dx, the "
-                                 "cylinder's wall interpolated) against the extrapolated pair on the staircase it "
-                                 "replaced", "nice python validation/pipe_default_cost.py --page"),
+        "pipe_default_cost.py": ("elastocell pipe at its default in a cylinder (R/dx 8 and 6 extrapolated, six "
+                                 "side views) against the single R/dx 8 run and the default issue 24 started from", "nice python validation/pipe_default_cost.py --page"),
     }),
     "pipe": ("Cell in pipe flow", {
         "pipe.py": ("Poiseuille flow, the centred cell, and the cost of a coupled step",

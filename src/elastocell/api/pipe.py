@@ -1,8 +1,9 @@
 """``elastocell.pipe``, the API behind ``elastocell pipe``: writes ``timeseries.csv``, ``summary.json``, a plot
-and VTK files to a directory, and resumes from its checkpoint. By default a run is one resolution (R/dx 8) with the markers at R - 0.3 dx
-(:data:`~elastocell.scenarios.pipe.PIPE_HYDRODYNAMIC_RADIUS_CORRECTION`, which says why); ``extrapolate`` makes it
-two runs, at R/dx 6 and at the resolution, whose stationary values are Richardson-extrapolated
-(``elastocell.simulation.extrapolation``).
+and VTK files to a directory, and resumes from its checkpoint. The markers sit at R - 0.3 dx
+(:data:`~elastocell.scenarios.pipe.PIPE_HYDRODYNAMIC_RADIUS_CORRECTION`, which says why). In a cylinder with the
+cell on its axis a run is by default two runs, at R/dx 6 and at the resolution (8), whose stationary values are
+Richardson-extrapolated (``elastocell.simulation.extrapolation``), the RT-DC reading taken from six side views; in a
+duct, or off the axis, one run at the resolution (:func:`extrapolated_by_default` says why).
 
 A finite channel (``channel_length``, RT-DC's measurement region near the outlet): the cell starts undeformed on its
 path at the inlet and the run ends when the distance it has travelled, its own axial speed integrated over time
@@ -14,6 +15,7 @@ ran out first).
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
 from dataclasses import dataclass
@@ -29,6 +31,7 @@ from elastocell.parameters.units import ParameterError, parse_quantity, parse_te
 from elastocell.scenarios.pipe import STATIONARY_OBSERVABLES, PipeFlowParameters, PipeRun, plot_pipe
 from elastocell.simulation.directory import interruptible, output_directory
 from elastocell.simulation.extrapolation import (
+    part_directory,
     requested_coarse_resolution,
     run_extrapolated,
 )
@@ -44,6 +47,64 @@ TRANSIT_COLUMNS = ("deformation", "projected_area", "strain_axial", "strain_radi
                    "axial_velocity", "radial_position", "volume_change", "deformation_views", "projected_area_views")
 """The observables a transit run reports at the end of the channel (``summary["transit"]``; NaN for a column a
 series written before it existed lacks)."""
+
+
+OUTLINE_EXTRAPOLATED = ("deformation_mean", "projected_area_mean", "deformation_views_mean",
+                        "projected_area_views_mean")
+"""The side-view readings among :data:`EXTRAPOLATED`: an extrapolation whose runs read any record of their
+averaging windows on the nodes' hull reports these as the finer run's (:func:`outline_guarded`)."""
+
+
+def extrapolated_by_default(params: PipeFlowParameters) -> bool:
+    """Whether ``pipe`` extrapolates when ``extrapolate`` is not given: in a cylinder with the cell started on the
+    axis, yes (R/dx 8 and 6, Richardson, read from the six side views); in a square or rectangular duct, or for a
+    cell started off the axis, no (one run).
+
+    Measured (docs/validation/pipe_dclab.md, section "pipe_orientation.py"; LE-2D-FEM-19's cylinder, the
+    stationary shape at t = 40/gdot_w): the six-view D of two cells at R/R_ch 0.55 and 0.70 converges at order
+    1.85 and 4.5 over R/dx 6, 8, 10, its 8/6 extrapolation lies within 10 % of the table in D and area at 6 of 6
+    pairs (one run at R/dx 8: +14 to +24 % in D), at 1.2-1.3x the single run's cost. In the square duct R/dx 8
+    alone is within 2 % in E of R/dx 10 at both points checked, while R/dx 6 is not in the asymptotic range there and
+    the 8/6 extrapolation moves E 7-17 % from HE-3D-FEM-22 (docs/validation/lut_square.md, section
+    "lut_square_views.py"). A run at R/dx <= 6 has no cheaper partner and runs alone either way."""
+    return params.channel_shape == "cylinder" and params.start_offset == 0.0
+
+
+def outline_guarded(summary: dict, parts: dict[float, dict]) -> bool:
+    """Keep an extrapolation's side-view readings (:data:`OUTLINE_EXTRAPOLATED`) at the finer run's where either
+    run read a record of its averaging window on the nodes' hull (``outline_fallback_records`` or
+    ``outline_fallback_views_records``): the hull's D carries the mesh-scale roughness, not the lattice's (dx/R)^2
+    error, and a difference of the two readings is no discretisation error to extrapolate (measured: the R/dx 6
+    outline of cells of D above 0.045 falls back to the hull and their extrapolated D errs -92 to +32 %, section
+    "pipe_orientation.py"). Changes ``summary`` in place (each value back to the finer run's, its correction NaN,
+    ``extrapolation["outline_guard"]`` saying why) and returns True where it did."""
+    extrapolation = summary["extrapolation"]
+    fine = parts[extrapolation["fine_resolution"]]
+    hull = {r: int(part.get("outline_fallback_records") or 0) + int(part.get("outline_fallback_views_records") or 0)
+            for r, part in parts.items()}
+    if not any(hull.values()):
+        return False
+    for name in OUTLINE_EXTRAPOLATED:
+        if name in extrapolation["values"]:
+            summary[name] = fine[name]
+            summary[f"{name}_correction"] = float("nan")
+            extrapolation["values"][name] = {**extrapolation["values"][name], "value": fine[name],
+                                             "correction": float("nan")}
+    counts = ", ".join(f"R/dx {r:g}: {n}" for r, n in sorted(hull.items()))
+    extrapolation["outline_guard"] = (
+        f"the side views of the averaged records were read on the nodes' hull ({counts} records): the deformation "
+        f"and projected area are the R/dx {extrapolation['fine_resolution']:g} run's, not extrapolated (the other "
+        "values are)")
+    return True
+
+
+def rtdc_reading(summary: dict) -> tuple[float, float, str]:
+    """(D, projected area / R^2, which reading) of a pipe summary: the side views' mean where the whole averaging
+    window has it (``deformation_views_mean``), else the view along z (``deformation_mean``)."""
+    views = summary.get("deformation_views_mean")
+    if views is not None and math.isfinite(views):
+        return float(views), float(summary["projected_area_views_mean"]), "side views"
+    return float(summary["deformation_mean"]), float(summary["projected_area_mean"]), "view along z"
 
 
 @dataclass(frozen=True)
@@ -126,7 +187,7 @@ def pipe(
     vtk_interval: float | None = 1.0,
     flow_options: dict | None = None,
     capillary_number_modulus: str = "reference",
-    extrapolate: bool = False,
+    extrapolate: bool | None = None,
     coarse_resolution: float | None = None,
     channel_length: float | str | None = None,
     **cell_options,
@@ -152,11 +213,15 @@ def pipe(
     or "mu_c" (against the described cell's mu_c; with ``equivalent`` the run uses Ca_w / gamma_eff, i.e. the
     same nominal pressure gradient G as the heterogeneous cell, as the paper compares them; with
     ``hold_flow_rate`` each run holds the flow rate that G drives through the ideal channel).
-    extrapolate, coarse_resolution: (default off) run R/dx ``coarse_resolution`` (default 6, only when the
+    extrapolate, coarse_resolution: (default None: on in a cylinder with the cell on the axis, off otherwise,
+    :func:`extrapolated_by_default`) run R/dx ``coarse_resolution`` (default 6, only when the
     resolution is above it) too, in ``out/resolution-<R/dx>/`` beside ``out/resolution-<resolution>/`` (each resumable, each with
     its own time series, checkpoint and VTK files), and report the stationary strains, deformation, projected
     area and axial velocity (:data:`EXTRAPOLATED`) extrapolated to dx -> 0 with order 2
-    (``summary["extrapolation"]``; the top-level time series and plot are the finer run's). Without cell= the
+    (``summary["extrapolation"]``; the top-level time series and plot are the finer run's); where either run read
+    its averaged records on the nodes' hull, the deformation and area stay the finer run's, with a warning
+    (:func:`outline_guarded`). In a cylinder ``deformation_views_mean`` and ``projected_area_views_mean`` are the
+    RT-DC reading (the six side views, extrapolated). Without cell= the
     mesh (edges 2 dx) follows each resolution.
     channel_length: a finite channel of length L (a quantity such as "300um"; a bare number in um; needs a physical
     radius): the run ends when the cell has travelled L (:class:`TransitStop`; ``duration`` is then the cap), and
@@ -180,6 +245,7 @@ def pipe(
                 raise ParameterError(name, f"given twice, {value!r} and flow_options {flow_options[name]!r}")
             flow_options[name] = value
     params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)
+    extrapolate = extrapolated_by_default(params) if extrapolate is None else bool(extrapolate)
     coarse = requested_coarse_resolution(extrapolate, params.resolution, coarse_resolution)
     length = channel_length_of(channel_length, flow_cell(cell, cell_options, params.resolution))
     arguments = (capillary_number_wall, cell, equivalent, duration, resume, progress, wall_clock, stationary_tolerance,
@@ -198,10 +264,15 @@ def pipe(
                                              wall_clock=wall_clock)
     if summary["extrapolation"].get("pending"):
         return summary
+    parts = {r: json.loads((part_directory(out, r) / "summary.json").read_text()) for r in (params.resolution, coarse)}
+    if outline_guarded(summary, parts):
+        write_json(Path(out) / "summary.json", summary)
+        warnings.warn(f"{Path(out) / 'summary.json'}: {summary['extrapolation']['outline_guard']}", stacklevel=2)
     plot_pipe(Path(out) / "pipe.png", series, fine,
               title=f"{summary['label']}, {params.channel_shape} channel, {params.medium}, Ca_w = "
-                    f"{summary['capillary_number_wall']:g}, R/dx = {params.resolution:g}; extrapolated "
-                    f"D = {summary['deformation_mean']:.4g}")
+                    f"{summary['capillary_number_wall']:g}, R/dx = {params.resolution:g}; "
+                    + ("D (the finer run's: outline on the hull)" if summary["extrapolation"].get("outline_guard")
+                       else "extrapolated D") + f" = {rtdc_reading(summary)[0]:.4g}")
     return summary
 
 

@@ -18,7 +18,7 @@ import dataclasses
 import inspect
 
 from elastocell.api.compression import compress
-from elastocell.api.pipe import pipe
+from elastocell.api.pipe import extrapolated_by_default, pipe
 from elastocell.api.shear import shear
 from elastocell.parameters.cell import cell_parameters
 from elastocell.parameters.flow import flow_cell
@@ -93,7 +93,10 @@ def resolved_parameters(scenario: str, options: dict) -> dict:
     stop = {field.name: getattr(criteria, field.name) for field in dataclasses.fields(criteria) if field.name != "unit"}
     # a single-resolution run resolves without the extrapolation options (whether extrapolate was off or could not
     # apply: the same computation, one key); an extrapolated one names its coarse resolution
-    coarse = coarse_resolution_of(arguments.pop("extrapolate"), flow.resolution, arguments.pop("coarse_resolution"))
+    extrapolate = arguments.pop("extrapolate")
+    if extrapolate is None:  # the pipe's default follows its channel
+        extrapolate = extrapolated_by_default(flow)
+    coarse = coarse_resolution_of(extrapolate, flow.resolution, arguments.pop("coarse_resolution"))
     if coarse is not None:
         arguments["extrapolation"] = {"coarse_resolution": coarse, "order": CONVERGENCE_ORDER}
     cell = flow_cell(cell, cell_options, flow.resolution)

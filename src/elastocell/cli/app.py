@@ -7,6 +7,7 @@ range, before any meshing; never a traceback. Every option is declared once in :
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import typer
@@ -215,8 +216,12 @@ def _echo_extrapolation(summary: dict, *names: tuple[str, str]) -> None:
     fine, coarse = extrapolation["fine_resolution"], extrapolation["coarse_resolution"]
     typer.echo(f"extrapolated (Richardson, order {extrapolation['order']:g}) from R/dx = {fine:g} and {coarse:g}; "
                "uncertainty: the size of the correction, an estimate, not a bound")
+    if extrapolation.get("outline_guard"):
+        typer.echo(f"warning: {extrapolation['outline_guard']}", err=True)
     for name, label in names:
-        value = extrapolation["values"][name]
+        value = extrapolation["values"].get(name)
+        if value is None or not math.isfinite(value["value"]):
+            continue
         typer.echo(f"  {label}: {value['value']:.4g} (R/dx {fine:g}: {value['fine']:.4g}, R/dx {coarse:g}: "
                    f"{value['coarse']:.4g}, correction {value['correction']:.2g})")
         if abs(value["correction"]) > LARGE_CORRECTION * abs(value["value"]):
@@ -253,7 +258,9 @@ def equivalent_command(cell: dict, as_json: bool):
 @user_errors
 @takes("out", "capillary_number_wall", FLOW_CELL,
        opt("equivalent", help="Simulate the homogeneous equivalent (Ca_w with mu_eff)."),
-       "channel_radius_ratio", "start_offset", "resolution", opt("extrapolate", default=False, shown="off"),
+       "channel_radius_ratio", "start_offset", "resolution",
+       opt("extrapolate", annotation=bool | None, default=None,
+           shown="on in a cylinder with the cell on the axis (six side views), off in a duct or off the axis"),
        "coarse_resolution", "hold_flow_rate", opt("hydrodynamic_radius_correction", default=0.3),  # the API's
        "channel_shape", "channel_wall",
        opt("channel_width", help="Width W of a square or rectangular channel, with a physical --radius: sets "
@@ -271,7 +278,7 @@ def equivalent_command(cell: dict, as_json: bool):
        opt("vtk_interval", help="Time between VTK snapshots.", units="1/gdot_w"),
        "resume", "backend", "quiet")
 def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent: bool, channel_radius_ratio: float,
-         start_offset: float, resolution: float, extrapolate: bool, coarse_resolution: float | None,
+         start_offset: float, resolution: float, extrapolate: bool | None, coarse_resolution: float | None,
          hold_flow_rate: bool, hydrodynamic_radius_correction: float, channel_shape, channel_wall,
          channel_width: str | None,
          channel_height: str | None,
@@ -281,8 +288,10 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
          checkpoint_every: int, vtk_interval: float, resume: bool, backend, quiet: bool):
     """A cell in pressure-driven flow through a cylindrical or square/rectangular channel, in a Newtonian or
     shear-thinning (MC-PBS) medium: migration and bullet shape."""
-    from elastocell.api.pipe import (
-        channel_length_of,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+    from elastocell.api.pipe import (  # lazy: a command loads JAX/Numba only when it runs (--help 0.3 s, not 2.5 s)
+        channel_length_of,
+        extrapolated_by_default,
+        rtdc_reading,
     )
     from elastocell.api.pipe import (
         pipe as run,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
@@ -325,12 +334,13 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
                     "backend": backend.value, "channel_shape": shape, "channel_aspect_ratio": channel_aspect_ratio,
                     "channel_wall": channel_wall.value,
                     "medium": medium, "temperature": parse_temperature(temperature), "flow_index": flow_index}
-    PipeFlowParameters(capillary_number_wall=capillary_number_wall, hold_flow_rate=hold_flow_rate,
-                       hydrodynamic_radius_correction=hydrodynamic_radius_correction, **flow_options)  # validate early
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                  stationary_observable=stationary_observable.value, unit="units of 1/gdot_w")
     channel_length_of(channel_length, cell)  # refused in one line before anything runs
-    requested_coarse_resolution(extrapolate, resolution, coarse_resolution)
+    params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, hold_flow_rate=hold_flow_rate,
+                                hydrodynamic_radius_correction=hydrodynamic_radius_correction, **flow_options)
+    requested_coarse_resolution(extrapolated_by_default(params) if extrapolate is None else extrapolate, resolution,
+                                coarse_resolution)
     try:
         summary = run(out, capillary_number_wall, equivalent=equivalent, extrapolate=extrapolate,
                       coarse_resolution=coarse_resolution, duration=duration, resume=resume,
@@ -352,8 +362,15 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
             values = summary["transit"]
             typer.echo(f"state {summary['state']}: at L the deformation is {values['deformation']:.4f}, the "
                        f"projected area {values['projected_area']:.4f} R^2 (t = {values['time']:.3g}/gdot_w)")
+        deformation, area, reading = rtdc_reading(summary)
+        typer.echo(f"RT-DC deformation {deformation:.4f}, projected area {area:.4f} R^2 ({reading}"
+                   + (", extrapolated" if summary.get("extrapolation") and not summary["extrapolation"].get("pending")
+                      and not summary["extrapolation"].get("outline_guard") else "") + ")")
         _echo_extrapolation(summary, ("strain_axial_mean", "eps_x"), ("strain_radial_mean", "eps_r"),
-                            ("deformation_mean", "deformation"), ("projected_area_mean", "projected area"))
+                            ("deformation_mean", "deformation (view along z)"),
+                            ("projected_area_mean", "projected area (view along z)"),
+                            ("deformation_views_mean", "deformation (side views)"),
+                            ("projected_area_views_mean", "projected area (side views)"))
 
 
 def _pipe_channel(cell, shape, width: str | None, height: str | None, aspect: float | None,

@@ -285,9 +285,13 @@ def _expected_cost(run: Run) -> float:
     options = run.kwargs
     if run.scenario == "compress":
         return 1.0
-    resolution = options.get("resolution") or 8.0
-    extrapolated = options.get("extrapolate", run.scenario == "shear")  # the API's defaults: shear on, pipe off
-    coarse = coarse_resolution_of(extrapolated, resolution, options.get("coarse_resolution"))
+    resolved, _ = _identity(run)
+    if resolved is not None:  # what the API will run: shear extrapolates by default, pipe by its channel
+        resolution = resolved["flow"].resolution
+        coarse = (resolved["options"].get("extrapolation") or {}).get("coarse_resolution")
+    else:  # refused options: the run fails fast, any estimate will do
+        resolution = options.get("resolution") or 8.0
+        coarse = coarse_resolution_of(options.get("extrapolate"), resolution, options.get("coarse_resolution"))
     lattice_updates = sum((r / 5.0) ** 4 for r in (resolution, coarse) if r is not None)  # both runs when extrapolated
     return 10.0 * lattice_updates * float(options.get("duration", 6.0))
 
