@@ -613,3 +613,71 @@ def test_an_extrapolation_with_hull_read_records_keeps_the_finer_runs_outline(tm
     on_disk = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert on_disk["deformation_views_mean"] == 80.0 and "outline_guard" in on_disk["extrapolation"]
     assert api.rtdc_reading(summary) == (80.0, 80.0, "side views")
+
+
+def test_a_run_id_resolves_the_pipes_default_by_its_channel():
+    """The run key follows what the API runs: a duct given as ``channel_shape`` (beside ``flow_options`` or in
+    them) is one run, the same key as ``extrapolate=False``; a cylinder's default is the pair, the key of
+    ``extrapolate=True``."""
+    from elastocell.api.resolved import resolved_parameters
+    from elastocell.studies.base import Run
+
+    base = dict(capillary_number_wall=0.2, nucleus="none")
+    square = {"channel_shape": "square"}
+    assert Run.of("pipe", **base, **square).run_id == Run.of("pipe", **base, **square, extrapolate=False).run_id
+    assert Run.of("pipe", **base, **square).run_id != Run.of("pipe", **base, **square, extrapolate=True).run_id
+    for options in (square, {"flow_options": square}, {"start_offset": 0.2}):
+        assert "extrapolation" not in resolved_parameters("pipe", {**base, **options})["options"], options
+    assert resolved_parameters("pipe", base)["options"]["extrapolation"]["coarse_resolution"] == 6.0
+    assert Run.of("pipe", **base).run_id == Run.of("pipe", **base, extrapolate=True).run_id
+    assert Run.of("pipe", **base).run_id != Run.of("pipe", **base, extrapolate=False).run_id
+
+
+def test_the_guard_keeps_a_finite_finer_value_when_a_part_wrote_none(tmp_path, monkeypatch):
+    """A part's summary.json holds null for a views mean its window lacks (a run resumed from an older checkpoint):
+    the guard takes the finer run's value from memory, and the command line prints the kept values as R/dx 8's."""
+    import elastocell.api.pipe as api
+    from elastocell.files import write_json
+
+    def single(out, params, *arguments, part=""):
+        r = params.resolution
+        Path(out).mkdir(parents=True, exist_ok=True)
+        summary = {"resolution": r, "stop_reason": "duration", "label": "fake", "capillary_number_wall": 0.5,
+                   "outline_fallback_records": 2 if r == 6 else 0, "outline_fallback_views_records": 0,
+                   **{name: 10.0 * r for name in api.EXTRAPOLATED}, "deformation_views_mean": float("nan")}
+        write_json(Path(out) / "summary.json", summary)
+        return summary, {"time": np.array([0.0, 1.0]), "deformation": np.array([0.0, 0.0])}
+
+    monkeypatch.setattr(api, "_single", single)
+    monkeypatch.setattr(api, "plot_pipe", lambda *a, **k: None)
+    with pytest.warns(UserWarning, match="nodes' hull"):
+        summary = api.pipe(tmp_path / "run", 0.5, nucleus="none", progress=False)
+    assert summary["deformation_mean"] == 80.0 and np.isnan(summary["deformation_views_mean"])
+    assert api.rtdc_reading(summary)[2] == "view along z"
+
+
+def test_resuming_a_single_run_directory_with_the_default_continues_it_as_one_run(tmp_path, monkeypatch):
+    """A directory written by one run (its checkpoint.npz, no resolution-* parts) resumed without saying
+    ``extrapolate`` continues that run, with a warning, instead of starting the pair from nothing."""
+    import elastocell.api.pipe as api
+
+    calls = _fake_parts(monkeypatch, {})
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "checkpoint.npz").write_bytes(b"")
+    with pytest.warns(UserWarning, match="holds one run.*not extrapolated"):
+        api.pipe(tmp_path / "run", 0.5, nucleus="none", progress=False, resume=True)
+    assert calls == [("cylinder", 8.0)]
+
+
+def test_a_study_saves_the_finer_runs_last_shape_of_an_extrapolated_pipe(tmp_path):
+    """A full pipe study's run is the extrapolated pair (R/dx 8, a centred cell in a cylinder): its shape.npz is
+    the R/dx 8 run's last state (its checkpoint in resolution-8/), centred and in units of that run's R."""
+    from elastocell.studies.base import _save_final_shape
+
+    positions = np.arange(12.0).reshape(4, 3) * 8.0
+    (tmp_path / "resolution-8").mkdir()
+    np.savez(tmp_path / "resolution-8" / "checkpoint.npz", positions=positions)
+    summary = {"extrapolation": {"fine_resolution": 8.0, "coarse_resolution": 6.0}, "lattice": {"radius": 8.0}}
+    _save_final_shape(tmp_path, summary, {})
+    with np.load(tmp_path / "shape.npz") as shape:
+        np.testing.assert_allclose(shape["positions"], (positions - positions.mean(axis=0)) / 8.0)

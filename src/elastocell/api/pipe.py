@@ -63,11 +63,26 @@ def extrapolated_by_default(params: PipeFlowParameters) -> bool:
     Measured (docs/validation/pipe_dclab.md, section "pipe_orientation.py"; LE-2D-FEM-19's cylinder, the
     stationary shape at t = 40/gdot_w): the six-view D of two cells at R/R_ch 0.55 and 0.70 converges at order
     1.85 and 4.5 over R/dx 6, 8, 10, its 8/6 extrapolation lies within 10 % of the table in D and area at 6 of 6
-    pairs (one run at R/dx 8: +14 to +24 % in D), at 1.2-1.3x the single run's cost. In the square duct R/dx 8
+    pairs (one run at R/dx 8: +14 to +24 % in D), at 1.39x the single run's CPU time (docs/validation/
+    flow_default.md, section "pipe_default_cost.py", which also reads the command's default duration). In the square duct R/dx 8
     alone is within 2 % in E of R/dx 10 at both points checked, while R/dx 6 is not in the asymptotic range there and
     the 8/6 extrapolation moves E 7-17 % from HE-3D-FEM-22 (docs/validation/lut_square.md, section
     "lut_square_views.py"). A run at R/dx <= 6 has no cheaper partner and runs alone either way."""
     return params.channel_shape == "cylinder" and params.start_offset == 0.0
+
+
+def pipe_coarse_resolution(extrapolate: bool | None, params: PipeFlowParameters,
+                           coarse_resolution: float | None) -> float | None:
+    """The coarse R/dx of a pipe run, or None for one run: ``extrapolate`` None takes
+    :func:`extrapolated_by_default`; a ``coarse_resolution`` given where that default is one run is refused in one
+    line saying so (a ParameterError), as is one given with ``extrapolate`` False."""
+    if extrapolate is None:
+        if coarse_resolution is not None and not extrapolated_by_default(params):
+            raise ParameterError("coarse_resolution", f"{coarse_resolution} is the cheaper run of an extrapolation, "
+                                 "which is off by default in a square or rectangular duct and for a cell started "
+                                 "off the axis: give --extrapolate (extrapolate=True) with it, or leave it out")
+        extrapolate = extrapolated_by_default(params)
+    return requested_coarse_resolution(bool(extrapolate), params.resolution, coarse_resolution)
 
 
 def outline_guarded(summary: dict, parts: dict[float, dict]) -> bool:
@@ -75,20 +90,20 @@ def outline_guarded(summary: dict, parts: dict[float, dict]) -> bool:
     run read a record of its averaging window on the nodes' hull (``outline_fallback_records`` or
     ``outline_fallback_views_records``): the hull's D carries the mesh-scale roughness, not the lattice's (dx/R)^2
     error, and a difference of the two readings is no discretisation error to extrapolate (measured: the R/dx 6
-    outline of cells of D above 0.045 falls back to the hull and their extrapolated D errs -92 to +32 %, section
-    "pipe_orientation.py"). Changes ``summary`` in place (each value back to the finer run's, its correction NaN,
+    outline of cells of D above 0.045 falls back to the hull and their extrapolated D errs -92 to +69 % against
+    LE-2D-FEM-19, section "pipe_orientation.py"). Changes ``summary`` in place (each value back to the finer run's, its correction NaN,
     ``extrapolation["outline_guard"]`` saying why) and returns True where it did."""
     extrapolation = summary["extrapolation"]
-    fine = parts[extrapolation["fine_resolution"]]
     hull = {r: int(part.get("outline_fallback_records") or 0) + int(part.get("outline_fallback_views_records") or 0)
             for r, part in parts.items()}
     if not any(hull.values()):
         return False
     for name in OUTLINE_EXTRAPOLATED:
         if name in extrapolation["values"]:
-            summary[name] = fine[name]
+            value = extrapolation["values"][name]["fine"]  # the finer run's, in memory (a JSON null would be NaN)
+            summary[name] = value
             summary[f"{name}_correction"] = float("nan")
-            extrapolation["values"][name] = {**extrapolation["values"][name], "value": fine[name],
+            extrapolation["values"][name] = {**extrapolation["values"][name], "value": value,
                                              "correction": float("nan")}
     counts = ", ".join(f"R/dx {r:g}: {n}" for r, n in sorted(hull.items()))
     extrapolation["outline_guard"] = (
@@ -193,7 +208,8 @@ def pipe(
     **cell_options,
 ) -> dict:
     """A cell in a capillary; writes ``out/timeseries.csv``, ``summary.json``, ``pipe.png``, ``vtk/`` and
-    ``checkpoint.npz``; returns the summary.
+    ``checkpoint.npz`` (an extrapolated run: ``vtk/`` and ``checkpoint.npz`` in each ``out/resolution-<R/dx>/``);
+    returns the summary.
 
     capillary_number_wall: Ca_w = G R_ch/(2 mu_c) (mu_eff with ``equivalent``). cell: CellParameters or the
     CELL OPTIONS of ``cell_parameters`` (default mesh: uniform p1 with edges of 2 dx, as shear flow).
@@ -205,7 +221,9 @@ def pipe(
     pump) or, False, hold G. hydrodynamic_radius_correction: the markers at R - c dx (default 0.3). Both as
     :class:`PipeFlowParameters` (``elastocell pipe --hold-flow-rate/--no-hold-flow-rate``,
     ``--hydrodynamic-radius-correction``).
-    duration: units of 1/gdot_w. resume: continue from ``out/checkpoint.npz`` if it exists.
+    duration: units of 1/gdot_w. resume: continue from ``out/checkpoint.npz`` (each part's) if it exists; a
+    directory holding one run (a checkpoint, no ``resolution-*``) resumed with ``extrapolate`` None continues as
+    that one run, with a warning.
     stationary_tolerance: stop once the running mean of ``stationary_observable`` ("strain_axial" or
     "deformation") over the last unit of time changes by less than this fraction of it (see
     :class:`~elastocell.simulation.runner.StopCriteria`). flow_options: further :class:`PipeFlowParameters`.
@@ -245,8 +263,13 @@ def pipe(
                 raise ParameterError(name, f"given twice, {value!r} and flow_options {flow_options[name]!r}")
             flow_options[name] = value
     params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)
-    extrapolate = extrapolated_by_default(params) if extrapolate is None else bool(extrapolate)
-    coarse = requested_coarse_resolution(extrapolate, params.resolution, coarse_resolution)
+    if extrapolate is None and resume and (Path(out) / "checkpoint.npz").exists() \
+            and not any(Path(out).glob("resolution-*")):
+        warnings.warn(f"{out} holds one run at one resolution (its checkpoint.npz): resuming it as that one run, "
+                      "not extrapolated; give extrapolate=True (--extrapolate) and another directory for the pair",
+                      stacklevel=2)
+        extrapolate = False
+    coarse = pipe_coarse_resolution(extrapolate, params, coarse_resolution)
     length = channel_length_of(channel_length, flow_cell(cell, cell_options, params.resolution))
     arguments = (capillary_number_wall, cell, equivalent, duration, resume, progress, wall_clock, stationary_tolerance,
                  stationary_observable, record_interval, checkpoint_every, vtk_interval, capillary_number_modulus,

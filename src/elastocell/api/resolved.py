@@ -94,8 +94,10 @@ def resolved_parameters(scenario: str, options: dict) -> dict:
     # a single-resolution run resolves without the extrapolation options (whether extrapolate was off or could not
     # apply: the same computation, one key); an extrapolated one names its coarse resolution
     extrapolate = arguments.pop("extrapolate")
-    if extrapolate is None:  # the pipe's default follows its channel
-        extrapolate = extrapolated_by_default(flow)
+    if extrapolate is None:  # the pipe's default follows its channel (the shape given beside flow_options too)
+        shape = {name: arguments[name] for name in ("channel_shape", "channel_aspect_ratio")
+                 if arguments.get(name) is not None}
+        extrapolate = extrapolated_by_default(PipeFlowParameters(**{**dict(flow), **shape}))
     coarse = coarse_resolution_of(extrapolate, flow.resolution, arguments.pop("coarse_resolution"))
     if coarse is not None:
         arguments["extrapolation"] = {"coarse_resolution": coarse, "order": CONVERGENCE_ORDER}

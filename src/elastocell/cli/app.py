@@ -216,11 +216,13 @@ def _echo_extrapolation(summary: dict, *names: tuple[str, str]) -> None:
     fine, coarse = extrapolation["fine_resolution"], extrapolation["coarse_resolution"]
     typer.echo(f"extrapolated (Richardson, order {extrapolation['order']:g}) from R/dx = {fine:g} and {coarse:g}; "
                "uncertainty: the size of the correction, an estimate, not a bound")
-    if extrapolation.get("outline_guard"):
-        typer.echo(f"warning: {extrapolation['outline_guard']}", err=True)
     for name, label in names:
         value = extrapolation["values"].get(name)
-        if value is None or not math.isfinite(value["value"]):
+        if value is None or value.get("value") is None or not math.isfinite(value["value"]):
+            continue
+        if value.get("correction") is None or not math.isfinite(value["correction"]):  # kept by the outline guard
+            typer.echo(f"  {label}: {value['value']:.4g} (R/dx {fine:g}'s, not extrapolated: the outline was read "
+                       "on the nodes' hull)")
             continue
         typer.echo(f"  {label}: {value['value']:.4g} (R/dx {fine:g}: {value['fine']:.4g}, R/dx {coarse:g}: "
                    f"{value['coarse']:.4g}, correction {value['correction']:.2g})")
@@ -290,7 +292,7 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
     shear-thinning (MC-PBS) medium: migration and bullet shape."""
     from elastocell.api.pipe import (  # lazy: a command loads JAX/Numba only when it runs (--help 0.3 s, not 2.5 s)
         channel_length_of,
-        extrapolated_by_default,
+        pipe_coarse_resolution,
         rtdc_reading,
     )
     from elastocell.api.pipe import (
@@ -301,9 +303,6 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
     )
     from elastocell.scenarios.pipe import (
         PipeFlowParameters,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
-    )
-    from elastocell.simulation.extrapolation import (
-        requested_coarse_resolution,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
     )
     from elastocell.simulation.runner import (
         StopCriteria,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
@@ -339,8 +338,7 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
     channel_length_of(channel_length, cell)  # refused in one line before anything runs
     params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, hold_flow_rate=hold_flow_rate,
                                 hydrodynamic_radius_correction=hydrodynamic_radius_correction, **flow_options)
-    requested_coarse_resolution(extrapolated_by_default(params) if extrapolate is None else extrapolate, resolution,
-                                coarse_resolution)
+    pipe_coarse_resolution(extrapolate, params, coarse_resolution)
     try:
         summary = run(out, capillary_number_wall, equivalent=equivalent, extrapolate=extrapolate,
                       coarse_resolution=coarse_resolution, duration=duration, resume=resume,
@@ -362,10 +360,12 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
             values = summary["transit"]
             typer.echo(f"state {summary['state']}: at L the deformation is {values['deformation']:.4f}, the "
                        f"projected area {values['projected_area']:.4f} R^2 (t = {values['time']:.3g}/gdot_w)")
-        deformation, area, reading = rtdc_reading(summary)
-        typer.echo(f"RT-DC deformation {deformation:.4f}, projected area {area:.4f} R^2 ({reading}"
-                   + (", extrapolated" if summary.get("extrapolation") and not summary["extrapolation"].get("pending")
-                      and not summary["extrapolation"].get("outline_guard") else "") + ")")
+        extrapolation = summary.get("extrapolation") or {}
+        if channel_length is None and not extrapolation.get("pending"):
+            deformation, area, reading = rtdc_reading(summary)
+            typer.echo(f"RT-DC deformation {deformation:.4f}, projected area {area:.4f} R^2 (stationary means, "
+                       f"{reading}" + (", extrapolated" if extrapolation and not extrapolation.get("outline_guard")
+                                       else "") + ")")
         _echo_extrapolation(summary, ("strain_axial_mean", "eps_x"), ("strain_radial_mean", "eps_r"),
                             ("deformation_mean", "deformation (view along z)"),
                             ("projected_area_mean", "projected area (view along z)"),

@@ -495,7 +495,8 @@ PIPE_HYDRODYNAMIC_RADIUS_CORRECTION = 0.3
 """The pipe's default c (dx): the markers at R - 0.3 dx, where a sphere held on the pipe's axis has its hydrodynamic
 radius within 0.05-0.15 dx of R at R/dx 6-8 (0.36-0.46 dx above it with the markers at R; docs/validation/
 pipe_dclab.md, 'a rigid sphere's hydrodynamic radius'; a force-free sphere, nearer a cell, stays 0.16-0.50 dx above
-it). With it the pipe runs R/dx 8 alone (``pipe``'s ``extrapolate`` is off; the earlier default is ``extrapolate``
+it). With it a single R/dx 8 run (``pipe``'s ``extrapolate=False``; the default in a duct; the cylinder's default
+extrapolates from R/dx 8 and 6, ``elastocell.api.pipe.extrapolated_by_default``; the earlier default is ``extrapolate``
 with c = 0): at the four cells of 'The flow rate held' (t = 16/gdot_w) its RT-DC deformation errs
 +0.0, +18.1, +6.6 and +11.8 % against LE-2D-FEM-19 (the modulus dclab reads from it -8.2 to 0.0 %), where the
 earlier default (markers at R, extrapolated from R/dx 6 and 8) erred +8.6, +8.5 and -20.4 % at three of them (the

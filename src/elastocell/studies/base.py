@@ -33,7 +33,7 @@ from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.compression import CompressionError
 from elastocell.scenarios.shear import compile_kernels
 from elastocell.simulation.distributed import TaskFailure, run_tasks
-from elastocell.simulation.extrapolation import coarse_resolution_of
+from elastocell.simulation.extrapolation import coarse_resolution_of, part_directory
 from elastocell.simulation.runner import resume_or_restart
 from elastocell.solvers.stiffness_kernel import compile_kernel
 
@@ -225,7 +225,9 @@ def _save_final_shape(directory: Path, summary: dict, options: dict) -> None:
     """The final node positions relative to the cell centre, in units of R, and which nodes belong to the
     nucleus: the study's snapshot of the stationary shape (``shape.npz``)."""
 
-    with np.load(directory / "checkpoint.npz", allow_pickle=False) as data:
+    extrapolation = summary.get("extrapolation")  # an extrapolated run: the finer run's last state
+    last = part_directory(directory, extrapolation["fine_resolution"]) if extrapolation else directory
+    with np.load(last / "checkpoint.npz", allow_pickle=False) as data:
         positions = np.array(data["positions"])
     cell = CellParameters.model_validate(summary["cell"]) if "cell" in summary else cell_parameters()
     mesh = Cell.from_parameters(cell).mesh
