@@ -130,6 +130,9 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                          "nice python validation/pipe_wall.py --out /work/results/pipe-stationary"),
         "pipe_orientation.py": ("The cell's mesh turned: how much one orientation decides in a pipe",
                                 "nice python validation/pipe_orientation.py --out /work/results/pipe-orientation"),
+        "pipe_target.py": ("Issue 24's pipe target at the defaults (the pair and six views in a cylinder), run to a "
+                           "stationary shape", "nice python validation/pipe_target.py --out /work/results/pipe-target "
+                           "--page"),
     }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",
