@@ -604,7 +604,7 @@ def test_an_extrapolation_with_hull_read_records_keeps_the_finer_runs_outline(tm
     import elastocell.api.pipe as api
 
     _fake_parts(monkeypatch, {6.0: 3})
-    with pytest.warns(UserWarning, match="nodes' hull.*R/dx 6: 3"):
+    with pytest.warns(UserWarning, match=r"nodes' hull \(R/dx 6: 0 \(view along z\) and 3 \(side views\)"):
         summary = api.pipe(tmp_path / "run", 0.5, nucleus="none", progress=False)
     for name in api.OUTLINE_EXTRAPOLATED:
         assert summary[name] == 80.0 and np.isnan(summary[f"{name}_correction"]), name

@@ -105,9 +105,11 @@ def outline_guarded(summary: dict, parts: dict[float, dict]) -> bool:
             summary[f"{name}_correction"] = float("nan")
             extrapolation["values"][name] = {**extrapolation["values"][name], "value": value,
                                              "correction": float("nan")}
-    counts = ", ".join(f"R/dx {r:g}: {n}" for r, n in sorted(hull.items()))
+    counts = "; ".join(f"R/dx {r:g}: {int(part.get('outline_fallback_records') or 0)} (view along z) and "
+                       f"{int(part.get('outline_fallback_views_records') or 0)} (side views) of "
+                       f"{part.get('stationary_records', '?')} records" for r, part in sorted(parts.items()))
     extrapolation["outline_guard"] = (
-        f"the side views of the averaged records were read on the nodes' hull ({counts} records): the deformation "
+        f"records of the averaging windows were read on the nodes' hull ({counts}): the deformation "
         f"and projected area are the R/dx {extrapolation['fine_resolution']:g} run's, not extrapolated (the other "
         "values are)")
     return True
