@@ -94,9 +94,9 @@ def outline_guarded(summary: dict, parts: dict[float, dict]) -> bool:
     LE-2D-FEM-19, section "pipe_orientation.py"). Changes ``summary`` in place (each value back to the finer run's, its correction NaN,
     ``extrapolation["outline_guard"]`` saying why) and returns True where it did."""
     extrapolation = summary["extrapolation"]
-    hull = {r: int(part.get("outline_fallback_records") or 0) + int(part.get("outline_fallback_views_records") or 0)
-            for r, part in parts.items()}
-    if not any(hull.values()):
+    hull = {r: (int(part.get("outline_fallback_records") or 0), int(part.get("outline_fallback_views_records") or 0))
+            for r, part in parts.items()}  # (view along z, side views) per run
+    if not any(sum(counts) for counts in hull.values()):
         return False
     for name in OUTLINE_EXTRAPOLATED:
         if name in extrapolation["values"]:
@@ -105,8 +105,7 @@ def outline_guarded(summary: dict, parts: dict[float, dict]) -> bool:
             summary[f"{name}_correction"] = float("nan")
             extrapolation["values"][name] = {**extrapolation["values"][name], "value": value,
                                              "correction": float("nan")}
-    counts = "; ".join(f"R/dx {r:g}: {int(part.get('outline_fallback_records') or 0)} (view along z) and "
-                       f"{int(part.get('outline_fallback_views_records') or 0)} (side views) of "
+    counts = "; ".join(f"R/dx {r:g}: {hull[r][0]} (view along z) and {hull[r][1]} (side views) of "
                        f"{part.get('stationary_records', '?')} records" for r, part in sorted(parts.items()))
     extrapolation["outline_guard"] = (
         f"records of the averaging windows were read on the nodes' hull ({counts}): the deformation "
@@ -289,7 +288,8 @@ def pipe(
                                              wall_clock=wall_clock)
     if summary["extrapolation"].get("pending"):
         return summary
-    parts = {r: json.loads((part_directory(out, r) / "summary.json").read_text()) for r in (params.resolution, coarse)}
+    parts = {params.resolution: fine,  # the finer run's summary in memory, the coarser one's from its directory
+             coarse: json.loads((part_directory(out, coarse) / "summary.json").read_text())}
     if outline_guarded(summary, parts):
         write_json(Path(out) / "summary.json", summary)
         warnings.warn(f"{Path(out) / 'summary.json'}: {summary['extrapolation']['outline_guard']}", stacklevel=2)
