@@ -167,7 +167,7 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
     }),
     "rtdc": ("Real RT-DC measurements through look-up tables", {
         "rtdc_coverage.py": ("Coverage and moduli of dclab's test measurements, dclab's tables and elastocell's",
-                             "python validation/rtdc_coverage.py --lut /tmp/lut-square/lut.txt"),
+                             "python validation/rtdc_coverage.py --shipped"),
         "lut_grid.py": ("The default grid of elastocell lut and the events it covers", "python validation/lut_grid.py"),
     }),
     "fit": ("Fits of AFM curves and master curves", {

@@ -1,12 +1,13 @@
 """Real RT-DC measurements through look-up tables: coverage and moduli, dclab's tables and elastocell's.
 
-    python validation/rtdc_coverage.py [--lut elastocell_table.txt ...] [--temperature 23] [--out /tmp/rtdc]
+    python validation/rtdc_coverage.py [--shipped] [--lut elastocell_table.txt ...] [--temperature 23] [--out DIR]
 
 The measurements are dclab's own test files (tests/data/rtdc, 79 events: 20 and 30 um channels, CellCarrier and
 CellCarrierB, see the README there). Every event is converted by ``elastocell fit rtdc`` (dclab's
 ``get_emodulus``: the table scaled to the file's channel width, flow rate and medium viscosity, pixelation
-correction, no extrapolation) through dclab's LE-2D-FEM-19, HE-2D-FEM-22 and HE-3D-FEM-22 and any table given
-with ``--lut`` (one ``elastocell lut`` wrote). A file that records no temperature is converted at
+correction, no extrapolation) through dclab's LE-2D-FEM-19, HE-2D-FEM-22 and HE-3D-FEM-22, the tables elastocell
+ships (``--shipped``: ``elastocell.shipped_luts()``) and any table given with ``--lut`` (one ``elastocell lut``
+wrote). A file that records no temperature is converted at
 ``--temperature`` (the RT-DC standard 23 degC by default: an assumption, said in the table). Reported: each
 table's coverage (events inside it) per file and in all, and each table's modulus over HE-3D-FEM-22's (the 3D
 square-channel, shear-thinning reference) on the events both convert. The page is docs/validation/rtdc.md.
@@ -28,6 +29,7 @@ from page import Page
 sys.path.remove(str(Path(__file__).resolve().parent))
 
 from elastocell.inverse.rtdc import DCLAB_TABLES, fit_rtdc, table_name  # noqa: E402
+from elastocell.inverse.shipped_luts import shipped_luts  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data" / "rtdc"
 REFERENCE = "HE-3D-FEM-22"
@@ -45,6 +47,7 @@ def unpack(directory: Path) -> list[Path]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--lut", action="append", default=[], help="elastocell table(s) in dclab's format")
+    parser.add_argument("--shipped", action="store_true", help="also the tables elastocell ships")
     parser.add_argument("--temperature", type=float, default=23.0, help="degC, for files that record none")
     parser.add_argument("--out", type=Path, default=None)
     arguments = parser.parse_args()
@@ -56,7 +59,10 @@ def main() -> None:
         "different models is the point."))
     out = arguments.out or Path(tempfile.mkdtemp(prefix="rtdc-coverage-"))
     files = unpack(out / "measurements")
-    tables = [*DCLAB_TABLES, *arguments.lut]
+    shipped = [str(t["path"]) for t in shipped_luts().values()] if arguments.shipped else []
+    if arguments.shipped and not shipped:
+        raise SystemExit("--shipped: this elastocell ships no look-up table")
+    tables = [*DCLAB_TABLES, *shipped, *arguments.lut]
     result = fit_rtdc(files, tables, out / "fit", temperature=arguments.temperature, plots=False)
     coverage, events = result["coverage"], result["events"]
 
