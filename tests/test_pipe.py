@@ -315,6 +315,31 @@ def test_checkpoint_fingerprint_ignores_field_order_and_a_sweep_restarts_a_stale
     assert not summary["resumed"] and summary["duration"] == pytest.approx(0.5)
 
 
+def test_a_sweep_restarts_only_the_run_of_a_pair_whose_checkpoint_cannot_continue(tmp_path):
+    """resume_or_restart on an extrapolated pair whose coarser run's checkpoint another version wrote: that run
+    starts afresh, the finer one continues from its own checkpoint (reference: each part's ``resumed`` flag and
+    duration; before, both runs started again)."""
+    from elastocell.simulation.runner import resume_or_restart
+
+    options = dict(capillary_number_wall=0.2, nucleus="none", mesh_size=0.6, pole_size=0.6, resolution=5,
+                   extrapolate=True, coarse_resolution=4, channel_radius_ratio=2.5, record_interval=0.1,
+                   progress=False, vtk_interval=None)
+    out = tmp_path / "run"
+    pipe(out, duration=0.2, **options)
+    stale = out / "resolution-4" / "checkpoint.npz"
+    with np.load(stale) as data:
+        arrays = dict(data)
+    arrays["version"] = np.array(1)
+    np.savez(stale, **arrays)
+    with pytest.raises(ParameterError, match="resume") as refusal:
+        pipe(out, duration=0.3, resume=True, **options)
+    assert refusal.value.checkpoint == stale
+    resume_or_restart(pipe, out, duration=0.3, **options)
+    fine, coarse = (json.loads((out / part / "summary.json").read_text()) for part in ("resolution-5", "resolution-4"))
+    assert fine["resumed"] and not coarse["resumed"]
+    assert fine["duration"] == pytest.approx(0.3) and coarse["duration"] == pytest.approx(0.3)
+
+
 @pytest.mark.parametrize(
     "arguments, option",
     [

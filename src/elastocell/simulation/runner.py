@@ -427,12 +427,15 @@ class FlowRun:
         ``resume`` and the file; nothing pickled is ever loaded."""
         try:
             self._load(path)
-        except ParameterError:
+        except ParameterError as error:
+            error.checkpoint = Path(path)  # which file cannot continue (a pair has one per run)
             raise
         except Exception as error:  # BadZipFile, EOFError, a missing array, wrong shapes, pickled objects
-            raise ParameterError("resume", f"cannot continue from {path}: the file is damaged or not a checkpoint of "
-                                           f"this run ({type(error).__name__}); delete it, or rerun without --resume "
-                                           "to start again") from None
+            refusal = ParameterError("resume", f"cannot continue from {path}: the file is damaged or not a checkpoint "
+                                               f"of this run ({type(error).__name__}); delete it, or rerun without "
+                                               "--resume to start again")
+            refusal.checkpoint = Path(path)
+            raise refusal from None
 
     def _load(self, path: str | Path) -> None:
         with np.load(path, allow_pickle=False) as data:
@@ -464,17 +467,25 @@ class FlowRun:
 def resume_or_restart(simulate: Callable, out: Path, **options) -> dict:
     """``simulate(out=out, resume=True, **options)`` for a sweep's run directory (keyed by its options): continue
     from the checkpoint if it is there and compatible, otherwise (a checkpoint an older elastocell or another
-    backend wrote) delete it and run from the start. ``--resume`` on the command line refuses such a checkpoint
-    instead, because the user asked for that run to continue.
+    backend wrote) delete it and run from the start. Where the refusal names its file (``error.checkpoint``, as
+    :meth:`load` sets it), only that file is deleted and the call resumed again, so that the other run of an
+    extrapolated pair continues from its own checkpoint. ``--resume`` on the command line refuses such a
+    checkpoint instead, because the user asked for that run to continue.
 
     A directory held by another run that looks alive is waited for (:func:`waiting_while_in_use`): on a
     cluster it is the lock of this same run on a node that died, until that lock goes stale."""
-    try:
-        return waiting_while_in_use(simulate, out=out, resume=True, **options)
-    except ParameterError as error:
-        if error.parameter != "resume":
-            raise
-    (Path(out) / "checkpoint.npz").unlink(missing_ok=True)
+    out = Path(out)
+    for _ in range(1 + sum(1 for _ in out.rglob("checkpoint.npz"))):
+        try:
+            return waiting_while_in_use(simulate, out=out, resume=True, **options)
+        except ParameterError as error:
+            if error.parameter != "resume":
+                raise
+            stale = getattr(error, "checkpoint", None)  # the file that cannot continue, where the run says so
+            if stale is None or not stale.is_file() or out.resolve() not in stale.resolve().parents:
+                break
+            stale.unlink()  # that file only: the other run of a pair keeps its own
+    (out / "checkpoint.npz").unlink(missing_ok=True)
     return waiting_while_in_use(simulate, out=out, resume=False, **options)
 
 
