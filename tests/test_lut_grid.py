@@ -91,3 +91,31 @@ def test_the_default_grid_covers_most_events_that_le_2d_fem_19_covers(tmp_path):
     # the grid's points carry LE-2D-FEM-19's own deformation: E differs only by interpolation of the spacing
     # (measured: median 1.055, max 1.106)
     assert 1.0 < np.median(coverage["ratios"]) < 1.1 and coverage["ratios"].max() < 1.15
+
+
+@pytest.mark.parametrize(("width", "flow_rate"), [(20.0, 0.08), (30.0, 0.16)])
+def test_a_table_scaled_as_dclab_scales_it_is_the_same_runs_in_mc_pbs(width, flow_rate):
+    """The shipped tables at 0.08 uL/s and 30 um / 0.16 uL/s are the standard one's points scaled by dclab's
+    ``scale_linear`` (validation/lut_standard.py ship). Reference: dimensional analysis, a power-law medium of one
+    flow index makes a run depend on Ca_w, R_ch/R and n only; checked on the code's own inputs: each standard
+    point, its radius scaled by W'/W and its modulus by dclab's scale_emodulus, plans a run whose options are the
+    standard point's, Ca_w equal to rounding (tolerance 1e-9)."""
+    from dclab.features.emodulus.scale_linear import scale_emodulus
+
+    def planned(w, q, radii=None, moduli=None):
+        return plan(None, f"{q:g}uL/s", None, radii=radii, moduli=moduli, channel_width=f"{w:g}um",
+                    channel_shape="square", medium="0.59%MC-PBS", temperature=23)
+
+    standard, settings = planned(20.0, 0.04)
+    _, scaled_settings = planned(width, flow_rate)
+    for point in standard[::7]:
+        radius = point["radius_um"] * width / 20.0
+        modulus = float(scale_emodulus(np.array([point["emodulus_kpa"]]), 20.0, width, 0.04, flow_rate,
+                                       settings["viscosity_mpa_s"], scaled_settings["viscosity_mpa_s"])[0])
+        (twin,), _ = planned(width, flow_rate, [radius], [modulus * 1e3])
+        options, twin_options = point["options"], twin["options"]
+        assert twin_options.keys() == options.keys()
+        for name, value in options.items():  # floats equal to rounding (R'/W' = R/W computed anew)
+            tolerance = 1e-9 if name == "capillary_number_wall" else 1e-12
+            assert twin_options[name] == (pytest.approx(value, rel=tolerance) if isinstance(value, float)
+                                          else value), name

@@ -1,10 +1,9 @@
-"""The shipped RT-DC look-up tables: compute the standard one in pieces, check the similarity the others rest on,
-and ship them into src/elastocell/data.
+"""The shipped RT-DC look-up tables: compute the standard one in pieces and ship it, with the tables scaled from it,
+into src/elastocell/data.
 
     python validation/lut_standard.py run [--workers 2] [--tables DIR]
     python validation/lut_standard.py status [--tables DIR]
-    python validation/lut_standard.py similarity [--points R:E ...] [--workers 2] [--tables DIR] [--page]
-    python validation/lut_standard.py ship [--tables DIR]
+    python validation/lut_standard.py ship [--tables DIR] [--data DIR]
 
 ``run`` computes the standard table (20 um square channel, 0.04 uL/s, 0.59 % MC-PBS, 23 degC, the default grid of
 ``elastocell lut``) with exactly the command a user gives, in ``validation/tables/`` by default. It is resumable:
@@ -14,11 +13,10 @@ an unfinished point resumes from its checkpoint where that is still on disk, oth
 
 The other standard configurations (20 um at 0.08 uL/s, 30 um at 0.16 uL/s) are the same dimensionless problem: a
 power-law medium of one flow index n (MC-PBS at one temperature) makes the stationary shape a function of Ca_w =
-tau_w/mu, R_ch/R and n only, and tau_w scales as (Q/W^3)^n. Their tables are therefore the standard table's points
-scaled as dclab scales every table (``dclab.features.emodulus.scale_linear``: area by (W'/W)^2, the modulus by the
-ratio of the wall shear stresses), not new runs. ``similarity`` measures that claim: it runs points of the 0.08
-uL/s grid directly (their own keys, beside the standard table's runs) and compares them with the standard table's
-points of the same R/W and Ca_w.
+tau_w/mu, R_ch/R and n only, and tau_w scales as (Q/W^3)^n. Their tables are therefore the standard table's
+points scaled as dclab scales every table (``dclab.features.emodulus.scale_linear``: area by (W'/W)^2, the modulus
+by the ratio of the wall shear stresses), not new runs: tests/test_lut_grid.py checks on the code's own inputs that each scaled point plans the standard
+point's run (the same options, Ca_w equal to rounding).
 
 ``ship`` copies the finished standard table (every point finished, none failed) and writes the scaled ones into
 src/elastocell/data as ``lut_<name>.txt`` with their isoelastics; ``elastocell.register_lut()`` registers them.
@@ -47,12 +45,11 @@ def table_name(config: dict) -> str:
             f"{MEDIUM.replace('%', '')}_{TEMPERATURE:g}C")
 
 
-def command(config: dict, out: Path, workers: int, extra: tuple[str, ...] = ()) -> list[str]:
+def command(config: dict, out: Path, workers: int) -> list[str]:
     """The ``elastocell lut`` command line of a configuration (the user's command, so the keys are the user's)."""
     return [sys.executable, "-m", "elastocell", "lut", "--channel-shape", "square",
             "--channel-width", f"{config['channel_width_um']:g}um", "--flow-rate", f"{config['flow_rate_ul_s']:g}uL/s",
-            "--medium", MEDIUM, "--temperature", f"{TEMPERATURE:g}", "--workers", str(workers), "--out", str(out),
-            *extra]
+            "--medium", MEDIUM, "--temperature", f"{TEMPERATURE:g}", "--workers", str(workers), "--out", str(out)]
 
 
 def plan_of(config: dict):
@@ -88,54 +85,7 @@ def run(tables: Path, workers: int) -> None:
     status(tables)
 
 
-def similarity(tables: Path, workers: int, points: list[str], page_wanted: bool) -> None:
-    """Run points of the 0.08 uL/s configuration (``R:E`` in um and kPa, one ``elastocell lut`` call each) and
-    compare each with the standard table's point of the same R and the nearest Ca_w."""
-    config = SCALED[0]
-    out = tables / f"{table_name(config)}.txt"
-    standard, _ = plan_of(STANDARD)
-    done = finished(tables, STANDARD)
-    rows = []
-    for text in points:
-        radius, emodulus = (float(v) for v in text.split(":"))
-        subprocess.run(command(config, out, workers, ("--radii", f"{radius:g}um", "--moduli", f"{emodulus:g}kPa")),
-                       check=False)
-        direct = [r for r in finished(tables, config).values()
-                  if abs(r["radius_um"] - radius) < 1e-6 and abs(r["emodulus_kpa"] - emodulus) < 1e-6]
-        same_radius = [p for p in standard if abs(p["radius_um"] - radius) < 1e-6]
-        if not direct or not same_radius:
-            print(f"{text}: {'not finished' if not direct else 'no point of that radius in the standard grid'}")
-            continue
-        record = direct[0]
-        ca = record["options"]["capillary_number_wall"]
-        partner = min(same_radius, key=lambda p: abs(p["options"]["capillary_number_wall"] - ca))
-        reference = done.get(partner["key"])
-        if reference is None:
-            print(f"{text}: the standard table's point {partner['key']} is not finished")
-            continue
-        scale = (config["channel_width_um"] / STANDARD["channel_width_um"]) ** 2
-        rows.append({"R_um": radius, "E_0.08_kPa": emodulus, "E_0.04_kPa": partner["emodulus_kpa"],
-                     "Ca_w ratio": ca / partner["options"]["capillary_number_wall"],
-                     "D_0.08": record["deform"], "D_0.04": reference["deform"],
-                     "D diff %": 100 * (record["deform"] / reference["deform"] - 1),
-                     "A diff %": 100 * (record["area_um"] / (scale * reference["area_um"]) - 1),
-                     "states": f"{record.get('state')}, {reference.get('state')}"})
-    for row in rows:
-        print(row)
-    if page_wanted and rows:
-        from page import Page
-
-        page = Page("lut_square", "lut_standard.py", intro=(
-            "The shipped tables at 0.08 uL/s and 30 um / 0.16 uL/s are the standard table scaled (same Ca_w, R_ch/R "
-            "and flow index n). Here points of the 0.08 uL/s grid are run directly and compared with the standard "
-            "table's points of the same R and Ca_w (area scaled by (W'/W)^2)."))
-        page.table(rows, "0.08 uL/s points run directly against the 0.04 uL/s table's",
-                   formats={"Ca_w ratio": ".5f", "D_0.08": ".5f", "D_0.04": ".5f", "D diff %": "+.2f",
-                            "A diff %": "+.2f"})
-        page.write()
-
-
-def ship(tables: Path) -> None:
+def ship(tables: Path, data: Path = DATA) -> None:
     import numpy as np
     from dclab.features.emodulus.scale_linear import scale_area_um, scale_emodulus
 
@@ -153,45 +103,40 @@ def ship(tables: Path) -> None:
         raise SystemExit(f"ship: {source} holds {len(table)} rows for {len(points)} points or lists failed points: "
                          "run it once more so that it is rewritten from every finished point")
     records = [{"area_um": a, "deform": d, "emodulus_kpa": e} for a, d, e in table]
-    write_lut(DATA / source.name, records, metadata)
-    write_isoelastics(isoelastics_path(DATA / source.name), records, metadata)
-    print(f"wrote {DATA / source.name}")
+    write_lut(data / source.name, records, metadata)
+    write_isoelastics(isoelastics_path(data / source.name), records, metadata)
+    print(f"wrote {data / source.name}")
     for config in SCALED:
         _, settings = plan_of(config)
         name = table_name(config)
         scaled = lut_metadata(settings, f"elastocell-{name}")
         scaled["elastocell"] = {**metadata["elastocell"], **settings, "scaled_from": metadata["identifier"],
                                 "scaling": ("dclab.features.emodulus.scale_linear: the same dimensionless runs "
-                                            "(Ca_w, R_ch/R, flow index n) as the table scaled_from; "
-                                            "validation/lut_standard.py similarity measures it")}
+                                            "(Ca_w, R_ch/R, flow index n) as the table scaled_from")}
         area = scale_area_um(table[:, 0], metadata["channel_width"], scaled["channel_width"])
         emodulus = scale_emodulus(table[:, 2], metadata["channel_width"], scaled["channel_width"],
                                   metadata["flow_rate"], scaled["flow_rate"], metadata["fluid_viscosity"],
                                   scaled["fluid_viscosity"])
         rows = [{"area_um": a, "deform": d, "emodulus_kpa": e}
                 for a, d, e in zip(area, table[:, 1], np.asarray(emodulus), strict=True)]
-        write_lut(DATA / f"{name}.txt", rows, scaled)
-        write_isoelastics(isoelastics_path(DATA / f"{name}.txt"), rows, scaled)
-        print(f"wrote {DATA / name}.txt (scaled from {metadata['identifier']})")
+        write_lut(data / f"{name}.txt", rows, scaled)
+        write_isoelastics(isoelastics_path(data / f"{name}.txt"), rows, scaled)
+        print(f"wrote {data / name}.txt (scaled from {metadata['identifier']})")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("action", choices=("run", "status", "similarity", "ship"))
+    parser.add_argument("action", choices=("run", "status", "ship"))
     parser.add_argument("--tables", type=Path, default=TABLES, help="where the tables and their runs are")
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--points", nargs="+", default=["7.9:2.6", "6.5:1.8"],
-                        help="similarity: points R:E (um:kPa) of the 0.08 uL/s grid")
-    parser.add_argument("--page", action="store_true", help="similarity: write its section of docs/validation/lut_square.md")
+    parser.add_argument("--data", type=Path, default=DATA, help="ship: where the tables go (the package's data)")
     arguments = parser.parse_args()
     if arguments.action == "run":
         run(arguments.tables, arguments.workers)
     elif arguments.action == "status":
         status(arguments.tables)
-    elif arguments.action == "similarity":
-        similarity(arguments.tables, arguments.workers, arguments.points, arguments.page)
     else:
-        ship(arguments.tables)
+        ship(arguments.tables, arguments.data)
 
 
 if __name__ == "__main__":

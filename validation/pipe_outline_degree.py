@@ -1,0 +1,168 @@
+"""Why the pipe's extrapolation is not trusted for bullet-shaped cells: the side-view outline of the linear-tetrahedra
+cell at R/dx 6 and 8, read with radial fits of several degrees and as the nodes' hull, against LE-2D-FEM-19.
+
+    nice python validation/pipe_outline_degree.py [--points 6:2,6.5:2.5] [--resolutions 6 8] [--duration 40]
+                                                  [--out results/pipe-outline-degree] [--page]
+
+Each (point, R/dx) is one ``elastocell pipe`` run at that resolution alone (``extrapolate=False``), otherwise at
+the command's defaults (the cell of pipe_target.py: centred, neo-Hookean, nu 0.48, in LE-2D-FEM-19's cylinder),
+run to t = 40/gdot_w. While it runs, every record's six side views are also read with the radial fit of degree
+5, 6 (the pipe's own), 7 and 8 (capped by the node count as the pipe caps it) and as the convex hull of the projected
+nodes; the means over the pipe's averaging window (its last 201 records) are tabulated with the share of views
+whose fit lies in the band the pipe trusts ([1, 1.1] x the hull's area). Then, per degree, the Richardson
+extrapolation of R/dx 8 and 6 (order 2) against the table (D_t: LE-2D-FEM-19's deformation at the reading's area
+on the isoelastic of the cell's shear modulus, as pipe_target.py reads it). A finished run is read back from
+``readings.json`` in its directory (delete the directory to run it again). The section goes into
+docs/validation/pipe_dclab.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from page import Page  # noqa: E402
+from pipe_dclab import FLOW_RATE_UL_S, VISCOSITY_MPA_S, parse_points, percent, table_readings  # noqa: E402
+from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO  # noqa: E402
+
+DEGREES = (5, 6, 7, 8)
+WINDOW = 201  # the pipe's averaging window at the default record interval and t = 40 (its stationary_records)
+
+
+def readings_of(x_surface, centre, views: int) -> dict:
+    """Per degree: [(fit area, fit perimeter, hull area, hull perimeter)] of each side view."""
+    from scipy.spatial import ConvexHull
+
+    from elastocell.body.observables import fitted_surface, side_view_coordinates
+
+    x = np.asarray(x_surface, dtype=np.float64)
+    nodes = [ConvexHull(np.ascontiguousarray(v)) for v in side_view_coordinates(x, centre, views)]
+    out = {}
+    for degree in DEGREES:
+        effective = min(degree, math.isqrt(len(x) // 2) - 1)  # the cap of observables.fitted_surface
+        if str(effective) in out:
+            continue
+        points, c = fitted_surface(x, centre, degree)
+        fits = [ConvexHull(np.ascontiguousarray(v)) for v in side_view_coordinates(points, c, views)]
+        out[str(effective)] = [(f.volume, f.area, n.volume, n.area) for f, n in zip(fits, nodes, strict=True)]
+    return out
+
+
+def run(radius: float, modulus: float, resolution: float, duration: float, out: Path) -> tuple[dict, list]:
+    """The run's summary and its records' readings (run now, or read back)."""
+    import elastocell
+    import elastocell.scenarios.pipe as scenario
+    from elastocell.inverse.lut import capillary_number_wall
+
+    directory = out / f"{radius:g}um-{modulus:g}kPa-rdx{resolution:g}-t{duration:g}"
+    stored = directory / "readings.json"
+    if stored.exists() and (directory / "summary.json").exists():
+        return json.loads((directory / "summary.json").read_text()), json.loads(stored.read_text())
+    log = []
+    pipe_readings = scenario.side_view_readings
+
+    def logged(x_surface, centre, views):  # the pipe's own reading, and the others beside it
+        log.append(readings_of(x_surface, centre, views))
+        return pipe_readings(x_surface, centre, views)
+
+    ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
+                                 modulus * 1e3, POISSON_RATIO)
+    scenario.side_view_readings = logged
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the hull and stationarity warnings: the table shows both
+            summary = elastocell.pipe(directory, ca_w, nucleus="none", poisson_ratio=POISSON_RATIO,
+                                      channel_radius_ratio=CHANNEL_RADIUS_UM / radius, duration=duration,
+                                      resume=False, progress=False, vtk_interval=None, resolution=resolution,
+                                      extrapolate=False)
+    finally:
+        scenario.side_view_readings = pipe_readings
+    stored.write_text(json.dumps(log))
+    return summary, log
+
+
+def deformation(area: float, perimeter: float) -> float:
+    return 1.0 - 2.0 * math.sqrt(math.pi * area) / perimeter
+
+
+def window_means(log: list) -> dict:
+    """Per reading ("fit 6", ..., "hull"): mean D and area over the window's records and views, and for the fits
+    the share of views in the trusted band and the median fit/hull area ratio."""
+    window = log[-WINDOW:]
+    out = {}
+    for degree in window[0]:
+        views = [v for record in window for v in record[degree]]
+        ratio = np.array([fa / ha for fa, _, ha, _ in views])
+        out[f"fit {degree}"] = {"D": float(np.mean([deformation(fa, fp) for fa, fp, _, _ in views])),
+                                "A": float(np.mean([fa for fa, _, _, _ in views])),
+                                "in band": float(np.mean((ratio >= 1.0) & (ratio <= 1.1))),
+                                "ratio": float(np.median(ratio))}
+    first = next(iter(window[0]))
+    views = [v for record in window for v in record[first]]
+    out["hull"] = {"D": float(np.mean([deformation(ha, hp) for _, _, ha, hp in views])),
+                   "A": float(np.mean([ha for _, _, ha, _ in views])), "in band": float("nan"), "ratio": float("nan")}
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--points", default="6:2,6.5:2.5", help="R:E,R:E (um, kPa)")
+    parser.add_argument("--resolutions", type=float, nargs="+", default=[6.0, 8.0])
+    parser.add_argument("--duration", type=float, default=40.0)
+    parser.add_argument("--out", type=Path, default=Path("results/pipe-outline-degree"))
+    parser.add_argument("--page", action="store_true", help="write the section of docs/validation/pipe_dclab.md")
+    args = parser.parse_args()
+    page = Page("pipe_dclab", "pipe_outline_degree.py", intro=(
+        "The two cells of D about 0.05 of pipe_target.py (kept at R/dx 8 by the outline guard there), each at R/dx "
+        "6 and 8 alone, read over the pipe's averaging window with radial fits of several degrees (6 is the pipe's; "
+        "at R/dx 6 the 146 surface nodes cap the degree at 7) and as the nodes' hull. `in band`: share of the views "
+        "whose fit the pipe trusts (area within [1, 1.1] x the hull's). D err: against LE-2D-FEM-19 at the "
+        "reading's area (pipe_target.py's reading). Second table: the R/dx 8 and 6 pair extrapolated per reading."))
+    rows, values = [], {}
+    for radius, modulus in parse_points(args.points):
+        e_t = 3 * modulus / (2 * (1 + POISSON_RATIO))
+        for resolution in args.resolutions:
+            summary, log = run(radius, modulus, resolution, args.duration, args.out)
+            for name, m in window_means(log).items():
+                values[(radius, modulus, resolution, name)] = m
+                area = m["A"] * radius**2  # the pipe's reading: the markers' shape scaled to the radius R
+                (d_t, _, _), = table_readings([(area, m["D"], e_t)])
+                rows.append({"R [um]": radius, "E [kPa]": modulus, "R/dx": resolution, "reading": name,
+                             "in band": m["in band"], "fit/hull area": m["ratio"], "deform": m["D"], "D_t": d_t,
+                             "D err %": percent(m["D"], d_t), "pipe's D (views)": summary.get("deformation_views_mean"),
+                             "stationary": summary.get("stationary")})
+                print(f"{radius:g} um / {modulus:g} kPa, R/dx {resolution:g}, {name}: D {m['D']:.5f} "
+                      f"(err {percent(m['D'], d_t):+.1f} %), in band {m['in band']:.2f}", flush=True)
+    page.table(rows, f"Side-view readings at t = {args.duration:g}/gdot_w, means over the averaging window",
+               formats={"in band": ".2f", "fit/hull area": ".4f", "deform": ".5f", "D_t": ".5f", "D err %": "+.1f",
+                        "pipe's D (views)": ".5f"})
+    pairs = []
+    if {6.0, 8.0} <= set(args.resolutions):
+        for radius, modulus in parse_points(args.points):
+            e_t = 3 * modulus / (2 * (1 + POISSON_RATIO))
+            for name in sorted({k[3] for k in values if k[:2] == (radius, modulus)}):
+                fine, coarse = values.get((radius, modulus, 8.0, name)), values.get((radius, modulus, 6.0, name))
+                if fine is None or coarse is None:
+                    continue
+                d = fine["D"] + (fine["D"] - coarse["D"]) / (16.0 / 9.0 - 1.0)
+                a = fine["A"] + (fine["A"] - coarse["A"]) / (16.0 / 9.0 - 1.0)
+                (d_t, _, _), = table_readings([(a * radius**2, d, e_t)])
+                pairs.append({"R [um]": radius, "E [kPa]": modulus, "reading": name, "D R/dx 8": fine["D"],
+                              "D R/dx 6": coarse["D"], "D extrapolated": d, "D_t": d_t,
+                              "D err %": percent(d, d_t)})
+        page.table(pairs, "R/dx 8 and 6 extrapolated (Richardson, order 2) per reading", formats={
+            "D R/dx 8": ".5f", "D R/dx 6": ".5f", "D extrapolated": ".5f", "D_t": ".5f", "D err %": "+.1f"})
+    if args.page:
+        page.write()
+
+
+if __name__ == "__main__":
+    main()
