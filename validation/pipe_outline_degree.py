@@ -158,6 +158,14 @@ def main() -> None:
                 pairs.append({"R [um]": radius, "E [kPa]": modulus, "reading": name, "D R/dx 8": fine["D"],
                               "D R/dx 6": coarse["D"], "D extrapolated": d, "D_t": d_t,
                               "D err %": percent(d, d_t)})
+        for radius, modulus in parse_points(args.points):
+            fits = sorted((int(k[3].split()[1]), v["D"]) for k, v in values.items()
+                          if k[:3] == (radius, modulus, 8.0) and k[3].startswith("fit"))
+            by_degree = dict(fits)
+            if 5 in by_degree and 6 in by_degree:
+                page.print(f"{radius:g} um / {modulus:g} kPa, R/dx 8: D changes by "
+                           f"{percent(by_degree[6], by_degree[5]):+.1f} % from degree 5 to 6 and by "
+                           f"{percent(fits[-1][1], by_degree[6]):+.1f} % from 6 to {fits[-1][0]}")
         page.table(pairs, "R/dx 8 and 6 extrapolated (Richardson, order 2) per reading", formats={
             "D R/dx 8": ".5f", "D R/dx 6": ".5f", "D extrapolated": ".5f", "D_t": ".5f", "D err %": "+.1f"})
     if args.page:
