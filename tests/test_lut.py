@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ from elastocell.inverse.lut import (
     plan,
     pressure_gradient,
     read_lut,
+    runs_directory,
     wall_shear_rate,
     write_isoelastics,
     write_lut,
@@ -26,6 +28,7 @@ from elastocell.inverse.lut import (
 from elastocell.parameters.units import ParameterError
 
 runner = CliRunner()
+ROOT = Path(__file__).resolve().parents[1]
 BASE = ["lut", "--channel-radius", "10um", "--flow-rate", "0.04uL/s", "--viscosity", "15mPa*s"]
 
 
@@ -478,3 +481,61 @@ def test_register_lut_registers_the_shipped_tables_in_dclab_by_one_call(tmp_path
     assert "elastocell-shipped-fresh" not in emodulus.load.EXTERNAL_LUTS  # refused before any was registered
     assert elastocell.register_lut is register_lut and elastocell.shipped_luts is shipped_luts
     emodulus.load.EXTERNAL_LUTS.pop(identifier)
+
+
+def test_the_standard_table_ships_with_the_tables_scaled_from_it(tmp_path):
+    """validation/lut_standard.py ship on synthetic finished points (law deform = 0.02 (r/5)^2/E): refused while a
+    point is unfinished or the table file is missing, then the standard table and the two scaled ones are written,
+    register in dclab, and read one 20 um / 0.04 uL/s event as the same modulus (reference: dclab scales any table
+    to the measurement as ship scaled them; measured equal to 3e-7, the files' 7 digits; tolerance 1e-5 against
+    the law, whose interpolation at a grid node is exact). The scaled metadata name their origin and carry none of
+    the standard table's run keys at the top of their settings."""
+    pytest.importorskip("dclab")
+    import importlib.util
+
+    from dclab.features import emodulus
+
+    from elastocell.inverse.shipped_luts import register_lut
+
+    spec = importlib.util.spec_from_file_location("lut_standard", ROOT / "validation" / "lut_standard.py")
+    standard = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(standard)
+    tables, data = tmp_path / "tables", tmp_path / "data"
+    data.mkdir()
+    points, settings = standard.plan_of(standard.STANDARD)
+    out = tables / f"{standard.table_name(standard.STANDARD)}.txt"
+    records = []
+    for point in points:
+        r, e = point["radius_um"], point["emodulus_kpa"]
+        record = {"key": point["key"], "radius_um": r, "emodulus_kpa": e, "area_um": math.pi * r**2,
+                  "deform": 0.02 * (r / 5) ** 2 / e, "state": "stationary"}
+        (runs_directory(out) / point["key"]).mkdir(parents=True)
+        if point is not points[-1]:
+            (runs_directory(out) / point["key"] / "point.json").write_text(json.dumps(record))
+        records.append(record)
+    with pytest.raises(SystemExit, match="1 of 48 points"):
+        standard.ship(tables, data)
+    (runs_directory(out) / points[-1]["key"] / "point.json").write_text(json.dumps(records[-1]))
+    with pytest.raises(SystemExit, match="run `python validation/lut_standard.py run` once"):
+        standard.ship(tables, data)
+    meta = lut_metadata(settings, f"elastocell-{out.stem}")
+    meta["elastocell"] = {**settings, "failed": [], "point_states": {p["key"]: "stationary" for p in points}}
+    write_lut(out, records, meta)
+    standard.ship(tables, data)
+    shipped = register_lut(directory=data)
+    assert len(shipped) == 3
+    try:
+        r, e = 6.5, 2.5
+        found = [emodulus.get_emodulus(area_um=np.array([math.pi * r**2]), deform=np.array([0.02 * (r / 5) ** 2 / e]),
+                                       medium="0.59% MC-PBS", channel_width=20.0, flow_rate=0.04, px_um=0,
+                                       temperature=23.0, visc_model="buyukurganci-2022", lut_data=name)[0]
+                 for name in shipped]
+        assert found == pytest.approx([e] * 3, rel=1e-5)
+        _, scaled, _ = read_lut(data / "lut_square_30um_0.16uLs_0.59MC-PBS_23C.txt")
+        assert scaled["channel_width"] == pytest.approx(30.0) and scaled["flow_rate"] == pytest.approx(0.16)
+        assert scaled["summary"].startswith(f"Scaled from elastocell-{out.stem}")
+        assert "point_states" not in scaled["elastocell"] and "default_grid" not in scaled["elastocell"]
+        assert set(scaled["elastocell"]["scaled_from_points"]["point_states"]) == {p["key"] for p in points}
+    finally:
+        for name in shipped:
+            emodulus.load.EXTERNAL_LUTS.pop(name, None)

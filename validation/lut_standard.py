@@ -16,7 +16,8 @@ power-law medium of one flow index n (MC-PBS at one temperature) makes the stati
 tau_w/mu, R_ch/R and n only, and tau_w scales as (Q/W^3)^n. Their tables are therefore the standard table's
 points scaled as dclab scales every table (``dclab.features.emodulus.scale_linear``: area by (W'/W)^2, the modulus
 by the ratio of the wall shear stresses), not new runs: tests/test_lut_grid.py checks on the code's own inputs that each scaled point plans the standard
-point's run (the same options, Ca_w equal to rounding).
+point's run (the same options, Ca_w equal to rounding). dclab would scale the standard table to those setups the
+same way; the scaled tables give them their own identifiers, not new information.
 
 ``ship`` copies the finished standard table (every point finished, none failed) and writes the scaled ones into
 src/elastocell/data as ``lut_<name>.txt`` with their isoelastics; ``elastocell.register_lut()`` registers them.
@@ -85,11 +86,36 @@ def run(tables: Path, workers: int) -> None:
     status(tables)
 
 
+def scaled_metadata(metadata: dict, config: dict, rows: list[dict]) -> dict:
+    """The metadata of the table of ``config`` scaled from the standard one (``metadata``): dclab's keys for the
+    new channel, flow rate and viscosity; the date, method and summary say that it is the standard table scaled,
+    and the standard table's per-point bookkeeping (its run keys and states) moves under ``scaled_from_points``."""
+    from elastocell.inverse.lut import lut_metadata
+
+    _, settings = plan_of(config)
+    settings.pop("default_grid", None)  # the configuration's own rounded grid: not the rows of this table
+    name = table_name(config)
+    scaled = lut_metadata(settings, f"elastocell-{name}")
+    origin = (f"Scaled from {metadata['identifier']} by dclab.features.emodulus.scale_linear (area by (W'/W)^2, "
+              "emodulus by the wall shear stress ratio): in a power-law medium of one flow index the same "
+              "dimensionless runs (Ca_w, R_ch/R, n); dclab scales the standard table to this channel and flow "
+              "rate the same way, so this table adds a name for the setup, not new runs. ")
+    scaled["summary"] = origin + metadata["summary"]
+    scaled["method"] = f"{metadata['method']}, scaled from {metadata['identifier']}"
+    scaled["date"] = metadata["date"]
+    points = {k: v for k, v in metadata["elastocell"].items()
+              if k in ("points", "finished", "failed", "not_stationary", "not_extrapolated", "outline_fallback",
+                       "point_states")}
+    scaled["elastocell"] = {**settings, "scaled_from": metadata["identifier"], "scaled_from_points": points,
+                            "moduli_kpa": sorted({round(r["emodulus_kpa"], 6) for r in rows})}
+    return scaled
+
+
 def ship(tables: Path, data: Path = DATA) -> None:
     import numpy as np
     from dclab.features.emodulus.scale_linear import scale_area_um, scale_emodulus
 
-    from elastocell.inverse.lut import isoelastics_path, lut_metadata, read_lut, write_isoelastics, write_lut
+    from elastocell.inverse.lut import isoelastics_path, read_lut, write_isoelastics, write_lut
 
     points, _ = plan_of(STANDARD)
     done = finished(tables, STANDARD)
@@ -98,27 +124,29 @@ def ship(tables: Path, data: Path = DATA) -> None:
         raise SystemExit(f"ship: {len(missing)} of {len(points)} points of the standard table are not finished "
                          f"({', '.join(missing[:4])}{' ...' if len(missing) > 4 else ''}): run it first")
     source = tables / f"{table_name(STANDARD)}.txt"
+    if not source.is_file():
+        raise SystemExit(f"ship: no {source}: run `python validation/lut_standard.py run` once (it reads the "
+                         "finished points back and writes the table)")
     table, metadata, _ = read_lut(source)
-    if len(table) != len(points) or metadata["elastocell"].get("failed"):
-        raise SystemExit(f"ship: {source} holds {len(table)} rows for {len(points)} points or lists failed points: "
-                         "run it once more so that it is rewritten from every finished point")
+    keys = set(metadata["elastocell"].get("point_states", {}))
+    if keys != {p["key"] for p in points} or len(table) != len(points) or metadata["elastocell"].get("failed"):
+        raise SystemExit(f"ship: {source} is not the table of the {len(points)} finished points (its rows, point "
+                         "keys or failed points differ): run it once more so that it is rewritten from them")
     records = [{"area_um": a, "deform": d, "emodulus_kpa": e} for a, d, e in table]
     write_lut(data / source.name, records, metadata)
     write_isoelastics(isoelastics_path(data / source.name), records, metadata)
     print(f"wrote {data / source.name}")
     for config in SCALED:
         _, settings = plan_of(config)
-        name = table_name(config)
-        scaled = lut_metadata(settings, f"elastocell-{name}")
-        scaled["elastocell"] = {**metadata["elastocell"], **settings, "scaled_from": metadata["identifier"],
-                                "scaling": ("dclab.features.emodulus.scale_linear: the same dimensionless runs "
-                                            "(Ca_w, R_ch/R, flow index n) as the table scaled_from")}
-        area = scale_area_um(table[:, 0], metadata["channel_width"], scaled["channel_width"])
-        emodulus = scale_emodulus(table[:, 2], metadata["channel_width"], scaled["channel_width"],
-                                  metadata["flow_rate"], scaled["flow_rate"], metadata["fluid_viscosity"],
-                                  scaled["fluid_viscosity"])
+        width = float(config["channel_width_um"])
+        area = scale_area_um(table[:, 0], metadata["channel_width"], width)
+        emodulus = scale_emodulus(table[:, 2], metadata["channel_width"], width, metadata["flow_rate"],
+                                  float(config["flow_rate_ul_s"]), metadata["fluid_viscosity"],
+                                  settings["viscosity_mpa_s"])
         rows = [{"area_um": a, "deform": d, "emodulus_kpa": e}
                 for a, d, e in zip(area, table[:, 1], np.asarray(emodulus), strict=True)]
+        scaled = scaled_metadata(metadata, config, rows)
+        name = table_name(config)
         write_lut(data / f"{name}.txt", rows, scaled)
         write_isoelastics(isoelastics_path(data / f"{name}.txt"), rows, scaled)
         print(f"wrote {data / name}.txt (scaled from {metadata['identifier']})")

@@ -24,6 +24,7 @@ wall guard, VTK slice and summary.
 from __future__ import annotations
 
 import math
+import os
 import signal
 import threading
 import time
@@ -482,9 +483,10 @@ def resume_or_restart(simulate: Callable, out: Path, **options) -> dict:
             if error.parameter != "resume":
                 raise
             stale = getattr(error, "checkpoint", None)  # the file that cannot continue, where the run says so
-            if stale is None or not stale.is_file() or out.resolve() not in stale.resolve().parents:
+            inside = stale is not None and Path(os.path.abspath(out)) in Path(os.path.abspath(stale)).parents
+            if not inside or not (stale.is_file() or stale.is_symlink()):
                 break
-            stale.unlink()  # that file only: the other run of a pair keeps its own
+            stale.unlink()  # that file (a link itself, not its target) only: the other run of a pair keeps its own
     (out / "checkpoint.npz").unlink(missing_ok=True)
     return waiting_while_in_use(simulate, out=out, resume=False, **options)
 
