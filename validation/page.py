@@ -133,6 +133,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "pipe_target.py": ("Issue 24's pipe target at the defaults (the pair and six views in a cylinder), run to a "
                            "stationary shape", "nice python validation/pipe_target.py --out /work/results/pipe-target "
                            "--page"),
+        "pipe_order.py": ("Does the pair converge as it assumes: R/dx 6, 8 and 10 at the cells where it meets the "
+                          "target", "nice python validation/pipe_order.py --out /work/exp/pipe-order --page"),
         "pipe_outline_degree.py": ("Why the pair is not trusted for bullet shapes: the outline read with other "
                                    "fit degrees and as the hull, at R/dx 6 and 8",
                                    "nice python validation/pipe_outline_degree.py --out "
