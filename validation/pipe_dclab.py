@@ -46,6 +46,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import scipy.optimize
 
 try:
     import elastocell  # noqa: F401
@@ -416,10 +417,23 @@ def confinement_exponents(rows: list[dict], small=(6.0, 3.0), large=(7.66, 3.0))
     return lines
 
 
+def observed_order(d6: float, d8: float, d10: float) -> float:
+    """p with (d6 - d8)/(d8 - d10) = (6^-p - 8^-p)/(8^-p - 10^-p); NaN where the three are not monotone."""
+    ratio = (d6 - d8) / (d8 - d10) if d8 != d10 else math.inf
+    if not (math.isfinite(ratio) and ratio > 0):
+        return float("nan")
+
+    def gap(p):
+        return (6**-p - 8**-p) / (8**-p - 10**-p) - ratio
+
+    try:
+        return float(scipy.optimize.brentq(gap, 0.05, 12.0))
+    except ValueError:
+        return float("nan")
+
+
 def three_resolutions(rows: list[dict], cells) -> list[str]:
     """For each cell and correction with runs at R/dx 6, 8 and 10: the observed order and the extrapolations."""
-    import scipy.optimize
-
     table = {(r["R [um]"], r["E [kPa]"], r["run"]): r for r in rows}
     lines = []
     for (radius, modulus), tag in ((cell, tag) for cell in cells for tag in ("", ", c 0.3")):
@@ -427,13 +441,7 @@ def three_resolutions(rows: list[dict], cells) -> list[str]:
         if None in runs:
             continue
         d6, d8, d10 = (r["deform"] for r in runs)
-        ratio = (d6 - d8) / (d8 - d10) if d8 != d10 else float("nan")
-
-        def gap(p):
-            return (6.0**-p - 8.0**-p) / (8.0**-p - 10.0**-p) - ratio
-
-        order = float(scipy.optimize.brentq(gap, 0.05, 12.0)) if np.isfinite(ratio) and gap(0.05) * gap(12.0) < 0 \
-            else float("nan")
+        order = observed_order(d6, d8, d10)
         d_t = runs[2]["D_t"]
         parts = [f"R = {radius:g} um, E = {modulus:g} kPa{tag}: D = {d6:.4f}, {d8:.4f}, {d10:.4f} at R/dx 6, 8, 10 "
                  f"(table {d_t:.4f} at the R/dx 10 area): observed order {order:.2f}"]
@@ -527,7 +535,7 @@ def main(argv=None) -> None:
     rows.sort(key=lambda r: (cells.index((r["R [um]"], r["E [kPa]"])), "c " in r["run"], r["run"]))
     page.table(rows, f"Deformation and area against {TABLE}: each resolution alone, then extrapolated",
                formats=FORMATS)
-    page.table(diagnosis(rows, cells), f"Error sources of the pipe runs: source -> measured effect on D at each "
+    page.table(diagnosis(rows, cells), "Error sources of the pipe runs: source -> measured effect on D at each "
                "point (R um : E kPa)")
     page.print("Confinement sensitivity at the same modulus and Ca_w, d ln D/d ln(R/R_ch) between R = 6 and 7.66 um "
                "(E = 3 kPa), elastocell's against the table's (its D_t at each run's area):\n"

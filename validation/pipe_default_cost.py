@@ -33,10 +33,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from flow_default_cost import print_if_shared, timed_command  # noqa: E402
 from page import Page  # noqa: E402
 from pipe_dclab import FLOW_RATE_UL_S, VISCOSITY_MPA_S, percent, table_readings  # noqa: E402
-from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO  # noqa: E402
+from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO, wall_capillary_number  # noqa: E402
 
 from elastocell.api.pipe import rtdc_reading  # noqa: E402
-from elastocell.inverse.lut import capillary_number_wall  # noqa: E402
 
 PLAN = [("default (cylinder: R/dx 8 and 6, six views, c 0.3, interpolated wall)", "default-1", []),
         ("one resolution (--no-extrapolate, the default before)", "single", ["--no-extrapolate"]),
@@ -56,8 +55,7 @@ def main() -> None:
     parser.add_argument("--page", action="store_true", help="write the section of docs/validation/flow_default.md")
     args = parser.parse_args()
 
-    ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
-                                 args.modulus * 1e3, POISSON_RATIO)
+    ca_w = wall_capillary_number(args.modulus)
     common = ["--capillary-number-wall", f"{ca_w:.10g}", "--nucleus", "none", "--channel-radius-ratio",
               f"{CHANNEL_RADIUS_UM / args.radius:.10g}", "--poisson-ratio", f"{POISSON_RATIO:g}", "--quiet",
               "--vtk-interval", "1000"]

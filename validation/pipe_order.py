@@ -15,7 +15,6 @@ the converged value, the two agree and p is near 2. The section goes into docs/v
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import warnings
 from pathlib import Path
@@ -23,36 +22,15 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from page import Page  # noqa: E402
-from pipe_dclab import FLOW_RATE_UL_S, VISCOSITY_MPA_S, parse_points, percent, table_readings  # noqa: E402
-from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO  # noqa: E402
-from scipy.optimize import brentq  # noqa: E402
+from pipe_dclab import observed_order, parse_points, percent, table_readings  # noqa: E402
+from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO, wall_capillary_number  # noqa: E402
 
 import elastocell  # noqa: E402
-from elastocell.inverse.lut import capillary_number_wall  # noqa: E402
-
-
-def richardson(fine: float, coarse: float, r_fine: float, r_coarse: float, order: float = 2.0) -> float:
-    return fine + (fine - coarse) / ((r_fine / r_coarse) ** order - 1.0)
-
-
-def observed_order(d6: float, d8: float, d10: float) -> float:
-    """p with (d6 - d8)/(d8 - d10) = (6^-p - 8^-p)/(8^-p - 10^-p); NaN where the three are not monotone."""
-    ratio = (d6 - d8) / (d8 - d10) if d8 != d10 else math.inf
-    if not (math.isfinite(ratio) and ratio > 0):
-        return float("nan")
-
-    def gap(p):
-        return (6**-p - 8**-p) / (8**-p - 10**-p) - ratio
-
-    try:
-        return brentq(gap, 0.05, 12.0)
-    except ValueError:
-        return float("nan")
+from elastocell.simulation.extrapolation import richardson  # noqa: E402
 
 
 def run_point(radius: float, modulus: float, duration: float, out: Path) -> dict:
-    ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
-                                 modulus * 1e3, POISSON_RATIO)
+    ca_w = wall_capillary_number(modulus)
     common = dict(nucleus="none", poisson_ratio=POISSON_RATIO, channel_radius_ratio=CHANNEL_RADIUS_UM / radius,
                   duration=duration, resume=True, progress=False, vtk_interval=None)
     with warnings.catch_warnings():
@@ -94,15 +72,16 @@ def main() -> None:
                          "reading": f"R/dx {r:g}", "deform": d[r], "area/R^2": a[r], "D_t": d_t,
                          "D err %": percent(d[r], d_t), "A err %": percent(a[r] * radius**2, a_t)})
         for label, (fine, coarse) in (("(8, 6)", (8.0, 6.0)), ("(10, 8)", (10.0, 8.0))):
-            d_x, a_x = richardson(d[fine], d[coarse], fine, coarse), richardson(a[fine], a[coarse], fine, coarse)
+            ratio = fine / coarse
+            d_x, a_x = float(richardson(d[fine], d[coarse], ratio)), float(richardson(a[fine], a[coarse], ratio))
             (d_t, a_t, _), = table_readings([(a_x * radius**2, d_x, e_t)])
             rows.append({"R [um]": radius, "E [kPa]": modulus, "R/R_ch": radius / CHANNEL_RADIUS_UM,
                          "reading": f"extrapolated {label}", "deform": d_x, "area/R^2": a_x, "D_t": d_t,
                          "D err %": percent(d_x, d_t), "A err %": percent(a_x * radius**2, a_t)})
         summary_rows.append({"R [um]": radius, "E [kPa]": modulus, "p (D)": observed_order(d[6.0], d[8.0], d[10.0]),
                              "p (area)": observed_order(a[6.0], a[8.0], a[10.0]),
-                             "(8, 6) - (10, 8) in D %": percent(richardson(d[8.0], d[6.0], 8, 6),
-                                                                richardson(d[10.0], d[8.0], 10, 8)),
+                             "(8, 6) - (10, 8) in D %": percent(float(richardson(d[8.0], d[6.0], 8 / 6)),
+                                                                float(richardson(d[10.0], d[8.0], 10 / 8))),
                              "R/dx 10 hull views": result["hull"],
                              "stationary (8, 10)": f"{result['stationary'][8.0]}, {result['stationary'][10.0]}",
                              "wall pair (s)": result["wall"]["pair"], "wall R/dx 10 (s)": result["wall"][10.0]})

@@ -1,5 +1,5 @@
 """Why the pipe's extrapolation is not trusted for bullet-shaped cells: the side-view outline of the linear-tetrahedra
-cell at R/dx 6 and 8, read with radial fits of several degrees and as the nodes' hull, against LE-2D-FEM-19.
+cell at R/dx 6 and 8 (and 10), read with radial fits of several degrees and as the nodes' hull, against LE-2D-FEM-19.
 
     nice python validation/pipe_outline_degree.py [--points 6:2,6.5:2.5] [--resolutions 6 8] [--duration 40]
                                                   [--out results/pipe-outline-degree] [--page]
@@ -10,7 +10,8 @@ run to t = 40/gdot_w. While it runs, every record's six side views are also read
 5, 6 (the pipe's own), 7 and 8 (capped by the node count as the pipe caps it) and as the convex hull of the projected
 nodes; the means over the pipe's averaging window (its ``stationary_records``) are tabulated with the share of views
 whose fit lies in the band the pipe trusts ([1, 1.1] x the hull's area). Then, per degree, the Richardson
-extrapolation of R/dx 8 and 6 (order 2) against the table (D_t: LE-2D-FEM-19's deformation at the reading's area
+extrapolation of R/dx 8 and 6 (order 2) against the table; with ``--resolutions 6 8 10`` also the observed order of D
+from the three and the (10, 8) estimate (D_t: LE-2D-FEM-19's deformation at the reading's area
 on the isoelastic of the cell's shear modulus, as pipe_target.py reads it). A finished run is read back from
 ``readings.json`` in its directory (delete the directory to run it again). The section goes into
 docs/validation/pipe_dclab.md.
@@ -30,8 +31,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from page import Page  # noqa: E402
-from pipe_dclab import FLOW_RATE_UL_S, VISCOSITY_MPA_S, parse_points, percent, table_readings  # noqa: E402
-from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO  # noqa: E402
+from pipe_dclab import observed_order, parse_points, percent, table_readings  # noqa: E402
+from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO, wall_capillary_number  # noqa: E402
+
+from elastocell.simulation.extrapolation import richardson  # noqa: E402
 
 DEGREES = (5, 6, 7, 8)
 
@@ -59,7 +62,6 @@ def run(radius: float, modulus: float, resolution: float, duration: float, out: 
     """The run's summary and its records' readings (run now, or read back)."""
     import elastocell
     import elastocell.scenarios.pipe as scenario
-    from elastocell.inverse.lut import capillary_number_wall
 
     directory = out / f"{radius:g}um-{modulus:g}kPa-rdx{resolution:g}-t{duration:g}"
     stored = directory / "readings.json"
@@ -72,8 +74,7 @@ def run(radius: float, modulus: float, resolution: float, duration: float, out: 
         log.append(readings_of(x_surface, centre, views))
         return pipe_readings(x_surface, centre, views)
 
-    ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
-                                 modulus * 1e3, POISSON_RATIO)
+    ca_w = wall_capillary_number(modulus)
     scenario.side_view_readings = logged
     try:
         with warnings.catch_warnings():
@@ -122,7 +123,7 @@ def main() -> None:
     args = parser.parse_args()
     page = Page("pipe_dclab", "pipe_outline_degree.py", intro=(
         "The two cells of D about 0.05 of pipe_target.py (kept at R/dx 8 by the outline guard there), each at R/dx "
-        "6 and 8 alone, read over the pipe's averaging window with radial fits of several degrees (6 is the pipe's; "
+        f"{', '.join(f'{r:g}' for r in args.resolutions)} alone, read over the pipe's averaging window with radial fits of several degrees (6 is the pipe's; "
         "at R/dx 6 the 146 surface nodes cap the degree at 7) and as the nodes' hull. `in band`: share of the views "
         "whose fit the pipe trusts (area within [1, 1.1] x the hull's). D err: against LE-2D-FEM-19 at the "
         "reading's area (pipe_target.py's reading). Second table: the R/dx 8 and 6 pair extrapolated per reading. "
@@ -156,12 +157,19 @@ def main() -> None:
                 fine, coarse = values.get((radius, modulus, 8.0, name)), values.get((radius, modulus, 6.0, name))
                 if fine is None or coarse is None:
                     continue
-                d = fine["D"] + (fine["D"] - coarse["D"]) / (16.0 / 9.0 - 1.0)
-                a = fine["A"] + (fine["A"] - coarse["A"]) / (16.0 / 9.0 - 1.0)
+                d = float(richardson(fine["D"], coarse["D"], 8 / 6))
+                a = float(richardson(fine["A"], coarse["A"], 8 / 6))
                 (d_t, _, _), = table_readings([(a * radius**2, d, e_t)])
-                pairs.append({"R [um]": radius, "E [kPa]": modulus, "reading": name, "D R/dx 8": fine["D"],
-                              "D R/dx 6": coarse["D"], "D extrapolated": d, "D_t": d_t,
-                              "D err %": percent(d, d_t)})
+                row = {"R [um]": radius, "E [kPa]": modulus, "reading": name, "D R/dx 8": fine["D"],
+                       "D R/dx 6": coarse["D"], "D extrapolated": d, "D_t": d_t, "D err %": percent(d, d_t)}
+                finest = values.get((radius, modulus, 10.0, name))
+                if finest is not None:  # R/dx 10 as well: the observed order and the (10, 8) estimate
+                    d10 = float(richardson(finest["D"], fine["D"], 10 / 8))
+                    a10 = float(richardson(finest["A"], fine["A"], 10 / 8))
+                    (d_t10, _, _), = table_readings([(a10 * radius**2, d10, e_t)])
+                    row.update({"D R/dx 10": finest["D"], "order": observed_order(coarse["D"], fine["D"], finest["D"]),
+                                "D (10, 8)": d10, "(10, 8) err %": percent(d10, d_t10)})
+                pairs.append(row)
         for radius, modulus in parse_points(args.points):
             fits = sorted((int(k[3].split()[1]), v["D"]) for k, v in values.items()
                           if k[:3] == (radius, modulus, 8.0) and k[3].startswith("fit"))
@@ -170,8 +178,10 @@ def main() -> None:
                 page.print(f"{radius:g} um / {modulus:g} kPa, R/dx 8: D changes by "
                            f"{percent(by_degree[6], by_degree[5]):+.1f} % from degree 5 to 6 and by "
                            f"{percent(fits[-1][1], by_degree[6]):+.1f} % from 6 to {fits[-1][0]}")
-        page.table(pairs, "R/dx 8 and 6 extrapolated (Richardson, order 2) per reading", formats={
-            "D R/dx 8": ".5f", "D R/dx 6": ".5f", "D extrapolated": ".5f", "D_t": ".5f", "D err %": "+.1f"})
+        page.table(pairs, "R/dx 8 and 6 extrapolated (Richardson, order 2) per reading; where R/dx 10 ran too, the "
+                          "observed order of D from the three and the (10, 8) estimate", formats={
+            "D R/dx 8": ".5f", "D R/dx 6": ".5f", "D extrapolated": ".5f", "D_t": ".5f", "D err %": "+.1f",
+            "D R/dx 10": ".5f", "order": ".2f", "D (10, 8)": ".5f", "(10, 8) err %": "+.1f"})
     if args.page:
         page.write()
 

@@ -73,6 +73,13 @@ MESHES = {6.0: [None, 0.30, 0.32, 0.345], 8.0: [None, 0.235, 0.265, 0.28], 10.0:
 """Uniform mesh sizes (units of R) per resolution R/dx; None is the default edge of 2 dx."""
 
 
+def wall_capillary_number(modulus_kpa: float) -> float:
+    """Ca_w = tau_w / G of a cell of Young's modulus E [kPa] (Poisson ratio POISSON_RATIO) in LE-2D-FEM-19's channel:
+    equivalent radius CHANNEL_RADIUS_UM, flow rate FLOW_RATE_UL_S, Newtonian viscosity VISCOSITY_MPA_S."""
+    return capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
+                                 modulus_kpa * 1e3, POISSON_RATIO)
+
+
 def poisson_ratio(case: dict) -> float:
     """The cell's nu in ``case`` (:data:`POISSON_RATIO` where it says none)."""
     return float(case.get("poisson_ratio", POISSON_RATIO))

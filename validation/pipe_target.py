@@ -28,11 +28,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from page import Page  # noqa: E402
 from pipe_dclab import FLOW_RATE_UL_S, VISCOSITY_MPA_S, parse_points, percent, table_readings  # noqa: E402
-from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO  # noqa: E402
+from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO, wall_capillary_number  # noqa: E402
 
 import elastocell  # noqa: E402
 from elastocell.api.pipe import rtdc_reading  # noqa: E402
-from elastocell.inverse.lut import capillary_number_wall  # noqa: E402
 from elastocell.simulation.extrapolation import part_directory  # noqa: E402
 
 DEFAULT_POINTS = "6:3,7.66:4.5,6:2,6.5:2.5"
@@ -42,8 +41,7 @@ D about 0.05 whose R/dx 6 outline fell back to the nodes' hull there."""
 
 def run_point(radius: float, modulus: float, duration: float, out: Path) -> dict:
     """One default run (resumed if its directory has one) and its reading against LE-2D-FEM-19."""
-    ca_w = capillary_number_wall(FLOW_RATE_UL_S * 1e-9, CHANNEL_RADIUS_UM * 1e-6, VISCOSITY_MPA_S * 1e-3,
-                                 modulus * 1e3, POISSON_RATIO)
+    ca_w = wall_capillary_number(modulus)
     directory = out / f"{radius:g}um-{modulus:g}kPa-t{duration:g}"
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
