@@ -582,9 +582,11 @@ def test_the_pipe_extrapolates_by_default_in_a_cylinder_with_the_cell_on_its_axi
     assert extrapolated_by_default(PipeFlowParameters(capillary_number_wall=0.5, **flow)) is expected
 
 
-def _fake_parts(monkeypatch, hull_records: dict[float, int]):
+def _fake_parts(monkeypatch, hull_records: dict[float, int], hull_means: dict[float, int] | None = None):
     """Replace the pipe's one-resolution run by one writing a summary whose readings are 10 x R/dx (so the
-    Richardson values are known) and ``hull_records[R/dx]`` records on the nodes' hull; returns the calls."""
+    Richardson values are known), ``hull_records[R/dx]`` records with side views on the nodes' hull and, where
+    ``hull_means`` names the R/dx, ``outline_hull_views_records`` (records with every view there); returns the
+    calls."""
     import elastocell.api.pipe as api
     from elastocell.files import write_json
 
@@ -597,6 +599,8 @@ def _fake_parts(monkeypatch, hull_records: dict[float, int]):
         summary = {"resolution": r, "stop_reason": "duration", "label": "fake", "capillary_number_wall": 0.5,
                    "outline_fallback_records": 0, "outline_fallback_views_records": hull_records.get(r, 0),
                    **{name: 10.0 * r for name in api.EXTRAPOLATED}}
+        if hull_means is not None and r in hull_means:
+            summary["outline_hull_views_records"] = hull_means[r]
         write_json(Path(out) / "summary.json", summary)
         return summary, {"time": np.array([0.0, 1.0]), "deformation": np.array([0.0, 0.0])}
 
@@ -638,6 +642,43 @@ def test_an_extrapolation_with_hull_read_records_keeps_the_finer_runs_outline(tm
     on_disk = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert on_disk["deformation_views_mean"] == 80.0 and "outline_guard" in on_disk["extrapolation"]
     assert api.rtdc_reading(summary) == (80.0, 80.0, "side views")
+
+
+@pytest.mark.parametrize(("hull_records", "hull_means", "guarded"), [
+    ({8.0: 5}, {8.0: 0}, False),  # the finer run: some views on the hull, left out of its mean: extrapolated
+    ({8.0: 5}, {8.0: 1}, True),  # a record of the finer run with every view on the hull: its mean is the hull's
+    ({8.0: 5}, None, True),  # a finer run's summary without the count (older runs): any view counts
+    ({6.0: 5}, {6.0: 0}, True),  # the coarser run: any view on the hull, its outline is not resolved
+])
+def test_the_outline_guard_counts_the_finer_runs_hull_views_only_where_its_reading_used_them(
+        tmp_path, monkeypatch, hull_records, hull_means, guarded):
+    """The guard keeps the R/dx 8 run's outline readings where the coarser run read any side view on the hull or
+    the finer run's readings used the hull (every view of a record); a finer run's views on the hull alone are
+    left out of its mean (mean_side_view) and do not stop the extrapolation (reference: 80 + 20 / (7/9))."""
+    import warnings
+
+    import elastocell.api.pipe as api
+
+    _fake_parts(monkeypatch, hull_records, hull_means)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        summary = api.pipe(tmp_path / "run", 0.5, nucleus="none", progress=False)
+    expected = 80.0 if guarded else 80.0 + 20.0 / (16.0 / 9.0 - 1.0)
+    assert summary["deformation_views_mean"] == pytest.approx(expected, rel=1e-12)
+    assert ("outline_guard" in summary["extrapolation"]) is guarded
+    assert any("nodes' hull" in str(w.message) for w in caught) is guarded
+    advised = "--resolution 10 --coarse-resolution 8" in summary["extrapolation"].get("outline_guard", "")
+    assert advised is (guarded and 6.0 in hull_records)  # the finer pair is advised where the coarser run failed
+
+
+def test_a_pipe_summary_counts_the_records_with_every_side_view_on_the_hull():
+    """``outline_hull_views_records``: records whose six views all fell back (their mean is the hull's);
+    ``outline_fallback_views_records``: those with any; NaN (resumed from an older checkpoint) in neither
+    (reference: counted by hand on the column below)."""
+    from elastocell.scenarios.pipe import outline_hull_records
+
+    assert outline_hull_records(np.array([6, 6, 1, 0, np.nan, 5]), 6) == (4, 2)
+    assert outline_hull_records(np.array([2, 2, 1]), 2) == (3, 2)  # a duct: two views
 
 
 def test_a_run_id_resolves_the_pipes_default_by_its_channel():

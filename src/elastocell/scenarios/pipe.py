@@ -883,6 +883,15 @@ STATIONARY_OBSERVABLES = ("strain_axial", "deformation")
 """Observables the stationary stop criterion of :func:`pipe` may follow."""
 
 
+def outline_hull_records(fallback_views: np.ndarray, views: int) -> tuple[int, int]:
+    """(records with any side view read on the nodes' hull, records with every one of the ``views`` there) of a
+    window's ``outline_fallback_views`` column: the second are the records whose side views' mean is the hull's
+    (:func:`~elastocell.body.observables.mean_side_view` leaves the hull's views out where any view is fitted);
+    NaN (a column resumed from an older checkpoint) counts in neither."""
+    fallback_views = np.asarray(fallback_views, dtype=float)
+    return int((fallback_views > 0).sum()), int((fallback_views >= views).sum())
+
+
 class PipeRun(FlowRun):
     """A cell in a capillary, advanced record by record by the shared runner (:class:`~elastocell.simulation.runner.FlowRun`:
     compiled chunks, guards, stop criteria, observers, atomic checkpoints whose resumed series equals the
@@ -1045,7 +1054,8 @@ class PipeRun(FlowRun):
             values = s[name][keep]  # NaN unless every record of the window has them (the same window as the rest)
             out[f"{name}_mean"] = float(values.mean()) if values.size else float("nan")
             out[f"{name}_std"] = float(values.std()) if values.size else float("nan")
-        out["outline_fallback_views_records"] = int((s["outline_fallback_views"][keep] > 0).sum())
+        out["outline_fallback_views_records"], out["outline_hull_views_records"] = outline_hull_records(
+            s["outline_fallback_views"][keep], equivalent_side_views(self.params))
         out.update(window_verdict(s, keep, WINDOW_OBSERVABLES))
         out["radial_position_initial"] = float(s["radial_position"][0])
         fallback = np.asarray(s["outline_fallback"], dtype=float)
