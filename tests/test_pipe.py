@@ -582,11 +582,12 @@ def test_the_pipe_extrapolates_by_default_in_a_cylinder_with_the_cell_on_its_axi
     assert extrapolated_by_default(PipeFlowParameters(capillary_number_wall=0.5, **flow)) is expected
 
 
-def _fake_parts(monkeypatch, hull_records: dict[float, int], hull_means: dict[float, int] | None = None):
+def _fake_parts(monkeypatch, hull_records: dict[float, int], hull_means: dict[float, int] | None = None,
+                along_z: dict[float, int] | None = None):
     """Replace the pipe's one-resolution run by one writing a summary whose readings are 10 x R/dx (so the
-    Richardson values are known), ``hull_records[R/dx]`` records with side views on the nodes' hull and, where
-    ``hull_means`` names the R/dx, ``outline_hull_views_records`` (records with every view there); returns the
-    calls."""
+    Richardson values are known), ``hull_records[R/dx]`` records with side views on the nodes' hull,
+    ``along_z[R/dx]`` with the view along z there and, where ``hull_means`` names the R/dx,
+    ``outline_hull_views_records`` (records with every view there); returns the calls."""
     import elastocell.api.pipe as api
     from elastocell.files import write_json
 
@@ -597,7 +598,8 @@ def _fake_parts(monkeypatch, hull_records: dict[float, int], hull_means: dict[fl
         calls.append((params.channel_shape, r))
         Path(out).mkdir(parents=True, exist_ok=True)
         summary = {"resolution": r, "stop_reason": "duration", "label": "fake", "capillary_number_wall": 0.5,
-                   "outline_fallback_records": 0, "outline_fallback_views_records": hull_records.get(r, 0),
+                   "outline_fallback_records": (along_z or {}).get(r, 0),
+                   "outline_fallback_views_records": hull_records.get(r, 0),
                    **{name: 10.0 * r for name in api.EXTRAPOLATED}}
         if hull_means is not None and r in hull_means:
             summary["outline_hull_views_records"] = hull_means[r]
@@ -633,42 +635,62 @@ def test_an_extrapolation_with_hull_read_records_keeps_the_finer_runs_outline(tm
     import elastocell.api.pipe as api
 
     _fake_parts(monkeypatch, {6.0: 3})
-    with pytest.warns(UserWarning, match=r"nodes' hull \(R/dx 6: 0 \(view along z\) and 3 \(side views\)"):
+    with pytest.warns(UserWarning, match=r"nodes' hull \(R/dx 6: 0 \(view along z\), 3 \(any side view\) and \? \(every side view\)"):
         summary = api.pipe(tmp_path / "run", 0.5, nucleus="none", progress=False)
     for name in api.OUTLINE_EXTRAPOLATED:
         assert summary[name] == 80.0 and np.isnan(summary[f"{name}_correction"]), name
     assert summary["strain_axial_mean"] == pytest.approx(80.0 + 20.0 / (16.0 / 9.0 - 1.0), rel=1e-12)
+    assert "R/dx 6 run's outline is not resolved" in summary["extrapolation"]["outline_guard"]
     assert "R/dx 8 run's" in summary["extrapolation"]["outline_guard"]
     on_disk = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert on_disk["deformation_views_mean"] == 80.0 and "outline_guard" in on_disk["extrapolation"]
     assert api.rtdc_reading(summary) == (80.0, 80.0, "side views")
 
 
-@pytest.mark.parametrize(("hull_records", "hull_means", "guarded"), [
-    ({8.0: 5}, {8.0: 0}, False),  # the finer run: some views on the hull, left out of its mean: extrapolated
-    ({8.0: 5}, {8.0: 1}, True),  # a record of the finer run with every view on the hull: its mean is the hull's
-    ({8.0: 5}, None, True),  # a finer run's summary without the count (older runs): any view counts
-    ({6.0: 5}, {6.0: 0}, True),  # the coarser run: any view on the hull, its outline is not resolved
+Z, VIEWS = ("deformation_mean", "projected_area_mean"), ("deformation_views_mean", "projected_area_views_mean")
+
+
+@pytest.mark.parametrize(("pair", "hull_records", "hull_means", "along_z", "kept", "advised"), [
+    # the finer run: some side views on the hull, left out of its mean, none along z: all extrapolated
+    ((8, 6), {8.0: 5}, {8.0: 0}, {}, (), False),
+    # the finer run's view along z (view 0 of the side views) on the hull: that reading kept, the six views' mean not
+    ((8, 6), {8.0: 5}, {8.0: 0}, {8.0: 2}, Z, False),
+    # every view of a record of the finer run on the hull (so its view along z too): both kept
+    ((8, 6), {8.0: 5}, {8.0: 1}, {8.0: 1}, Z + VIEWS, False),
+    # a finer run's summary without the every-view count (older runs): any side view counts
+    ((8, 6), {8.0: 5}, None, {}, VIEWS, False),
+    # the coarser run: any side view on the hull, its outline is not resolved: all kept, the (10, 8) pair advised
+    ((8, 6), {6.0: 5}, {6.0: 0}, {}, Z + VIEWS, True),
+    # both runs failed: still the coarser run's failure, still advised
+    ((8, 6), {6.0: 5, 8.0: 5}, {6.0: 0, 8.0: 1}, {8.0: 1}, Z + VIEWS, True),
+    # the advised pair's coarser run failing: nothing finer to advise
+    ((10, 8), {8.0: 5}, {8.0: 0}, {}, Z + VIEWS, False),
+    # a (10, 6) pair whose R/dx 6 run failed: (10, 8) advised
+    ((10, 6), {6.0: 5}, {6.0: 0}, {}, Z + VIEWS, True),
 ])
-def test_the_outline_guard_counts_the_finer_runs_hull_views_only_where_its_reading_used_them(
-        tmp_path, monkeypatch, hull_records, hull_means, guarded):
-    """The guard keeps the R/dx 8 run's outline readings where the coarser run read any side view on the hull or
-    the finer run's readings used the hull (every view of a record); a finer run's views on the hull alone are
-    left out of its mean (mean_side_view) and do not stop the extrapolation (reference: 80 + 20 / (7/9))."""
+def test_the_outline_guard_keeps_each_reading_the_hull_reached(tmp_path, monkeypatch, pair, hull_records,
+                                                               hull_means, along_z, kept, advised):
+    """The guard keeps at the finer run's every outline reading where the coarser run read any view on the hull;
+    the view along z where the finer run's did; the six views' mean where the finer run read every view of a record
+    there (mean_side_view leaves the hull's views out otherwise). Reference for the others: X_f + (X_f - X_c) /
+    ((f/c)^2 - 1) with X = 10 R/dx, written out."""
     import warnings
 
     import elastocell.api.pipe as api
 
-    _fake_parts(monkeypatch, hull_records, hull_means)
+    fine, coarse = pair
+    _fake_parts(monkeypatch, hull_records, hull_means, along_z)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        summary = api.pipe(tmp_path / "run", 0.5, nucleus="none", progress=False)
-    expected = 80.0 if guarded else 80.0 + 20.0 / (16.0 / 9.0 - 1.0)
-    assert summary["deformation_views_mean"] == pytest.approx(expected, rel=1e-12)
-    assert ("outline_guard" in summary["extrapolation"]) is guarded
-    assert any("nodes' hull" in str(w.message) for w in caught) is guarded
-    advised = "--resolution 10 --coarse-resolution 8" in summary["extrapolation"].get("outline_guard", "")
-    assert advised is (guarded and 6.0 in hull_records)  # the finer pair is advised where the coarser run failed
+        summary = api.pipe(tmp_path / "run", 0.5, nucleus="none", progress=False, resolution=fine,
+                           coarse_resolution=coarse)
+    extrapolated = 10.0 * fine + 10.0 * (fine - coarse) / ((fine / coarse) ** 2 - 1.0)
+    for name in Z + VIEWS:
+        assert summary[name] == pytest.approx(10.0 * fine if name in kept else extrapolated, rel=1e-12), name
+    guard = summary["extrapolation"].get("outline_guard", "")
+    assert bool(guard) is bool(kept) and any("nodes' hull" in str(w.message) for w in caught) is bool(kept)
+    assert ("--resolution 10 --coarse-resolution 8" in guard) is advised
+    assert api.rtdc_extrapolated(summary) is ("deformation_views_mean" not in kept)
 
 
 def test_a_pipe_summary_counts_the_records_with_every_side_view_on_the_hull():

@@ -135,10 +135,11 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                            "--page"),
         "pipe_order.py": ("Does the pair converge as it assumes: R/dx 6, 8 and 10 at the cells where it meets the "
                           "target", "nice python validation/pipe_order.py --out /work/exp/pipe-order --page"),
-        "pipe_outline_degree.py": ("Bullet shapes: why the (8, 6) pair is not trusted there and the (10, 8) pair "
-                                   "is; the outline read with other fit degrees and as the hull, at R/dx 6, 8, 10",
-                                   "nice python validation/pipe_outline_degree.py --resolutions 6 8 10 --out "
-                                   "results/pipe-outline-degree --page"),
+        "pipe_outline_degree.py": ("Bullet shapes: why the (8, 6) pair is not trusted there, and the (10, 8) "
+                                   "pair against the table; the outline read with other fit degrees and as the "
+                                   "hull, at R/dx 6, 8, 10",
+                                   "nice python validation/pipe_outline_degree.py --points 6:2,6.5:2.5 "
+                                   "--resolutions 6 8 10 --out results/pipe-outline-degree --page"),
     }),
     "lut": ("RT-DC look-up table against dclab", {
         "lut_dclab.py": ("elastocell's points against dclab's LE-2D-FEM-19",

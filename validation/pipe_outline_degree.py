@@ -34,7 +34,8 @@ from page import Page  # noqa: E402
 from pipe_dclab import observed_order, parse_points, percent, table_readings  # noqa: E402
 from pipe_resolution import CHANNEL_RADIUS_UM, POISSON_RATIO, wall_capillary_number  # noqa: E402
 
-from elastocell.simulation.extrapolation import richardson  # noqa: E402
+from elastocell.api.pipe import EXTRAPOLATED, outline_guarded, rtdc_extrapolated, rtdc_reading  # noqa: E402
+from elastocell.simulation.extrapolation import extrapolated_summary, richardson  # noqa: E402
 
 DEGREES = (5, 6, 7, 8)
 
@@ -63,7 +64,7 @@ def run(radius: float, modulus: float, resolution: float, duration: float, out: 
     import elastocell
     import elastocell.scenarios.pipe as scenario
 
-    directory = out / f"{radius:g}um-{modulus:g}kPa-rdx{resolution:g}-t{duration:g}"
+    directory = run_directory(out, radius, modulus, resolution, duration)
     stored = directory / "readings.json"
     if stored.exists() and (directory / "summary.json").exists():
         return json.loads((directory / "summary.json").read_text()), json.loads(stored.read_text())
@@ -89,18 +90,22 @@ def run(radius: float, modulus: float, resolution: float, duration: float, out: 
     return summary, log
 
 
-def hull_records(out: Path, radius: float, modulus: float, resolution: float, duration: float,
-                 summary: dict) -> str:
-    """'any / every of N': the averaging window's records with side views on the nodes' hull (the pipe's
-    ``outline_hull_records`` of the run's time series)."""
+def run_directory(out: Path, radius: float, modulus: float, resolution: float, duration: float) -> Path:
+    return out / f"{radius:g}um-{modulus:g}kPa-rdx{resolution:g}-t{duration:g}"
+
+
+def with_hull_counts(summary: dict, directory: Path) -> dict:
+    """The run's summary with ``outline_hull_views_records`` counted from its time series as the pipe counts it
+    (a summary written before the pipe counted it lacks it)."""
     import pandas as pd
 
+    from elastocell.body.observables import OUTLINE_VIEWS
     from elastocell.scenarios.pipe import outline_hull_records
 
     records = int(summary["stationary_records"])
-    series = pd.read_csv(out / f"{radius:g}um-{modulus:g}kPa-rdx{resolution:g}-t{duration:g}" / "timeseries.csv")
-    any_view, every_view = outline_hull_records(series["outline_fallback_views"].to_numpy()[-records:], 6)
-    return f"{any_view} / {every_view} of {records}"
+    series = pd.read_csv(directory / "timeseries.csv")
+    _, every_view = outline_hull_records(series["outline_fallback_views"].to_numpy()[-records:], OUTLINE_VIEWS)
+    return {**summary, "outline_hull_views_records": every_view}
 
 
 def deformation(area: float, perimeter: float) -> float:
@@ -146,17 +151,19 @@ def main() -> None:
         "changes by about 20 % from 5 to 6, a few % from 6 to 8, lines below): its nearness to the table is no "
         "reading to trust. Linear tetrahedra only (a quadratic cell reads its own curved surface). With R/dx 10: "
         "R/dx 6 is not in the asymptotic range at these cells (D of R/dx 6, 8, 10 has no order: R/dx 6 reads nearly "
-        "R/dx 8's, while 8 to 10 moves it several %), so the default (8, 6) pair cannot be right there; the (10, 8) "
-        "pair, whose R/dx 8 run reads every view on the fit, is. Its R/dx 10 run has one to five of six views "
-        "out of the band in many records (fit area a few 0.1 % inside the finer hull); the pipe leaves those views "
-        "out of its mean (`pipe's D (views)`), and the outline guard then extrapolates (the last lines: the pipe's "
-        "own (10, 8) reading, as `elastocell pipe --resolution 10 --coarse-resolution 8` reports it)."))
+        "R/dx 8's, while 8 to 10 moves it several %), so the default (8, 6) pair cannot be right there. The (10, 8) "
+        "pair, whose R/dx 8 run reads every view on the fit, lands within 6 % of the table at both cells (two cells, "
+        "shapes not quite stationary, no R/dx 12 run: agreement with the table, not a shown convergence). Its R/dx "
+        "10 run has one to five of six views out of the band in many records (fit area a few 0.1 % inside the finer "
+        "hull), none all six; the pipe leaves those views out of its mean (`pipe's D (views)`), and its outline "
+        "guard (applied below to the two runs' summaries, as `elastocell pipe --resolution 10 --coarse-resolution 8` "
+        "applies it) extrapolates the six views' mean."))
     rows, values, updates, summaries = [], {}, {}, {}
     for radius, modulus in parse_points(args.points):
         e_t = 3 * modulus / (2 * (1 + POISSON_RATIO))
         for resolution in args.resolutions:
             summary, log = run(radius, modulus, resolution, args.duration, args.out)
-            updates[(radius, modulus, resolution)] = summary["lattice_updates_per_s"] * summary["wall_time_s"]
+            updates[(radius, modulus, resolution)] = summary["lattice_updates_per_s"] * summary["time_stepping_s"]
             summaries[(radius, modulus, resolution)] = summary
             for name, m in window_means(log, int(summary["stationary_records"])).items():
                 values[(radius, modulus, resolution, name)] = m
@@ -166,7 +173,7 @@ def main() -> None:
                              "in band": m["in band"], "fit/hull area": m["ratio"], "deform": m["D"], "D_t": d_t,
                              "D err %": percent(m["D"], d_t), "pipe's D (views)": summary.get("deformation_views_mean"),
                              "stationary": summary.get("stationary"),
-                             "lattice updates [1e9]": 1e-9 * summary["lattice_updates_per_s"] * summary["wall_time_s"]})
+                             "lattice updates [1e9]": 1e-9 * updates[(radius, modulus, resolution)]})
                 print(f"{radius:g} um / {modulus:g} kPa, R/dx {resolution:g}, {name}: D {m['D']:.5f} "
                       f"(err {percent(m['D'], d_t):+.1f} %), in band {m['in band']:.2f}", flush=True)
     page.table(rows, f"Side-view readings at t = {args.duration:g}/gdot_w, means over the averaging window",
@@ -207,15 +214,23 @@ def main() -> None:
                 page.print(f"{radius:g} um / {modulus:g} kPa: the (10, 8) pair costs "
                            f"{(cost[2] + cost[1]) / (cost[1] + cost[0]):.1f} times the (8, 6) pair's lattice updates")
             fine, coarse = summaries.get((radius, modulus, 10.0)), summaries.get((radius, modulus, 8.0))
-            if fine is not None and coarse is not None:  # the pipe's own pair reading: its six-view means
-                d = float(richardson(fine["deformation_views_mean"], coarse["deformation_views_mean"], 10 / 8))
-                area = float(richardson(fine["projected_area_views_mean"], coarse["projected_area_views_mean"],
-                                        10 / 8)) * radius**2
+            if fine is not None and coarse is not None:  # the pipe's own pair reading, guard included
+                parts = {r: with_hull_counts(part, run_directory(args.out, radius, modulus, r, args.duration))
+                         for r, part in ((10.0, fine), (8.0, coarse))}
+                summary = extrapolated_summary(parts[10.0], parts[8.0], EXTRAPOLATED, 10.0, 8.0, "R/dx 10")
+                guarded = outline_guarded(summary, parts)
+                d, area_r2, reading = rtdc_reading(summary)
+                area = area_r2 * radius**2
                 (d_t, a_t, _), = table_readings([(area, d, 3 * modulus / (2 * (1 + POISSON_RATIO)))])
-                page.print(f"{radius:g} um / {modulus:g} kPa: the pipe's (10, 8) reading D {d:.5f} "
-                           f"({percent(d, d_t):+.1f} %), area {area:.2f} um^2 ({percent(area, a_t):+.1f} %) against "
-                           f"LE-2D-FEM-19; R/dx 10 records with any / every view on the hull: "
-                           f"{hull_records(args.out, radius, modulus, 10.0, args.duration, fine)}")
+                page.print(f"{radius:g} um / {modulus:g} kPa: the pipe's (10, 8) reading ({reading}, "
+                           f"{'extrapolated' if rtdc_extrapolated(summary) else 'kept at R/dx 10 by the guard'}) "
+                           f"D {d:.5f} ({percent(d, d_t):+.1f} %), area {area:.2f} um^2 ({percent(area, a_t):+.1f} %) "
+                           "against LE-2D-FEM-19; "
+                           + (summary["extrapolation"]["outline_guard"] if guarded else "outline guard: "
+                              + "; ".join(f"R/dx {r:g}: {p['outline_fallback_records']} (view along z), "
+                                          f"{p['outline_fallback_views_records']} (any side view), "
+                                          f"{p['outline_hull_views_records']} (every side view) of "
+                                          f"{p['stationary_records']} records" for r, p in parts.items())))
         page.table(pairs, "R/dx 8 and 6 extrapolated (Richardson, order 2) per reading; where R/dx 10 ran too, the "
                           "observed order of D from the three and the (10, 8) estimate", formats={
             "D R/dx 8": ".5f", "D R/dx 6": ".5f", "D extrapolated": ".5f", "D_t": ".5f", "D err %": "+.1f",

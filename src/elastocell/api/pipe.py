@@ -51,8 +51,9 @@ series written before it existed lacks)."""
 
 OUTLINE_EXTRAPOLATED = ("deformation_mean", "projected_area_mean", "deformation_views_mean",
                         "projected_area_views_mean")
-"""The side-view readings among :data:`EXTRAPOLATED`: an extrapolation whose runs read any record of their
-averaging windows on the nodes' hull reports these as the finer run's (:func:`outline_guarded`)."""
+"""The side-view readings among :data:`EXTRAPOLATED`: an extrapolation whose runs read records of their averaging
+windows on the nodes' hull reports these, or those of them the hull reached, as the finer run's
+(:func:`outline_guarded`)."""
 
 
 def extrapolated_by_default(params: PipeFlowParameters) -> bool:
@@ -91,53 +92,84 @@ the outline (bullet-shaped cells, D about 0.05 in LE-2D-FEM-19's cylinder; :func
 
 
 def outline_guarded(summary: dict, parts: dict[float, dict]) -> bool:
-    """Keep an extrapolation's side-view readings (:data:`OUTLINE_EXTRAPOLATED`) at the finer run's where a run's
-    outline was not resolved: the coarser run read a record of its averaging window on the nodes' hull
-    (``outline_fallback_records``, the view along z, or ``outline_fallback_views_records``, any side view), or the
-    finer run's readings themselves used the hull (the view along z, or every side view of a record:
-    ``outline_hull_views_records``; a finer run's summary without it counts any side view).
+    """Keep an extrapolation's outline readings (:data:`OUTLINE_EXTRAPOLATED`) at the finer run's where a run's
+    outline was not resolved, reading by reading:
+
+    - all four where the coarser run read a record of its averaging window on the nodes' hull, in the view along z
+      (``outline_fallback_records``) or in any side view (``outline_fallback_views_records``);
+    - ``deformation_mean`` and ``projected_area_mean`` (the view along z) where the finer run's view along z did;
+    - ``deformation_views_mean`` and ``projected_area_views_mean`` where the finer run read every side view of a
+      record on the hull (``outline_hull_views_records``; a summary without it counts any side view): only then
+      is its mean the hull's, since :func:`~elastocell.body.observables.mean_side_view` leaves the hull's views
+      out where any view is fitted.
 
     The hull's D carries the mesh-scale roughness, not the lattice's (dx/R)^2 error, so a difference involving it
     is no discretisation error to extrapolate (measured: the R/dx 6 outline of cells of D above 0.045 falls back to
     the hull and their extrapolated D errs -92 to +69 % against LE-2D-FEM-19, section "pipe_orientation.py"); and a
     coarser run whose fit leaves the trusted band in some views is not yet in the asymptotic range (measured at D
-    about 0.05, section "pipe_outline_degree.py": R/dx 6, 8, 10 read D 0.0589, 0.0584, 0.0555 at 6 um / 2 kPa, no
-    (dx/R)^2 trend from 6 to 8, while the (10, 8) pair, whose coarser run reads every view on the fit, lands at
-    +5.5 % in D and -3.2 % in area, and +2.3 and -1.2 % at 6.5 um / 2.5 kPa). A finer run's views read on the hull
-    are left out of its mean (:func:`~elastocell.body.observables.mean_side_view`), so those alone do not stop it
-    (at R/dx 10 there: 111 of 201 records had one to five of six views on the hull, the fitted views' mean D
-    0.05551 against 0.05550 for the fit read in every view).
+    about 0.05, section "pipe_outline_degree.py": the pipe's six-view D at R/dx 6, 8, 10 reads 0.0580, 0.0584,
+    0.0555 at 6 um / 2 kPa, no (dx/R)^2 trend from 6 to 8, while the (10, 8) pair, whose coarser run reads every
+    view on the fit, lands at +5.5 % in D and -3.2 % in area from the table, and at +2.3 and -1.2 % at 6.5 um /
+    2.5 kPa). The finer run's views on the hull alone do not stop its six-view extrapolation (at R/dx 10 there:
+    111 of 201 records had one to five of six views on the hull, none all six; the fitted views' mean D 0.05551
+    against 0.05550 for the fit read in every view).
 
-    Changes ``summary`` in place (each value back to the finer run's, its correction NaN,
-    ``extrapolation["outline_guard"]`` saying why) and returns True where it did."""
+    Changes ``summary`` in place (each kept value back to the finer run's, its correction NaN,
+    ``extrapolation["outline_guard"]`` saying which and why) and returns True where it kept any."""
     extrapolation = summary["extrapolation"]
     fine = float(extrapolation["fine_resolution"])
-    hull = {r: (int(part.get("outline_fallback_records") or 0), int(part.get("outline_fallback_views_records") or 0))
-            for r, part in parts.items()}  # (view along z, side views) per run
-    used = {r: (along_z, int(parts[r].get("outline_hull_views_records", views) or 0) if r == fine else views)
-            for r, (along_z, views) in hull.items()}  # the records whose reading was the hull's (finer run)
-    if not any(sum(counts) for counts in used.values()):
+    coarse = min(float(r) for r in parts)
+    counts = {float(r): (int(part.get("outline_fallback_records") or 0),
+                         int(part.get("outline_fallback_views_records") or 0),
+                         part.get("outline_hull_views_records"))
+              for r, part in parts.items()}  # (view along z, any side view, every side view or None) per run
+    coarse_unresolved = counts[coarse][0] + counts[coarse][1] > 0
+    kept = set()
+    if coarse_unresolved:
+        kept.update(OUTLINE_EXTRAPOLATED)
+    if counts[fine][0]:
+        kept.update(("deformation_mean", "projected_area_mean"))
+    if counts[fine][1] if counts[fine][2] is None else counts[fine][2]:  # without the count: any side view
+        kept.update(("deformation_views_mean", "projected_area_views_mean"))
+    kept &= set(extrapolation["values"])
+    if not kept:
         return False
+    extrapolation["outline_kept"] = [name for name in OUTLINE_EXTRAPOLATED if name in kept]
     for name in OUTLINE_EXTRAPOLATED:
-        if name in extrapolation["values"]:
+        if name in kept:
             value = extrapolation["values"][name]["fine"]  # the finer run's, in memory (a JSON null would be NaN)
             summary[name] = value
             summary[f"{name}_correction"] = float("nan")
             extrapolation["values"][name] = {**extrapolation["values"][name], "value": value,
                                              "correction": float("nan")}
-    counts = "; ".join(f"R/dx {r:g}: {hull[r][0]} (view along z) and {hull[r][1]} (side views) of "
-                       f"{part.get('stationary_records', '?')} records" for r, part in sorted(parts.items()))
+    runs = "; ".join(f"R/dx {r:g}: {counts[float(r)][0]} (view along z), {counts[float(r)][1]} (any side view) and "
+                     f"{'?' if counts[float(r)][2] is None else counts[float(r)][2]} (every side view) of "
+                     f"{part.get('stationary_records', '?')} records" for r, part in sorted(parts.items()))
+    why = (f"the R/dx {coarse:g} run's outline is not resolved" if coarse_unresolved
+           else f"the R/dx {fine:g} run's reading used the hull")
     advice = ""
-    if not sum(used[fine]) and fine < FINER_PAIR[0]:  # the coarser run alone: a finer pair resolves the cell
-        advice = (f"; for a cell whose R/dx {min(parts):g} outline is not resolved, the pair R/dx {FINER_PAIR[0]:g} "
+    if coarse_unresolved and coarse < FINER_PAIR[1]:  # a finer pair resolves such a cell
+        advice = (f"; for a cell whose R/dx {coarse:g} outline is not resolved, the pair R/dx {FINER_PAIR[0]:g} "
                   f"and {FINER_PAIR[1]:g} (resolution={FINER_PAIR[0]:g}, coarse_resolution={FINER_PAIR[1]:g}; "
                   f"--resolution {FINER_PAIR[0]:g} --coarse-resolution {FINER_PAIR[1]:g}) read D and area within 6 % "
                   "of LE-2D-FEM-19 at the two such cells measured, at about 3 times the default pair's lattice "
                   "updates (docs/validation/pipe_dclab.md, section pipe_outline_degree.py)")
     extrapolation["outline_guard"] = (
-        f"records of the averaging windows were read on the nodes' hull ({counts}): the deformation "
-        f"and projected area are the R/dx {fine:g} run's, not extrapolated (the other values are){advice}")
+        f"records of the averaging windows were read on the nodes' hull ({runs}): {why}, so "
+        f"{', '.join(name for name in OUTLINE_EXTRAPOLATED if name in kept)} are the R/dx {fine:g} run's, not "
+        f"extrapolated (the other values are){advice}")
     return True
+
+
+def rtdc_extrapolated(summary: dict) -> bool:
+    """Whether the RT-DC reading of a pipe summary (:func:`rtdc_reading`) is extrapolated: an extrapolation that
+    is not pending and whose outline guard did not keep that reading's deformation at the finer run's."""
+    extrapolation = summary.get("extrapolation") or {}
+    if not extrapolation or extrapolation.get("pending"):
+        return False
+    name = "deformation_views_mean" if rtdc_reading(summary)[2] == "side views" else "deformation_mean"
+    kept = extrapolation.get("outline_kept", OUTLINE_EXTRAPOLATED if extrapolation.get("outline_guard") else ())
+    return name not in kept
 
 
 def rtdc_reading(summary: dict) -> tuple[float, float, str]:
@@ -263,9 +295,9 @@ def pipe(
     resolution is above it) too, in ``out/resolution-<R/dx>/`` beside ``out/resolution-<resolution>/`` (each resumable, each with
     its own time series, checkpoint and VTK files), and report the stationary strains, deformation, projected
     area and axial velocity (:data:`EXTRAPOLATED`) extrapolated to dx -> 0 with order 2
-    (``summary["extrapolation"]``; the top-level time series and plot are the finer run's); where either run read
-    its averaged records on the nodes' hull, the deformation and area stay the finer run's, with a warning
-    (:func:`outline_guarded`). In a cylinder ``deformation_views_mean`` and ``projected_area_views_mean`` are the
+    (``summary["extrapolation"]``; the top-level time series and plot are the finer run's); where the coarser run
+    read averaged records on the nodes' hull, or the finer run's reading used it, the deformation and area stay the
+    finer run's, with a warning (:func:`outline_guarded`, which says which readings). In a cylinder ``deformation_views_mean`` and ``projected_area_views_mean`` are the
     RT-DC reading (the six side views, extrapolated). Without cell= the
     mesh (edges 2 dx) follows each resolution.
     channel_length: a finite channel of length L (a quantity such as "300um"; a bare number in um; needs a physical
@@ -322,8 +354,8 @@ def pipe(
     plot_pipe(Path(out) / "pipe.png", series, fine,
               title=f"{summary['label']}, {params.channel_shape} channel, {params.medium}, Ca_w = "
                     f"{summary['capillary_number_wall']:g}, R/dx = {params.resolution:g}; "
-                    + ("D (the finer run's: outline on the hull)" if summary["extrapolation"].get("outline_guard")
-                       else "extrapolated D") + f" = {rtdc_reading(summary)[0]:.4g}")
+                    + ("extrapolated D" if rtdc_extrapolated(summary) else "D (the finer run's: outline on the hull)")
+                    + f" = {rtdc_reading(summary)[0]:.4g}")
     return summary
 
 

@@ -293,6 +293,7 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
     from elastocell.api.pipe import (  # lazy: a command loads JAX/Numba only when it runs (--help 0.3 s, not 2.5 s)
         channel_length_of,
         pipe_coarse_resolution,
+        rtdc_extrapolated,
         rtdc_reading,
     )
     from elastocell.api.pipe import (
@@ -364,8 +365,7 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
         if channel_length is None and not extrapolation.get("pending"):
             deformation, area, reading = rtdc_reading(summary)
             typer.echo(f"RT-DC deformation {deformation:.4f}, projected area {area:.4f} R^2 (stationary means, "
-                       f"{reading}" + (", extrapolated" if extrapolation and not extrapolation.get("outline_guard")
-                                       else "") + ")")
+                       f"{reading}" + (", extrapolated" if rtdc_extrapolated(summary) else "") + ")")
         _echo_extrapolation(summary, ("strain_axial_mean", "eps_x"), ("strain_radial_mean", "eps_r"),
                             ("deformation_mean", "deformation (view along z)"),
                             ("projected_area_mean", "projected area (view along z)"),
