@@ -130,8 +130,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                          "nice python validation/pipe_wall.py --out /work/results/pipe-stationary"),
         "pipe_orientation.py": ("The cell's mesh turned: how much one orientation decides in a pipe",
                                 "nice python validation/pipe_orientation.py --out /work/results/pipe-orientation"),
-        "pipe_target.py": ("Issue 24's pipe target at the defaults (the pair and six views in a cylinder), run to a "
-                           "stationary shape", "nice python validation/pipe_target.py --out /work/results/pipe-target "
+        "pipe_target.py": ("Issue 24's pipe target at the defaults (the pair and six views in a cylinder), run to t = "
+                           "40/gdot_w (nearly stationary)", "nice python validation/pipe_target.py --out /work/results/pipe-target "
                            "--page"),
         "pipe_order.py": ("Does the pair converge as it assumes: R/dx 6, 8 and 10 at the cells where it meets the "
                           "target", "nice python validation/pipe_order.py --out /work/exp/pipe-order --page"),
