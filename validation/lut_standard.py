@@ -4,6 +4,7 @@ into src/elastocell/data.
     python validation/lut_standard.py run [--workers 2] [--tables DIR]
     python validation/lut_standard.py status [--tables DIR]
     python validation/lut_standard.py ship [--tables DIR] [--data DIR]
+    python validation/lut_standard.py compare [--tables DIR] [--page]
 
 ``run`` computes the standard table (20 um square channel, 0.04 uL/s, 0.59 % MC-PBS, 23 degC, the default grid of
 ``elastocell lut``) with exactly the command a user gives, in ``validation/tables/`` by default. It is resumable:
@@ -18,6 +19,9 @@ points scaled as dclab scales every table (``dclab.features.emodulus.scale_linea
 by the ratio of the wall shear stresses), not new runs: tests/test_lut_grid.py checks on the code's own inputs that each scaled point plans the standard
 point's run (the same options, Ca_w equal to rounding). dclab would scale the standard table to those setups the
 same way; the scaled tables give them their own identifiers, not new information.
+
+``compare`` reads the finished points through dclab's HE-3D-FEM-22 at the same conditions (section
+"lut_standard.py" of docs/validation/lut_square.md).
 
 ``ship`` copies the finished standard table (every point finished, none failed) and writes the scaled ones into
 src/elastocell/data as ``lut_<name>.txt`` with their isoelastics; ``elastocell.register_lut()`` registers them.
@@ -152,17 +156,67 @@ def ship(tables: Path, data: Path = DATA) -> None:
         print(f"wrote {data / name}.txt (scaled from {metadata['identifier']})")
 
 
+COMPARED = "HE-3D-FEM-22"
+"""dclab's table of the same problem (square channel, neo-Hookean cell, shear-thinning MC-PBS; Wittwer et al.)."""
+
+
+def compare(tables: Path, write_page: bool) -> None:
+    """Each finished point of the standard table read through dclab's HE-3D-FEM-22 at the table's own conditions
+    (20 um, 0.04 uL/s, 0.59 % MC-PBS at 23 degC, dclab's buyukurganci-2022 viscosity, no pixelation correction):
+    E_dclab / E_input per point and the share within 5 % (issue 25's target) among the points inside dclab's
+    table; written into docs/validation/lut_square.md with ``--page``."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import numpy as np
+    from page import Page
+
+    from elastocell.inverse.rtdc import MC_PBS_VISCOSITY_MODEL, Conditions, emodulus_of_events
+
+    points, _ = plan_of(STANDARD)
+    done = finished(tables, STANDARD)
+    records = [done[p["key"]] for p in points if p["key"] in done]
+    conditions = Conditions(STANDARD["channel_width_um"], STANDARD["flow_rate_ul_s"], 0.0, "0.59% MC-PBS",
+                            TEMPERATURE, MC_PBS_VISCOSITY_MODEL)
+    e_pa, notes = emodulus_of_events(np.array([r["area_um"] for r in records]),
+                                     np.array([r["deform"] for r in records]), conditions, COMPARED)
+    rows = [{"R [um]": r["radius_um"], "E [kPa]": r["emodulus_kpa"], "state": r["state"],
+             "t_end": r.get("duration"), "area_um": r["area_um"], "deform": r["deform"],
+             f"E {COMPARED} [kPa]": 1e-3 * e, "ratio": 1e-3 * e / r["emodulus_kpa"]}
+            for r, e in zip(records, e_pa, strict=True)]
+    inside = [row for row in rows if np.isfinite(row["ratio"])]
+    within = [row for row in inside if abs(row["ratio"] - 1.0) <= 0.05]
+    summary = (f"{len(records)} of {len(points)} points finished; {len(inside)} inside {COMPARED}, "
+               f"E_dclab/E_input within 5 % at {len(within)} of them"
+               + (f" (ratios {min(r['ratio'] for r in inside):.3f} to {max(r['ratio'] for r in inside):.3f})"
+                  if inside else "") + f"; {len(rows) - len(inside)} outside its (area, deformation) range")
+    page = Page("lut_square", "lut_standard.py", intro=(
+        f"The finished points of the standard table ({table_name(STANDARD)}: `elastocell lut`'s default grid, "
+        "square channel 20 um, 0.04 uL/s, 0.59 % MC-PBS at 23 degC, R/dx 8, each point to a stationary shape or "
+        f"the duration cap t = 60/gdot_w, state `cap`) read through dclab's {COMPARED} at the same conditions "
+        "(buyukurganci-2022 viscosity, no pixelation correction). `ratio`: E_dclab/E_input (1 where the two "
+        "tables agree). The table is computed in pieces (`python validation/lut_standard.py run`), so this section "
+        "grows with it; dclab's notes: " + ("; ".join(n.rstrip(".") for n in notes) or "none") + "."))
+    page.table(rows, f"Finished points of the standard table against {COMPARED}",
+               formats={"t_end": ".1f", "area_um": ".2f", "deform": ".5f", f"E {COMPARED} [kPa]": ".3f",
+                        "ratio": ".3f"})
+    page.print(summary)
+    if write_page:
+        page.write()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("action", choices=("run", "status", "ship"))
+    parser.add_argument("action", choices=("run", "status", "ship", "compare"))
     parser.add_argument("--tables", type=Path, default=TABLES, help="where the tables and their runs are")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--data", type=Path, default=DATA, help="ship: where the tables go (the package's data)")
+    parser.add_argument("--page", action="store_true", help="compare: write its section of docs/validation/lut_square.md")
     arguments = parser.parse_args()
     if arguments.action == "run":
         run(arguments.tables, arguments.workers)
     elif arguments.action == "status":
         status(arguments.tables)
+    elif arguments.action == "compare":
+        compare(arguments.tables, arguments.page)
     else:
         ship(arguments.tables, arguments.data)
 

@@ -161,6 +161,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
             "interpolated --out /work/results/lut-cylinder-r8-interp"),
         "lut_square_views.py": ("Square-channel points read from side views and extrapolated from R/dx 6 and 8",
                                 "nice python validation/lut_square_views.py --workers 2 --views 2"),
+        "lut_standard.py": ("The standard table's finished points against dclab's HE-3D-FEM-22",
+                            "python validation/lut_standard.py compare --page"),
         "lut_relaxation.py": ("How long a point must run: the cell's relaxation in the channel",
                               "nice python validation/lut_relaxation.py --runs /work/results/lut-square-r8/lut_runs/R* "
                               "/work/results/lut-square-long/lut_runs/R5um_E1kPa_6766fc3991 "
