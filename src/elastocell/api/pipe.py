@@ -135,13 +135,11 @@ def outline_guarded(summary: dict, parts: dict[float, dict]) -> bool:
     if not kept:
         return False
     extrapolation["outline_kept"] = [name for name in OUTLINE_EXTRAPOLATED if name in kept]
-    for name in OUTLINE_EXTRAPOLATED:
-        if name in kept:
-            value = extrapolation["values"][name]["fine"]  # the finer run's, in memory (a JSON null would be NaN)
-            summary[name] = value
-            summary[f"{name}_correction"] = float("nan")
-            extrapolation["values"][name] = {**extrapolation["values"][name], "value": value,
-                                             "correction": float("nan")}
+    for name in extrapolation["outline_kept"]:
+        value = extrapolation["values"][name]["fine"]  # the finer run's, in memory (a JSON null would be NaN)
+        summary[name] = value
+        summary[f"{name}_correction"] = float("nan")
+        extrapolation["values"][name] = {**extrapolation["values"][name], "value": value, "correction": float("nan")}
     runs = "; ".join(f"R/dx {r:g}: {counts[float(r)][0]} (view along z), {counts[float(r)][1]} (any side view) and "
                      f"{'?' if counts[float(r)][2] is None else counts[float(r)][2]} (every side view) of "
                      f"{part.get('stationary_records', '?')} records" for r, part in sorted(parts.items()))
@@ -156,7 +154,7 @@ def outline_guarded(summary: dict, parts: dict[float, dict]) -> bool:
                   "updates (docs/validation/pipe_dclab.md, section pipe_outline_degree.py)")
     extrapolation["outline_guard"] = (
         f"records of the averaging windows were read on the nodes' hull ({runs}): {why}, so "
-        f"{', '.join(name for name in OUTLINE_EXTRAPOLATED if name in kept)} are the R/dx {fine:g} run's, not "
+        f"{', '.join(extrapolation['outline_kept'])} are the R/dx {fine:g} run's, not "
         f"extrapolated (the other values are){advice}")
     return True
 
