@@ -1,7 +1,7 @@
 """How long a look-up-table point must run: the relaxation of a cell's deformation in the RT-DC channel, and
 whether the exponential fit of a shorter run predicts where a longer one ends.
 
-    nice python validation/lut_relaxation.py --runs DIR [DIR ...] [--cuts 10 15 20 30]
+    nice python validation/lut_relaxation.py --runs DIR [DIR ...] [--cuts 10 15 20 30] [--section standard]
 
 The page's runs are lut_square.py's (capped at 20 units of 1/gdot_w) and one long point, made by
 ``elastocell lut --channel-shape square --channel-width 20um --flow-rate 0.04uL/s --medium 0.59%MC-PBS
@@ -15,7 +15,9 @@ within the run) and tau over Ca_w; then, for each cut time t_c of ``--cuts`` bel
 run's end, the same fit to the run truncated at t_c, and its D_inf and the deformation the run itself had at t_c
 (the mean of the last unit of 1/gdot_w before it: what a point capped at t_c reports) against the run's final
 reading (the mean of its last unit), for the runs that reached their stationary stop only (the reference is the
-run itself). The page is docs/validation/lut_square.md.
+run itself). The page is docs/validation/lut_square.md; ``--section standard`` writes the section of the standard
+table's points (``validation/tables/lut_square_20um_0.04uLs_0.59MC-PBS_23C_runs/*``, whose time series stay in the
+checkout that computed them: git keeps their point.json only).
 """
 
 from __future__ import annotations
@@ -43,8 +45,11 @@ def main(argv=None) -> None:
     parser.add_argument("--runs", type=Path, nargs="+", required=True, help="point run directories")
     parser.add_argument("--cuts", type=float, nargs="+", default=[10.0, 15.0, 20.0, 30.0],
                         help="cut times t_c (1/gdot_w)")
+    parser.add_argument("--section", choices=("standard",), default=None,
+                        help="write the section of the standard table's points instead of the exploratory runs'")
     args = parser.parse_args(argv)
-    page = Page("lut_square", "lut_relaxation.py", intro=(
+    section = "lut_relaxation.py" + (f":{args.section}" if args.section else "")
+    page = Page("lut_square", section, intro=(
         "The relaxation of a centred cell's RT-DC deformation in the channel (elastocell's pipe runs at R/dx 8 with "
         "the markers at R - 0.3 dx and the flow rate held, each with its own duration cap): tau of D(t) = D_inf - A exp(-t/tau) fitted from t = 2 on, over the wall capillary number; and, "
         "for the runs that ended on the stationary stop and are longer than a cut time t_c, what a point capped "
@@ -56,6 +61,9 @@ def main(argv=None) -> None:
         "where the fitted tau is not within (0, t_end). Times in units of 1/gdot_w."))
     rows, cut_rows = [], []
     for run in args.runs:
+        if not (run / "summary.json").is_file():  # a point still running (a glob of a table's runs)
+            print(f"{run}: no summary.json (unfinished), left out")
+            continue
         summary = json.loads((run / "summary.json").read_text())
         table = pd.read_csv(run / "timeseries.csv")
         t, d = table["time"].to_numpy(), table["deformation"].to_numpy()

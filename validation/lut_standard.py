@@ -171,7 +171,7 @@ def compare(tables: Path, write_page: bool) -> None:
 
     from elastocell.inverse.rtdc import MC_PBS_VISCOSITY_MODEL, Conditions, emodulus_of_events
 
-    points, _ = plan_of(STANDARD)
+    points, metadata = plan_of(STANDARD)
     done = finished(tables, STANDARD)
     records = [done[p["key"]] for p in points if p["key"] in done]
     conditions = Conditions(STANDARD["channel_width_um"], STANDARD["flow_rate_ul_s"], 0.0, "0.59% MC-PBS",
@@ -191,7 +191,7 @@ def compare(tables: Path, write_page: bool) -> None:
     page = Page("lut_square", "lut_standard.py", intro=(
         f"The finished points of the standard table ({table_name(STANDARD)}: `elastocell lut`'s default grid, "
         "square channel 20 um, 0.04 uL/s, 0.59 % MC-PBS at 23 degC, R/dx 8, each point to a stationary shape or "
-        f"the duration cap t = 60/gdot_w, state `cap`) read through dclab's {COMPARED} at the same conditions "
+        f"the duration cap t = {metadata['duration']:g}/gdot_w, state `cap`) read through dclab's {COMPARED} at the same conditions "
         "(buyukurganci-2022 viscosity, no pixelation correction). `ratio`: E_dclab/E_input (1 where the two "
         "tables agree). The table is computed in pieces (`python validation/lut_standard.py run`), so this section "
         "grows with it; dclab's notes: " + ("; ".join(n.rstrip(".") for n in notes) or "none") + "."))

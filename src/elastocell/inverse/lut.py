@@ -105,15 +105,15 @@ POINT_FILE = "point.json"
 
 LUT_COLUMNS = ("area_um [um^2]", "deform", "emodulus [kPa]")
 
-FULL = {"resolution": 8.0, "duration": 60.0, "stationary_tolerance": 1e-3}
-"""The full grid's runs: R/dx 8, at most 60 units of 1/gdot_w each (stopping earlier once the mean deformation
+FULL = {"resolution": 8.0, "duration": 120.0, "stationary_tolerance": 1e-3}
+"""The full grid's runs: R/dx 8, at most 120 units of 1/gdot_w each (stopping earlier once the mean deformation
 over a unit of time is stationary to 1e-3); its radii and moduli are :func:`default_grid`'s. The cap is set by the
-cell's relaxation: D(t) approaches its stationary value like exp(-t/tau) with tau gdot_w 8.0-12.4 Ca_w in
-0.59 % MC-PBS in the 20 um square duct (Ca_w 0.25-0.75) and 4.4-5.7 Ca_w in a Newtonian cylinder at R/R_ch
-0.55-0.70 (Ca_w 0.38-0.86), so a cap of 20 left a soft cell (Ca_w 0.75, tau about 9) 13 % below its stationary
-deformation (reached at 54 units), while 60 is 5-7 tau at Ca_w 0.75; beyond the measured Ca_w (the softest default
-points reach 1.2 in MC-PBS) it is an extrapolation, and such points may still reach the cap (docs/validation/
-lut_square.md, section lut_relaxation.py). Stiff points stop on the criterion well before it."""
+cell's relaxation: D(t) approaches its stationary value like exp(-t/tau), and in 0.59 % MC-PBS in the 20 um square
+duct tau gdot_w is 10-16 Ca_w (docs/validation/lut_square.md, sections lut_relaxation.py): about 19 at the softest
+default points (Ca_w 1.2), which a cap of 60 (3 tau) left 3-5 % below the stationary deformation the exponential fit
+extrapolates (at R 3.1 and 4.5 um, still drifting at the cap), so E 3-8 % high. 120 is 6 tau there; the
+stationary stop itself leaves about tau x 1e-3 of D (2 % at tau 19). Stiff points stop on the criterion well
+before the cap, and a point that still reaches it is listed as such (state ``cap``)."""
 
 GRID_REFERENCE = {"cylinder": "LE-2D-FEM-19", "square": "HE-3D-FEM-22"}
 """dclab's table whose (area, deformation) region the default grid of a channel shape spans."""
