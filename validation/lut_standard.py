@@ -70,18 +70,36 @@ def finished(tables: Path, config: dict) -> dict[str, dict]:
     return {path.parent.name: json.loads(path.read_text()) for path in sorted(runs.glob("*/point.json"))}
 
 
+def checkpoint_time(run: Path) -> float | None:
+    """The time (1/gdot_w) an unfinished point's checkpoint has reached, None without one."""
+    import numpy as np
+
+    path = run / "checkpoint.npz"
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return float(data["series_time"][-1])
+    except (OSError, KeyError, ValueError):  # none yet, or being replaced
+        return None
+
+
 def status(tables: Path) -> None:
-    points, _ = plan_of(STANDARD)
+    points, metadata = plan_of(STANDARD)
     done = finished(tables, STANDARD)
-    states = {}
+    runs = tables / f"{table_name(STANDARD)}_runs"
+    states, started = {}, []
     for point in points:
         record = done.get(point["key"])
         states.setdefault(point["radius_um"], []).append(
             "." if record is None else ("s" if record.get("state") == "stationary" else "c"))
+        reached = None if record is not None else checkpoint_time(runs / point["key"])
+        if reached is not None:
+            started.append(f"R {point['radius_um']:g} um / E {point['emodulus_kpa']:g} kPa at t {reached:.1f}")
     print(f"{table_name(STANDARD)}: {sum(p['key'] in done for p in points)} of {len(points)} points finished "
           "(s stationary, c duration cap, . to run; moduli ascending)")
     for radius, marks in sorted(states.items()):
         print(f"  R {radius:4.1f} um  {' '.join(marks)}")
+    if started:
+        print(f"checkpoints of unfinished points (cap t {metadata['duration']:g}): " + "; ".join(started))
 
 
 def run(tables: Path, workers: int) -> None:
