@@ -91,7 +91,7 @@ def step_cost_rows(channel_radius: float, length: int, steps: int = 400, repeats
 def mass_rows(resolution: float, steps: int = 3000) -> list[dict]:
     """The fluid's mass with each wall over ``steps`` coupled steps of the 6 um / 2 kPa cell's run (nu 0.48, Ca_w
     of LE-2D-FEM-19's flow, float32): interpolated bounce-back does not conserve mass exactly (Bouzidi et al.
-    2001); the drift per step and over 60 units of 1/gdot_w, the lut's cap."""
+    2001); the drift per step and over 60 units of 1/gdot_w (half the lut's cap)."""
     from pipe_resolution import FLOW_RATE_UL_S, POISSON_RATIO, VISCOSITY_MPA_S, capillary_number_wall
 
     from elastocell.body.cell import Cell
@@ -203,7 +203,7 @@ def main() -> None:
                    "ms per step": ".3f", "MLUPS (fluid)": ".1f", "cost / staircase": ".3f"})
     page.table(mass, "The fluid's mass with each wall: the 6 um / 2 kPa cell's run at R/dx "
                f"{args.resolution:g} (float32), the relative change per step over its first steps, and that rate "
-               "over 60 units of 1/gdot_w (the lut's cap)", formats={"dM/M per step": ".2e",
+               "over 60 units of 1/gdot_w (half the lut's cap)", formats={"dM/M per step": ".2e",
                                                                       "dM/M over 60/gdot_w": ".2e"})
     if rows:
         page.table(rows, f"The cell at t = {args.duration:g}/gdot_w against LE-2D-FEM-19, both walls", formats={
