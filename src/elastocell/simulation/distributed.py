@@ -44,6 +44,7 @@ a finished run's record back instead of repeating it).
 from __future__ import annotations
 
 import os
+import sys
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -178,7 +179,8 @@ def run_tasks(function: Callable, items: Sequence, *, scheduler: str | None = No
     the scheduler already ran it again on other workers, ``distributed.scheduler.allowed-failures`` times).
     A task lost with its worker is run again by the scheduler, not by this function; a result is released
     once collected, so a finished task is not repeated when its worker dies afterwards.
-    ``progress`` shows a rich progress bar (tasks done / total).
+    ``progress`` shows a rich progress bar (tasks done / total) on a terminal; elsewhere (a log file, a batch job)
+    one plain line at the start and one per finished task.
     ``prepare`` runs in this process before a local cluster starts (not with ``scheduler`` or ``client``),
     e.g. :func:`elastocell.scenarios.shear.compile_kernels` so that the workers load compiled kernels from the cache
     instead of compiling them all at once. ``security`` and ``dashboard``: as in :func:`dask_client` (not with
@@ -196,14 +198,21 @@ def run_tasks(function: Callable, items: Sequence, *, scheduler: str | None = No
     from distributed import as_completed
 
     futures = {client.submit(_guarded, function, item, pure=False): index for index, item in enumerate(items)}
-    bar = None
-    if progress:
+    bar = plain = None
+    if progress and not sys.stderr.isatty():  # a log file, a batch job: one line now and one per finished task
+        from elastocell.simulation.output import PlainProgress
+
+        plain = PlainProgress("{task.completed:.0f} tasks finished", None, interval=0.0)
+        task = plain.add_task(description, total=len(items))
+        plain.update(task, completed=0)
+    elif progress:
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
         bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                        transient=True)
         bar.start()
         task = bar.add_task(description, total=len(items))
+    finished = 0
     try:
         for future in as_completed(futures):
             index = futures.pop(future)  # this is the last reference: the scheduler forgets the task once
@@ -213,8 +222,11 @@ def run_tasks(function: Callable, items: Sequence, *, scheduler: str | None = No
                 result = TaskFailure(type(error).__name__, str(error).splitlines()[0] if str(error) else "",
                                      traceback.format_exc())
             del future
+            finished += 1
             if bar is not None:
                 bar.advance(task)
+            elif plain is not None:
+                plain.update(task, completed=finished)
             yield index, result
     finally:
         if bar is not None:
