@@ -84,12 +84,12 @@ def test_plan_units_and_grid():
     assert staircase_settings["channel_wall"] == "staircase" and not {p["key"] for p in staircase} & {p["key"] for p in full}
     with pytest.raises(ParameterError, match="channel_wall"):
         plan("10um", "0.04uL/s", "15mPa*s", channel_wall="smooth")
-    # a square duct's plane walls are the same either way: its points keep the keys they had before the choice
-    # existed (this one computed at commit 2332759), whatever wall is asked for
+    # a square duct's plane walls are the same either way: its points have one key whatever wall is asked for
+    # (POINT_KEY_FORMAT 2: the duct's lattice is the channel's own width)
     for wall in (None, "staircase", "interpolated"):
         duct, _ = plan(None, "0.04uL/s", None, radii=[5], moduli=[2000], channel_width="20um", channel_shape="square",
                        medium="0.59%MC-PBS", temperature=23, channel_wall=wall)
-        assert duct[0]["key"] == "R5um_E2kPa_342663270e"
+        assert duct[0]["key"] == "R5um_E2kPa_c031c9fcce"
     # extrapolated: a cell above R_ch/(1 + 2/6) = 7.5 um in R_ch = 10 um keeps the kernel's reach + 1 dx from the
     # wall at R/dx 8, not at the coarse R/dx 6: its points run at one resolution; the others are extrapolated; the
     # default grid's largest cell is the largest R/dx 8 takes (R_ch/R >= 1.25)

@@ -129,6 +129,20 @@ def test_wall_margin_is_enforced_before_computing():
         PipeFlowParameters(capillary_number_wall=0.2, resolution=4, channel_radius_ratio=1.2)
 
 
+@pytest.mark.parametrize("radius_um", [3.1, 4.5, 5.6, 6.5, 7.3, 7.9])
+def test_a_square_duct_lattice_is_the_channel_asked_for(cell, radius_um):
+    """The standard table's radii in the 20 um square channel at R/dx 8: the lattice's duct half-width is exactly
+    (R_ch/R) R in the run's own units (whole nodes across: rounding the width instead made it 0.4-1.6 % wider or
+    1.2 % narrower), the cell's R/dx within 1/(4 R_ch/R) of the resolution asked for."""
+    ratio = 10.0 / radius_um
+    params = PipeFlowParameters(capillary_number_wall=0.2, resolution=8, channel_radius_ratio=ratio,
+                                channel_shape="square", medium="0.59%MC-PBS", temperature=23)
+    units = pipe_lattice_units(cell, params)
+    assert units.channel_radius == pytest.approx(ratio * units.radius, rel=1e-12)
+    assert units.channel_half_height == units.channel_radius == (units.shape[1] - 2) / 2
+    assert abs(units.radius - 8) <= 1 / (4 * ratio) + 1e-12
+
+
 def test_lattice_units(cell):
     params = PipeFlowParameters(capillary_number_wall=0.2, **SMALL)
     units = pipe_lattice_units(cell, params)

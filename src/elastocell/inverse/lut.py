@@ -247,8 +247,9 @@ def cell_settings(cell: dict, poisson_ratio: float) -> dict:
             "cell_description": describe_cell(cell_parameters(**cell, poisson_ratio=float(poisson_ratio)))}
 
 
-POINT_KEY_FORMAT = 1
-"""Version of what a grid point's run directory holds for given resolved parameters (part of its key)."""
+POINT_KEY_FORMAT = 2
+"""Version of what a grid point's run directory holds for given resolved parameters (part of its key); 2: a
+square duct's lattice is the channel's own width (``scenarios.pipe.duct_cell_radius``), not its width rounded."""
 
 
 def point_key(radius_um: float, emodulus_kpa: float, options: dict) -> str:
