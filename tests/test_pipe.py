@@ -143,6 +143,21 @@ def test_a_square_duct_lattice_is_the_channel_asked_for(cell, radius_um):
     assert abs(units.radius - 8) <= 1 / (4 * ratio) + 1e-12
 
 
+def test_a_pair_extrapolates_with_its_lattices_own_spacing_ratio():
+    """Richardson's weight uses the R/dx the two lattices ran at (a duct moves them to whole-node widths: R 5.6 um in
+    the 20 um duct runs at 8.12 and 5.88 for the pair 8 and 6), not the pair asked for: D = D_f + (D_f - D_c)/(r^2 -
+    1) with r = 8.12/5.88 (exact arithmetic; tolerance round-off); without the lattices' radii, r = 8/6."""
+    from elastocell.simulation.extrapolation import extrapolated_summary
+
+    fine, coarse = {"deformation": 0.03, "lattice": {"radius": 8.12}}, {"deformation": 0.026, "lattice": {"radius": 5.88}}
+    summary = extrapolated_summary(fine, coarse, ("deformation",), 8.0, 6.0, "the finer run's")
+    ratio = 8.12 / 5.88
+    assert summary["deformation"] == pytest.approx(0.03 + 0.004 / (ratio**2 - 1), rel=1e-12)
+    assert summary["extrapolation"]["ratio"] == pytest.approx(ratio, rel=1e-12)
+    nominal = extrapolated_summary({"deformation": 0.03}, {"deformation": 0.026}, ("deformation",), 8.0, 6.0, "")
+    assert nominal["deformation"] == pytest.approx(0.03 + 0.004 / ((8 / 6) ** 2 - 1), rel=1e-12)
+
+
 def test_lattice_units(cell):
     params = PipeFlowParameters(capillary_number_wall=0.2, **SMALL)
     units = pipe_lattice_units(cell, params)

@@ -714,8 +714,9 @@ def point_shape(directory: Path, summary: dict) -> tuple[dict, str]:
         states.add(run_state(json.loads((part / "summary.json").read_text()).get("stop_reason"),
                              summary.get("channel_length_um")))
     state = states.pop() if len(states) == 1 else "cap"
+    ratio = summary["extrapolation"].get("ratio", fine_r / coarse_r)  # of the lattices' own R/dx
     values = extrapolate_values({k: shapes[fine_r][k] for k in ("deformation", "projected_area")}, shapes[coarse_r],
-                                fine_r, coarse_r)
+                                ratio, 1.0)
     final = {k: v["value"] for k, v in values.items()}
     final["deformation_std"] = shapes[fine_r]["deformation_std"]
     final["outline_fallback"] = float(np.fmax(shapes[fine_r]["outline_fallback"],

@@ -90,6 +90,16 @@ def part_directory(out, resolution: float):
     return Path(out) / f"resolution-{resolution:g}"
 
 
+def lattice_ratio(fine: dict, coarse: dict, fine_resolution: float, coarse_resolution: float) -> float:
+    """dx_coarse/dx_fine of two runs: from the R/dx their lattices used (``summary["lattice"]["radius"]``) where
+    both summaries hold it (a duct moves R/dx so that its width is whole nodes,
+    :func:`elastocell.scenarios.pipe.duct_cell_radius`), else from the resolutions asked for."""
+    f, c = ((summary.get("lattice") or {}).get("radius") for summary in (fine, coarse))
+    if f and c:
+        return float(f) / float(c)
+    return float(fine_resolution) / float(coarse_resolution)
+
+
 def extrapolated_summary(fine: dict, coarse: dict, names: tuple[str, ...], fine_resolution: float,
                          coarse_resolution: float, series: str, order: float = CONVERGENCE_ORDER) -> dict:
     """The summary of an extrapolated run: the fine run's summary with the values ``names`` replaced by their
@@ -97,8 +107,8 @@ def extrapolated_summary(fine: dict, coarse: dict, names: tuple[str, ...], fine_
     estimate, :data:`UNCERTAINTY`); ``stationary`` when both runs are; ``wall_time_s`` and
     ``wall_time_cumulative_s`` summed over both; and ``extrapolation``: order, resolutions, the values and what
     the time series is (``series``)."""
-    values = extrapolate_values({n: fine[n] for n in names if n in fine}, coarse, fine_resolution,
-                                coarse_resolution, order)
+    ratio = lattice_ratio(fine, coarse, fine_resolution, coarse_resolution)
+    values = extrapolate_values({n: fine[n] for n in names if n in fine}, coarse, ratio, 1.0, order)
     out = dict(fine)
     for name, entry in values.items():
         out[name] = entry["value"]
@@ -113,7 +123,7 @@ def extrapolated_summary(fine: dict, coarse: dict, names: tuple[str, ...], fine_
     out["extrapolation"] = {
         "method": f"Richardson, order {order:g} in dx/R", "order": float(order),
         "fine_resolution": float(fine_resolution), "coarse_resolution": float(coarse_resolution),
-        "ratio": float(fine_resolution) / float(coarse_resolution),
+        "ratio": ratio,  # of the lattices' own R/dx
         "directories": [part_directory("", fine_resolution).name, part_directory("", coarse_resolution).name],
         "values": values, "uncertainty": UNCERTAINTY, "timeseries": series,
         "wall_time_s": {f"rdx{fine_resolution:g}": fine.get("wall_time_s"),
@@ -159,4 +169,4 @@ def run_extrapolated(out, fine_resolution: float, coarse_resolution: float, run_
 
 
 __all__ = ["CONVERGENCE_ORDER", "DEFAULT_COARSE_RESOLUTION", "UNCERTAINTY", "richardson", "extrapolate_values",
-           "coarse_resolution_of", "part_directory", "extrapolated_summary", "run_extrapolated"]
+           "lattice_ratio", "coarse_resolution_of", "part_directory", "extrapolated_summary", "run_extrapolated"]
