@@ -181,7 +181,8 @@ def duct_cell_radius(resolution: float, channel_radius_ratio: float) -> float:
     """The cell's radius R in lattice units (dx) in a duct: ``resolution`` moved (by at most 1/(4 R_ch/R)) so that
     the duct's width 2 (R_ch/R) R is whole nodes (:func:`duct_nodes`) and the lattice's channel is the channel
     asked for: rounding the width instead changed the confinement R/R_ch by up to 1.6 % between the standard
-    table's radii, and D by several times that (docs/validation/lut_square.md, section lut_standard.py)."""
+    table's radii, and D about 2.6 times as much (R 4.5 um / E 1.7 kPa in the 20 um duct: D 3.2 % higher in the
+    exact duct than in the one rounded 1.25 % wider, the same mesh)."""
     nodes = duct_nodes(channel_radius_ratio * resolution, channel_radius_ratio * resolution)[0]
     return nodes / (2.0 * channel_radius_ratio)
 
