@@ -435,11 +435,10 @@ def test_a_tls_cluster_takes_security_or_dask_configuration(tmp_path, request):
 
 def test_task_progress_is_plain_lines_when_output_is_not_a_terminal(capsys):
     """Under pytest's capture standard error is not a terminal (as in a log file or a batch job): run_tasks writes
-    one line when the tasks start and one per finished task, instead of rich's bar, which prints nothing there."""
+    a line when the tasks start, one per finished task at most every PLAIN_PROGRESS_INTERVAL seconds, and one at
+    the end, instead of rich's bar, which prints nothing there."""
     with dask_client(workers=1) as client:
-        assert dict(run_tasks(math.sqrt, [4.0, 9.0], client=client, progress=True, description="roots")) == {
-            0: 2.0, 1: 3.0}
-    lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("roots: ")]
-    assert [line.rsplit(",", 1)[0] for line in lines] == [
-        "roots: 0 tasks finished of 2 (0 %)", "roots: 1 tasks finished of 2 (50 %)",
-        "roots: 2 tasks finished of 2 (100 %)"]
+        assert dict(run_tasks(math.sqrt, [4.0, 9.0, 16.0], client=client, progress=True, description="roots")) == {
+            0: 2.0, 1: 3.0, 2: 4.0}
+    lines = [line.rsplit(",", 1)[0] for line in capsys.readouterr().err.splitlines() if line.startswith("roots: ")]
+    assert lines == ["roots: tasks finished: 0 of 3 (0 %)", "roots: tasks finished: 3 of 3 (100 %)"]

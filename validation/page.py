@@ -168,9 +168,9 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
                               "/work/results/lut-square-long/lut_runs/R5um_E1kPa_6766fc3991 "
                               "/work/results/pipe-stationary/*-p1-default-Rdx8-c0.3-t40-Q --cuts 10 15 20 30 40"),
         "lut_relaxation.py:standard": (
-            "How long a point must run: the standard table's points",
-            "nice python validation/lut_relaxation.py --section standard --runs "
-            "validation/tables/lut_square_20um_0.04uLs_0.59MC-PBS_23C_runs/* --cuts 20 30 40 60"),
+            "How long a point must run: the standard table's first points (a duct rounded to whole nodes, cap 60)",
+            "nice python validation/lut_relaxation.py --section standard --runs /work/exp/rounded-duct-runs/R* "
+            "--cuts 20 30 40 60"),
     }),
     "rtdc_nucleus": ("The modulus RT-DC assigns a cell with a stiff nucleus", {
         "rtdc_nucleus.py": ("Nucleus cells and the random cell read through homogeneous tables",

@@ -141,7 +141,7 @@ class ImmersedCell(MarkerState):
     centre : 3 floats
         Initial position of the mesh origin (dx).
     radius : float
-        R in dx (the resolution R/dx).
+        R in dx (the lattice's R/dx: the resolution, in a duct moved to make its width whole nodes).
     youngs_modulus : float
         E_c in lattice units (rho0 dx^2/dt^2).
     kernel : "trilinear" (default) or "peskin4".

@@ -110,9 +110,9 @@ FULL = {"resolution": 8.0, "duration": 120.0, "stationary_tolerance": 1e-3}
 over a unit of time is stationary to 1e-3); its radii and moduli are :func:`default_grid`'s. The cap is set by the
 cell's relaxation: D(t) approaches its stationary value like exp(-t/tau), and in 0.59 % MC-PBS in the 20 um square
 duct tau gdot_w is 10-16 Ca_w (docs/validation/lut_square.md, sections lut_relaxation.py): about 19 at the softest
-default points (Ca_w 1.2), which a cap of 60 (3 tau) left 3-5 % below the stationary deformation the exponential fit
-extrapolates (at R 3.1 and 4.5 um, still drifting at the cap), so E 3-8 % high. 120 is 6 tau there; the
-stationary stop itself leaves about tau x 1e-3 of D (2 % at tau 19). Stiff points stop on the criterion well
+default points (Ca_w 1.2), which a cap of 60 (3 tau) left still drifting, 1-5 % below their stationary
+deformation (three points continued to it: D +5.4, +3.3, +1.2 %; E read through HE-3D-FEM-22 0.5-2.5 % lower).
+120 is 6 tau there; the stationary stop itself leaves about tau x 1e-3 of D (2 % at tau 19). Stiff points stop on the criterion well
 before the cap, and a point that still reaches it is listed as such (state ``cap``)."""
 
 GRID_REFERENCE = {"cylinder": "LE-2D-FEM-19", "square": "HE-3D-FEM-22"}
@@ -247,16 +247,18 @@ def cell_settings(cell: dict, poisson_ratio: float) -> dict:
             "cell_description": describe_cell(cell_parameters(**cell, poisson_ratio=float(poisson_ratio)))}
 
 
-POINT_KEY_FORMAT = 2
-"""Version of what a grid point's run directory holds for given resolved parameters (part of its key); 2: a
-square duct's lattice is the channel's own width (``scenarios.pipe.duct_cell_radius``), not its width rounded."""
+POINT_KEY_FORMAT = {"cylinder": 1, "duct": 2}
+"""Version of what a grid point's run directory holds for given resolved parameters (part of its key), by channel:
+a duct's 2 is its lattice of the channel's own width (``scenarios.pipe.duct_cell_radius``), not the width rounded to
+whole nodes; the cylinder's runs did not change, and its points keep their keys."""
 
 
 def point_key(radius_um: float, emodulus_kpa: float, options: dict) -> str:
     """Run directory name: readable radius and modulus plus a hash of the pipe run's full resolved parameters
     (``api.resolved.resolved_parameters("pipe", options)``: cell, flow, stop criteria, every option with its
-    default) and :data:`POINT_KEY_FORMAT`."""
-    digest = parameter_hash(resolved_parameters("pipe", options), format_version=POINT_KEY_FORMAT)[:10]
+    default) and the channel's :data:`POINT_KEY_FORMAT`."""
+    channel = "cylinder" if options.get("channel_shape", "cylinder") == "cylinder" else "duct"
+    digest = parameter_hash(resolved_parameters("pipe", options), format_version=POINT_KEY_FORMAT[channel])[:10]
     return f"R{radius_um:g}um_E{emodulus_kpa:g}kPa_{digest}"
 
 

@@ -547,8 +547,9 @@ class PipeFlowParameters(FlowLatticeParameters):
     backend: compute engine: "numba" (fused compiled CPU kernels, the fastest on a CPU) or "jax" (the same
         physics in JAX on its default device: a GPU when JAX has CUDA/ROCm, else the CPU).
     channel_shape: "cylinder" (radius R_ch), "square" or "rectangle" (a duct of width W = 2 R_ch along y, the
-        start offset's direction, and height H = channel_aspect_ratio W along z; half-way bounce-back walls, W
-        and H rounded to whole lattice nodes). For a duct R_ch is the half-width and Ca_w = G R_ch/(2 mu_ref) is
+        start offset's direction, and height H = channel_aspect_ratio W along z; half-way bounce-back walls; W
+        whole lattice nodes exactly, the cell's R/dx moved to make it so (:func:`duct_cell_radius`), H rounded to
+        whole nodes). For a duct R_ch is the half-width and Ca_w = G R_ch/(2 mu_ref) is
         the mean wall shear stress over mu_ref for the square (G A/P).
     channel_aspect_ratio: H/W of a rectangle (1 for the square).
     channel_wall: how the lattice places the cylinder's wall (:data:`CHANNEL_WALLS`): "interpolated" (default,
@@ -663,7 +664,8 @@ def check_channel_fit(resolution: float, channel_radius_ratio: float, start_offs
 
 @dataclass(frozen=True)
 class PipeUnits:
-    """Lattice parameters of a pipe run (lattice units: dx = R/resolution, dt = one step, rho0 = 1).
+    """Lattice parameters of a pipe run (lattice units: dx = R/``radius``, dt = one step, rho0 = 1; ``radius`` is
+    the resolution, in a duct moved by :func:`duct_cell_radius`).
 
     ``shape`` (nx, ny, nz), channel axis along x through ``axis`` (y, z); ``channel_radius`` R_ch (dx);
     ``body_force`` G; ``wall_shear_rate`` gdot_w = G R_ch/(2 eta) (1/dt); ``centre_speed`` u_max = G R_ch^2/(4 eta);
@@ -725,7 +727,7 @@ class PipeUnits:
 def pipe_lattice_units(cell, params: PipeFlowParameters) -> PipeUnits:
     """Derive the lattice parameters of a pipe run from (Ca_w, R/dx, R_ch/R, r0) and the limits.
 
-    R = resolution, R_ch = ratio R (dx), nu = eta = (tau - 1/2)/3. The wall shear rate is the largest one
+    R = resolution (in a duct :func:`duct_cell_radius`), R_ch = ratio R (dx), nu = eta = (tau - 1/2)/3. The wall shear rate is the largest one
     that keeps (1) the particle Reynolds number gdot_w R^2/nu <= reynolds_number, (2) the centre-line speed
     gdot_w R_ch/2 <= velocity_limit, (3) the explicit elastic step stable, E_c lambda_max(W K) <=
     C0 c(tau) c(d) (as :func:`elastocell.scenarios.shear.shear_lattice_units`), with E_c from Ca_w:

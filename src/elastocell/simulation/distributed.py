@@ -180,7 +180,7 @@ def run_tasks(function: Callable, items: Sequence, *, scheduler: str | None = No
     A task lost with its worker is run again by the scheduler, not by this function; a result is released
     once collected, so a finished task is not repeated when its worker dies afterwards.
     ``progress`` shows a rich progress bar (tasks done / total) on a terminal; elsewhere (a log file, a batch job)
-    one plain line at the start and one per finished task.
+    plain lines: at the start, on a finished task at most every ``PLAIN_PROGRESS_INTERVAL`` seconds, and at the end.
     ``prepare`` runs in this process before a local cluster starts (not with ``scheduler`` or ``client``),
     e.g. :func:`elastocell.scenarios.shear.compile_kernels` so that the workers load compiled kernels from the cache
     instead of compiling them all at once. ``security`` and ``dashboard``: as in :func:`dask_client` (not with
@@ -199,12 +199,12 @@ def run_tasks(function: Callable, items: Sequence, *, scheduler: str | None = No
 
     futures = {client.submit(_guarded, function, item, pure=False): index for index, item in enumerate(items)}
     bar = plain = None
-    if progress and not sys.stderr.isatty():  # a log file, a batch job: one line now and one per finished task
+    if progress and not sys.stderr.isatty():  # a log file, a batch job: plain lines, at most one per interval
         from elastocell.simulation.output import PlainProgress
 
-        plain = PlainProgress("{task.completed:.0f} tasks finished", None, interval=0.0)
+        plain = PlainProgress("tasks finished: {task.completed:.0f}", None)
         task = plain.add_task(description, total=len(items))
-        plain.update(task, completed=0)
+        plain.line(task)  # the start, at once
     elif progress:
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -231,3 +231,5 @@ def run_tasks(function: Callable, items: Sequence, *, scheduler: str | None = No
     finally:
         if bar is not None:
             bar.stop()
+        if plain is not None:
+            plain.line(task)  # where it ended

@@ -125,7 +125,7 @@ class PlainProgress:
 
     def __exit__(self, *exc):
         for task_id in self.tasks:
-            self._line(task_id)
+            self.line(task_id)
         return False
 
     def add_task(self, description: str, total: float | None = None, completed: float = 0.0, **fields) -> int:
@@ -140,9 +140,10 @@ class PlainProgress:
             task["completed"] = completed
         task["fields"].update(fields)
         if time.perf_counter() - task["printed"] >= self.interval:
-            self._line(task_id)
+            self.line(task_id)
 
-    def _line(self, task_id: int) -> None:
+    def line(self, task_id: int) -> None:
+        """Write the task's line now."""
         task = self.tasks[task_id]
         task["printed"] = time.perf_counter()
 
