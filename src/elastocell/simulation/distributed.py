@@ -51,6 +51,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 from elastocell.parameters.units import ParameterError
+from elastocell.simulation.output import PlainProgress
 
 
 @dataclass
@@ -200,8 +201,6 @@ def run_tasks(function: Callable, items: Sequence, *, scheduler: str | None = No
     futures = {client.submit(_guarded, function, item, pure=False): index for index, item in enumerate(items)}
     bar = plain = None
     if progress and not sys.stderr.isatty():  # a log file, a batch job: plain lines, at most one per interval
-        from elastocell.simulation.output import PlainProgress
-
         plain = PlainProgress("tasks finished: {task.completed:.0f}", None)
         task = plain.add_task(description, total=len(items))
         plain.line(task)  # the start, at once
