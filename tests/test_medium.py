@@ -13,11 +13,19 @@ import warnings
 
 import numpy as np
 import pytest
+from numba import njit
 
 from elastocell.body.cell import Cell
 from elastocell.lattice import Lattice, LatticeParams
 from elastocell.lattice.reference import reference_step
-from elastocell.lattice.rheology import PowerLaw, local_relaxation_time, tube_flow_rate
+from elastocell.lattice.rheology import (
+    TABLE_TOLERANCE,
+    PowerLaw,
+    local_relaxation_time,
+    relaxation_time_table,
+    tabulated_relaxation_time,
+    tube_flow_rate,
+)
 from elastocell.parameters.cell import cell_parameters
 from elastocell.parameters.medium import KOZICKI_SQUARE, mc_pbs, medium
 from elastocell.parameters.units import ParameterError
@@ -39,7 +47,8 @@ from elastocell.scenarios.pipe import (
 @pytest.mark.parametrize("collision", ["trt", "bgk"])
 def test_power_law_step_equals_the_reference_step(collision, backend):
     """Reference: the NumPy step with the same per-node tau (float64), walls, solid nodes and a force field.
-    Measured max difference 3.3e-16 (Numba and JAX); the power law moves the populations by 3.2e-3 from the
+    Measured max difference 3.3e-16 (JAX) and 1.7e-14 (Numba, whose tau is read from the law's table, relative error
+    below 1.2e-10); the power law moves the populations by 3.2e-3 from the
     Newtonian step at the reference tau, so the test sees the per-node tau."""
     if backend == "jax":
         pytest.importorskip("jax")
@@ -81,6 +90,39 @@ def test_local_tau_spans_the_law_and_is_clamped():
     assert np.abs(residual / m[inside]).max() < 1e-6
     assert tau.min() >= 0.52 and tau.max() <= 10.0
     assert local_relaxation_time(np.array(0.0), 0.03, 0.5, 0.52, 10.0) == 10.0  # fluid at rest: tau_max
+
+
+@njit(error_model="numpy")
+def _read_table(log_m, table, tau_min, tau_max):
+    out = np.empty_like(log_m)
+    for i in range(log_m.size):
+        out[i] = _tabulated_tau(log_m[i], table, 0, tau_min, tau_max)
+    return out
+
+
+_tabulated_tau = njit(inline="always", error_model="numpy")(tabulated_relaxation_time)
+
+
+@pytest.mark.parametrize("flow_index", [0.1, 0.2, 0.4, 0.586, 0.8, 0.95, 0.99, 1.0, 1.3, 2.0])
+def test_the_kernels_tau_table_is_the_root_to_its_measured_error(flow_index):
+    """Reference: the clamped root of 3K gdot^n + gdot/2 = m by Halley steps polished to round-off (8 instead of
+    3), over every m from the floor 1e-20 to 1e20 (and beyond: held there), at three consistencies. Tolerance:
+    float64 TABLE_TOLERANCE (measured worst 1.2e-10, at n = 0.2), float32 1.2e-7 (measured 5.9e-8: tau rounded
+    to float32). A wrong slope in the table leaves errors of order h^2 = 2e-4."""
+    for viscosity in (1e-3, 0.1, 1.0):
+        law = PowerLaw.matching(flow_index, viscosity, 1e-3)
+        three_k = 3.0 * law.consistency
+        table = relaxation_time_table(three_k, flow_index, 0.52, 10.0)
+        log_m = np.linspace(math.log(1e-20), math.log(1e20), 100_001)
+        exact = local_relaxation_time(np.exp(log_m), three_k, flow_index, 0.52, 10.0, iterations=8)
+        for dtype, tolerance in ((np.float64, TABLE_TOLERANCE), (np.float32, 1.2e-7)):
+            read = _read_table(log_m, table.astype(dtype), 0.52, 10.0)
+            assert np.abs(read / exact - 1).max() < tolerance, (viscosity, dtype)
+        below, above = _read_table(np.array([-1e3, 1e3]), table, 0.52, 10.0)
+        assert below == pytest.approx(exact[0], rel=TABLE_TOLERANCE)  # at rest: the floor's tau
+        assert above == pytest.approx(exact[-1], rel=TABLE_TOLERANCE)
+        assert np.isnan(_read_table(np.array([np.nan]), table, 0.52, 10.0)[0])  # a blown-up node stays NaN
+        assert table.size < 2 * 8192 + 10
 
 
 def test_power_law_of_index_one_is_the_newtonian_fluid():

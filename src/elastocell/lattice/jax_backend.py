@@ -135,8 +135,9 @@ def total_force(field, tables: LatticeTables, shape, dtype):
 def local_rates(non_equilibrium, u, force, rho, tables: LatticeTables):
     """(omega+, omega-) per node of a power-law medium (:mod:`elastocell.lattice.rheology`, the kernels' algorithm):
     Pi = sum_i c_i c_i (f_i - f^eq_i) + (u F + F u)/2, m = 3 sqrt(2 Pi:Pi)/(2 rho), tau+ the clamped root of
-    3K gdot^n + gdot/2 = m by Halley steps in log gdot (float64 where JAX computes in 64 bit), tau- at the same
-    magic."""
+    3K gdot^n + gdot/2 = m by Halley steps in log gdot (float64 where JAX computes in 64 bit; the Numba kernels read
+    the same root from the law's table, :func:`~elastocell.lattice.rheology.relaxation_time_table`), tau- at the
+    same magic."""
     n, three_k, tau_min, tau_max, magic = tables.rheology
     c = jnp.asarray(VELOCITIES, dtype=non_equilibrium.dtype)
     pi = jnp.einsum("ia,ib,i...->ab...", c, c, non_equilibrium)

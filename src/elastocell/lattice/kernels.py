@@ -82,10 +82,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from elastocell.lattice.rheology import local_relaxation_time
+from elastocell.lattice.rheology import relaxation_time_table, tabulated_relaxation_time
 from elastocell.lattice.stencil import OPPOSITE, VELOCITIES, WEIGHTS
 
-_local_tau = njit(cache=True, inline="always", error_model="numpy")(local_relaxation_time)
+_tabulated_tau = njit(cache=True, inline="always", error_model="numpy")(tabulated_relaxation_time)
 
 # indices into the ``consts`` array (all in the storage dtype)
 K_OMEGA_PLUS = 0  # 1/tau+
@@ -110,6 +110,7 @@ K_TAU_MAX = 17
 K_MAGIC = 18  # TRT Lambda; 0 for BGK (tau- = tau+)
 K_THIRD = 19
 N_CONSTS = 20
+K_TABLE = N_CONSTS  # a power-law medium's tau table follows (``rheology.relaxation_time_table``)
 
 BLOCK = 128
 """Nodes per block of a z-line (compile-time constant row spacing of the buffer)."""
@@ -156,7 +157,8 @@ def make_consts(omega_plus, omega_minus, body_force, dtype, rheology=None, magic
     """Pack the scalar constants of the kernels into an array of the storage dtype.
 
     ``rheology``: None (Newtonian: omega+- everywhere) or a :class:`~elastocell.lattice.rheology.PowerLaw`, whose
-    tau+ each node computes from its own strain rate; ``magic`` the TRT Lambda then (0: BGK)."""
+    tau+ each node reads from its own strain rate in the law's table (appended at :data:`K_TABLE`); ``magic`` the
+    TRT Lambda then (0: BGK)."""
     k = np.zeros(N_CONSTS, dtype=np.float64)
     if rheology is not None:
         k[K_MODEL] = 1.0
@@ -177,6 +179,9 @@ def make_consts(omega_plus, omega_minus, body_force, dtype, rheology=None, magic
     k[K_NINE_HALVES] = 4.5
     k[K_THREE_HALVES] = 1.5
     k[K_NINE] = 9.0
+    if rheology is not None:
+        k = np.concatenate([k, relaxation_time_table(3.0 * rheology.consistency, rheology.flow_index,
+                                                     rheology.relaxation_time_min, rheology.relaxation_time_max)])
     return k.astype(dtype)
 
 
@@ -337,11 +342,10 @@ def _local_rates_block(buf, nb, consts):
 
     Needs the moments rows (``_moments_block``). Pi = sum_i c_i c_i (f_i - f^eq_i) + (u F + F u)/2 from the
     pair sums f_i + f_opp(i) (only they carry second moments), m = 3 sqrt(2 Pi:Pi)/(2 rho), tau+ the clamped
-    root of gdot tau(gdot) = m (in float64), tau- = 1/2 + Lambda/(tau+ - 1/2) (TRT) or tau+ (BGK, Lambda 0)."""
+    root of gdot tau(gdot) = m read from the law's table at log m (in float64), tau- = 1/2 + Lambda/(tau+ - 1/2)
+    (TRT) or tau+ (BGK, Lambda 0)."""
     half = consts[K_HALF]
     third = consts[K_THIRD]
-    n = np.float64(consts[K_FLOW_INDEX])
-    three_k = np.float64(consts[K_THREE_K])
     tau_min = np.float64(consts[K_TAU_MIN])
     tau_max = np.float64(consts[K_TAU_MAX])
     magic = np.float64(consts[K_MAGIC])
@@ -372,8 +376,9 @@ def _local_rates_block(buf, nb, consts):
         pxz = s11 - s13 - rho * ux * uz + half * (ux * fz + uz * fx)
         pyz = s15 - s17 - rho * uy * uz + half * (uy * fz + uz * fy)
         pp = np.float64(pxx * pxx + pyy * pyy + pzz * pzz + 2.0 * (pxy * pxy + pxz * pxz + pyz * pyz))
-        m = 1.5 * np.sqrt(2.0 * pp) / np.float64(rho)
-        tau = _local_tau(m, three_k, n, tau_min, tau_max)
+        rho64 = np.float64(rho)
+        log_m = 0.5 * np.log(4.5 * pp / (rho64 * rho64))  # m = 3 sqrt(2 Pi:Pi)/(2 rho)
+        tau = _tabulated_tau(log_m, consts, K_TABLE, tau_min, tau_max)
         tau_m = tau if magic == 0.0 else 0.5 + magic / (tau - 0.5)
         buf[R_OMEGA_PLUS * B + k] = 1.0 / tau
         buf[R_OMEGA_MINUS * B + k] = 1.0 / tau_m
