@@ -103,13 +103,15 @@ def _read_table(log_m, table, tau_min, tau_max):
 _tabulated_tau = njit(inline="always", error_model="numpy")(tabulated_relaxation_time)
 
 
-@pytest.mark.parametrize("flow_index", [0.1, 0.2, 0.4, 0.586, 0.8, 0.95, 0.99, 1.0, 1.3, 2.0])
+@pytest.mark.parametrize("flow_index", [0.1, 0.2, 1 / 3, 0.4, 0.5, 0.586, 0.8, 0.95, 0.99, 0.999, 1.0, 1.001, 1.3, 2.0])
 def test_the_kernels_tau_table_is_the_root_to_its_measured_error(flow_index):
     """Reference: the clamped root of 3K gdot^n + gdot/2 = m by Halley steps polished to round-off (8 instead of
-    3), over every m from the floor 1e-20 to 1e20 (and beyond: held there), at three consistencies. Tolerance:
-    float64 TABLE_TOLERANCE (measured worst 1.2e-10, at n = 0.2), float32 1.2e-7 (measured 5.9e-8: tau rounded
-    to float32). A wrong slope in the table leaves errors of order h^2 = 2e-4."""
-    for viscosity in (1e-3, 0.1, 1.0):
+    3), over every m from the floor 1e-20 to 1e20 (and beyond: held there), at consistencies whose nominal tau
+    lies inside the clamp and beyond it (viscosity 3.5 and 0.005: at n = 0.999 and 1.001 the law is then at one
+    clamp for every m, a table of one tau). Tolerance: float64 TABLE_TOLERANCE (measured worst 1.4e-10, at n =
+    1/2), float32 1.2e-7 (measured 5.9e-8: tau rounded to float32). A wrong slope in the table leaves errors of
+    order h^2 = 2e-4."""
+    for viscosity in (1e-3, 0.005, 0.1, 1.0, 3.5):
         law = PowerLaw.matching(flow_index, viscosity, 1e-3)
         three_k = 3.0 * law.consistency
         table = relaxation_time_table(three_k, flow_index, 0.52, 10.0)

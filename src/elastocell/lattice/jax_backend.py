@@ -133,7 +133,7 @@ def total_force(field, tables: LatticeTables, shape, dtype):
 
 
 def local_rates(non_equilibrium, u, force, rho, tables: LatticeTables):
-    """(omega+, omega-) per node of a power-law medium (:mod:`elastocell.lattice.rheology`, the kernels' algorithm):
+    """(omega+, omega-) per node of a power-law medium (:mod:`elastocell.lattice.rheology`):
     Pi = sum_i c_i c_i (f_i - f^eq_i) + (u F + F u)/2, m = 3 sqrt(2 Pi:Pi)/(2 rho), tau+ the clamped root of
     3K gdot^n + gdot/2 = m by Halley steps in log gdot (float64 where JAX computes in 64 bit; the Numba kernels read
     the same root from the law's table, :func:`~elastocell.lattice.rheology.relaxation_time_table`), tau- at the

@@ -26,7 +26,7 @@ they read it from a table of x = log m built once per lattice (:func:`relaxation
 to round-off at nodes a power of two apart in x, with its exact derivative, dtau/dx = tau (n - 1)(tau - 1/2) /
 (n (tau - 1/2) + 1/2)), by cubic Hermite interpolation (:func:`tabulated_relaxation_time`): one logarithm per
 node instead of two logarithms and seven exponentials. Measured against the polished root over n in [0.1, 2]
-and the default clamp: relative error of tau below :data:`TABLE_TOLERANCE` (tests/test_medium.py).
+and the default clamp: relative error of tau at most 1.4e-10 (:data:`TABLE_TOLERANCE`, tests/test_medium.py).
 """
 
 from __future__ import annotations
@@ -50,7 +50,9 @@ SMALLEST_STRESS = 1e-20
 TABLE_SPACING = 1.0 / 64.0
 """Spacing h of :func:`relaxation_time_table` in x = log m for the flow indices whose tau(x) curves no faster than
 exp(x |1 - n|/n) with |1 - n|/n <= 1 (n >= 1/2); below, h shrinks as n/|1 - n| (at n = 0.1, 1/1024). Always a power of
-two, so that the nodes are exact in float32."""
+two, so that the nodes are exact in float32. A clamp range wider than :data:`TABLE_MAX_NODES` nodes at that h (far
+wider than the default one) doubles h as often as needed, and the error grows as h^4 (4e-9 at n = 0.1 with tau in
+[0.500001, 1e6])."""
 
 TABLE_MAX_NODES = 8192
 
@@ -59,9 +61,9 @@ TABLE_HEADER = 5
 (x beyond is read there); then tau at each node, then h dtau/dx at each node."""
 
 TABLE_TOLERANCE = 3e-10
-"""Bound on the table's relative error in tau, float64 storage (measured: 1.2e-10 at n = 0.2, 4e-11 at n = 0.4-0.6,
-below 1e-11 elsewhere in n in [0.1, 2], the largest error anywhere in m; tests/test_medium.py); float32 storage
-rounds tau to 6e-8."""
+"""Bound on the table's relative error in tau, float64 storage, with the default clamp (measured, the largest error
+anywhere in m: 1.4e-10 at n = 1/2, 1.3e-10 at n = 1/3, 1.2e-10 at n = 0.2, where n/(1 - n)/64 is a power of two, down
+to 4e-11 at n = 0.586 and below 1e-11 above n = 0.8; tests/test_medium.py); float32 storage rounds tau to 6e-8."""
 
 
 @dataclass(frozen=True)
@@ -95,7 +97,8 @@ class PowerLaw:
         return np.clip(nu, (self.relaxation_time_min - 0.5) / 3.0, (self.relaxation_time_max - 0.5) / 3.0)
 
     def relaxation_time(self, stress_norm):
-        """tau of nodes with m = 3 sqrt(2 Pi:Pi)/(2 rho) (NumPy, float64; the kernels' algorithm)."""
+        """tau of nodes with m = 3 sqrt(2 Pi:Pi)/(2 rho) (NumPy, float64; the JAX backend's algorithm, the root the
+        Numba kernels' table holds)."""
         return local_relaxation_time(np.asarray(stress_norm, dtype=np.float64), 3.0 * self.consistency,
                                      self.flow_index, self.relaxation_time_min, self.relaxation_time_max)
 
@@ -125,11 +128,16 @@ def relaxation_time_table(three_k: float, n: float, tau_min: float, tau_max: flo
     Its nodes x_j = x0 + j h (h a power of two, at most :data:`TABLE_SPACING`) cover the x = log m over which the
     clamped law is not at a clamp, one node beyond at each end; tau_j is the unclamped root (Halley steps to
     round-off), the slopes h dtau/dx its exact derivative, so the interpolant is smooth across the clamps, which
-    :func:`tabulated_relaxation_time` applies after it. n = 1: tau = 3K + 1/2 (clamped) everywhere."""
+    :func:`tabulated_relaxation_time` applies after it. One constant tau where it is the same for every m from
+    the floor to the cap: n = 1 (3K + 1/2, clamped), or a law at one clamp all the way (a nearly Newtonian law
+    whose tau lies beyond the clamp)."""
     three_k, n, tau_min, tau_max = float(three_k), float(n), float(tau_min), float(tau_max)
-    if n == 1.0:
-        tau = min(max(three_k + 0.5, tau_min), tau_max)
+
+    def constant(tau):
         return np.array([0.0, 1.0, 1.0, 0.0, 1.0, tau, tau, 0.0, 0.0])
+
+    if n == 1.0:
+        return constant(min(max(three_k + 0.5, tau_min), tau_max))
 
     def log_stress(tau):  # x at which the unclamped law's tau is ``tau``: gdot = ((tau - 1/2)/3K)^(1/(n-1))
         return math.log(tau) + math.log((tau - 0.5) / three_k) / (n - 1.0)
@@ -137,6 +145,9 @@ def relaxation_time_table(three_k: float, n: float, tau_min: float, tau_max: flo
     clamp_lo, clamp_hi = sorted((log_stress(tau_min), log_stress(tau_max)))
     floor = math.log(SMALLEST_STRESS)  # below it the node is at rest (the floor of :func:`local_relaxation_time`)
     lo, hi = max(clamp_lo, floor), max(min(clamp_hi, -floor), floor + 1.0)  # m > 1/SMALLEST_STRESS never occurs
+    if lo >= hi:  # at a clamp from the floor to the cap
+        return constant(float(local_relaxation_time(np.array(1.0), three_k, n, tau_min, tau_max,
+                                                    iterations=ROOT_ITERATIONS + 3)))
     spacing = 2.0 ** math.floor(math.log2(min(TABLE_SPACING, TABLE_SPACING * n / abs(1.0 - n))))
     while (hi - lo) / spacing + 3 > TABLE_MAX_NODES:
         spacing *= 2.0
@@ -145,6 +156,8 @@ def relaxation_time_table(three_k: float, n: float, tau_min: float, tau_max: flo
     x = x0 + spacing * np.arange(intervals + 1)
     tau = local_relaxation_time(np.exp(x), three_k, n, 0.5, np.inf, iterations=ROOT_ITERATIONS + 3,
                                 smallest_stress=0.0)
+    ceiling = 1e6 * tau_max  # far beyond the clamp: an absurd K overflows the root there (inf, NaN)
+    tau = np.minimum(np.nan_to_num(tau, nan=ceiling, posinf=ceiling), ceiling)
     slope = spacing * tau * (n - 1.0) * (tau - 0.5) / (n * (tau - 0.5) + 0.5)
     # x is held at the floor and the cap; where a clamp of tau ends the range instead, at the table's end nodes
     # (which are multiples of h, exact in float32), beyond which the clamp reads the same tau
@@ -156,7 +169,10 @@ def relaxation_time_table(three_k: float, n: float, tau_min: float, tau_max: flo
 def tabulated_relaxation_time(x, table, start, tau_min, tau_max):
     """tau at x = log m (a float) from ``table[start:]`` (:func:`relaxation_time_table`), clamped: cubic Hermite
     interpolation between the nodes around x, x beyond the table read at its end; NaN stays NaN. Scalars only
-    (compiled inline in the kernels)."""
+    (compiled inline in the kernels).
+
+    Numba caches the kernels keyed on lattice/kernels.py alone: a change here (or to the table's layout) must come
+    with a change to that file, or the cached kernels keep inlining the old reader."""
     if x != x:
         return x
     intervals = int(table[start + 2])
