@@ -13,8 +13,8 @@ beside it are ignored), so a computation that takes longer than one sitting goes
 an unfinished point resumes from its checkpoint where that is still on disk, otherwise from its start. A checkpoint
 also restarts from the start when the lattice's numbers change even at round-off: its fingerprint holds the run's
 lattice units, whose centre-line speed of a power-law channel the lattice itself computes (the tau table of the
-power-law kernels moved it by 2e-11 and so restarted two points at t 42 and 30). Change the kernels between
-points, not during one.
+power-law kernels moved it by 2e-11 and so restarted two points at t 42 and 30): a change of the kernels costs
+every unfinished point its progress.
 
 The other standard configurations (20 um at 0.08 uL/s, 30 um at 0.16 uL/s) are the same dimensionless problem: a
 power-law medium of one flow index n (MC-PBS at one temperature) makes the stationary shape a function of Ca_w =

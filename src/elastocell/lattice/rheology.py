@@ -55,6 +55,7 @@ wider than the default one) doubles h as often as needed, and the error grows as
 [0.500001, 1e6])."""
 
 TABLE_MAX_NODES = 8192
+"""Most nodes of a table (64 KiB of tau and slopes in float32)."""
 
 TABLE_HEADER = 5
 """The table's header: x0 (x of its first node), 1/h, the number of intervals, the lowest and highest x it reads
