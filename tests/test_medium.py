@@ -17,6 +17,7 @@ from numba import njit
 
 from elastocell.body.cell import Cell
 from elastocell.lattice import Lattice, LatticeParams
+from elastocell.lattice.kernels import _tabulated_tau  # the reader the Numba kernels inline
 from elastocell.lattice.reference import reference_step
 from elastocell.lattice.rheology import (
     TABLE_HEADER,
@@ -25,7 +26,6 @@ from elastocell.lattice.rheology import (
     PowerLaw,
     local_relaxation_time,
     relaxation_time_table,
-    tabulated_relaxation_time,
     tube_flow_rate,
 )
 from elastocell.parameters.cell import cell_parameters
@@ -100,9 +100,6 @@ def _read_table(log_m, table, tau_min, tau_max):
     for i in range(log_m.size):
         out[i] = _tabulated_tau(log_m[i], table, 0, tau_min, tau_max)
     return out
-
-
-_tabulated_tau = njit(inline="always", error_model="numpy")(tabulated_relaxation_time)
 
 
 @pytest.mark.parametrize("flow_index", [0.1, 0.2, 1 / 3, 0.4, 0.5, 0.586, 0.8, 0.95, 0.99, 0.999, 1.0, 1.001, 1.3, 2.0])
