@@ -170,9 +170,24 @@ def test_dclab_loads_the_lut_and_isoelastics(tmp_path):
     (["--flow-rate", "0.04 kg"], "--flow-rate"),
     (["--workers", "0"], "--workers"),
     (["--channel-width", "20um"], "--channel-radius"),
+    (["--identifier", "LE-2D-FEM-19"], "--identifier"),  # dclab's register_lut refuses its own tables' names
+    (["--identifier", " "], "--identifier"),
+    (["--resolution", "0"], "--resolution"),  # was a ZeroDivisionError
+    (["--resolution", "-3"], "--resolution"),  # was blamed on --hydrodynamic-radius-correction
+    (["--moduli", "1,2"], "--moduli"),  # 1 Pa: Ca_w beyond the pipe's limit, was named --capillary-number-wall
 ])
 def test_one_line_refusals(tmp_path, extra, option):
     _refused(BASE, extra, option, tmp_path)
+
+
+def test_a_modulus_too_soft_for_the_flow_is_refused_with_the_bare_number_rule(tmp_path):
+    """A bare modulus is in Pa: "1,2" meant as kPa makes Ca_w ~ 1e3; the refusal names --moduli, the point and the
+    rule, and writes nothing."""
+    result = runner.invoke(app, BASE + ["--out", str(tmp_path / "lut.txt"), "--quick", "--moduli", "1,2"])
+    assert result.exit_code == 2
+    assert "--moduli: R = 5 um, E = 1 Pa: the wall capillary number" in result.output
+    assert "write 1kPa" in result.output
+    assert not (tmp_path / "lut_runs").exists()
 
 
 def _refused(base: list[str], extra: list[str], option: str, tmp_path) -> None:
@@ -539,3 +554,11 @@ def test_the_standard_table_ships_with_the_tables_scaled_from_it(tmp_path):
     finally:
         for name in shipped:
             emodulus.load.EXTERNAL_LUTS.pop(name, None)
+
+
+def test_the_help_states_the_full_grids_duration():
+    """`lut --help` shows the duration cap the code applies (``FULL``), not another number."""
+    from elastocell.inverse.lut import FULL
+
+    shown = " ".join(runner.invoke(app, ["lut", "--help"], env={"COLUMNS": "300"}).output.split())
+    assert f"[default: ({FULL['duration']:g}, stopping earlier once stationary;" in shown

@@ -22,13 +22,20 @@ from elastocell.cli.options import opt, takes
                         shown="none: required with --medium newtonian"),
        opt("medium", help="newtonian (with --viscosity) | 0.49%MC-PBS | 0.59%MC-PBS | 0.83%MC-PBS (RT-DC buffers: "
                           "power laws of Buyukurganci et al. 2022 at --temperature, as dclab)."),
-       opt("temperature", help="Temperature of an MC-PBS medium, within its fit (22-37 degC)."), "flow_index",
+       opt("temperature", help="Temperature of an MC-PBS medium, within its fit (22-37 degC)."),
+       opt("flow_index", help="Not taken by lut: a Newtonian medium has n = 1 and an MC-PBS preset sets its own n "
+           "at --temperature (a bare power law is refused: a table needs its consistency K too)."),
        opt("channel_length", help="Length L of the channel (RT-DC chips: about 300um, measured near the outlet): each "
            "point is read when its cell, started undeformed at the inlet, has travelled L, instead of at its "
            "stationary shape; --duration is then the cap and --stationary-tolerance is refused."),
        opt("out", help="LUT file to write (dclab text format); the isoelastics go to <stem>_isoelastics.txt and the "
                        "runs to <stem>_runs/."),
-       "radii", "moduli", opt("quick", help="2 x 2 grid at R/dx 4 for one unit of time (tests; not converged)."),
+       opt("radii", shown="the default grid: 6 radii spanning the (area, deformation) region of dclab's table for "
+           "the channel shape (LE-2D-FEM-19, HE-3D-FEM-22) at this channel and flow (docs/usage/lut.md); --quick: "
+           "5,6 um"),
+       opt("moduli", shown="the default grid: 8 moduli at about equal steps of log deformation over that region; "
+           "--quick: 1,2 kPa"),
+       opt("quick", help="2 x 2 grid at R/dx 4 for one unit of time (tests; not converged)."),
        opt("stiffness_ratio", annotation=float | None, default=None,
            help="gamma = E_n/E_c: a table for a cell with a centred spherical nucleus (the pipe's nucleus cell); "
                 "its emodulus column is then the cytoplasm's E_c.", shown="none: a homogeneous cell"),
@@ -41,7 +48,7 @@ from elastocell.cli.options import opt, takes
                 "and extrapolate its area and deformation to dx -> 0 (Richardson, order 2)."),
        "coarse_resolution", opt("hydrodynamic_radius_correction", default=0.3),  # the pipe's default
        opt("duration", annotation=float | None, default=None, help="Longest run per point.", units="1/gdot_w",
-           shown="60, stopping earlier once stationary; --quick: 1; with --channel-length 1.5 times the transit at the mean flow speed"),
+           shown="120, stopping earlier once stationary; --quick: 1; with --channel-length 1.5 times the transit at the mean flow speed"),
        opt("stationary_tolerance", help="Stop a point once its deformation is stationary to this fraction.",
            shown="1e-3; --quick and --channel-length: off"),
        "identifier", opt("scheduler", help="Dask scheduler address."),

@@ -361,6 +361,8 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
     if not (math.isfinite(poisson_ratio) and -1 < poisson_ratio < 0.5):
         raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {poisson_ratio}")
     resolution = defaults["resolution"] if resolution is None else float(resolution)
+    if not (math.isfinite(resolution) and resolution > 0):
+        raise ParameterError("resolution", f"must be > 0 (lattice nodes per cell radius R/dx), got {resolution:g}")
     width = 2.0 * r_ch if shape == "square" else 2.0 * r_ch / SQUARE_CHANNEL_RADIUS_FACTOR
     viscosity_mpa_s = 1e3 * (eta if eta is not None else dclab_viscosity(fluid, q, width))
     grid = None
@@ -444,8 +446,19 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
                        "poisson_ratio": float(poisson_ratio), **flow, **extrapolation, **single}
             if transit:  # the transit needs the cell's physical radius (L/R)
                 options.update(transit, radius=f"{radius * 1e6:g}um")
-            points.append({"key": point_key(radius * 1e6, modulus * 1e-3, options), "radius_um": radius * 1e6,
-                           "emodulus_kpa": modulus * 1e-3, "options": options})
+            try:
+                key = point_key(radius * 1e6, modulus * 1e-3, options)
+            except (ParameterError, ValidationError) as error:  # the pipe's refusal of this point, by the option
+                if isinstance(error, ValidationError):
+                    error = (error.errors()[0].get("ctx") or {}).get("error", error)
+                if not isinstance(error, ParameterError):
+                    raise
+                name = "moduli" if error.parameter == "capillary_number_wall" else error.parameter
+                what, hint = ("the wall capillary number Ca_w = tau_w/mu ", f" (a bare modulus is in Pa: write "
+                              f"{modulus:g}kPa for kPa)") if name == "moduli" else ("", "")
+                raise ParameterError(name, f"R = {radius * 1e6:g} um, E = {modulus:g} Pa: {what}"
+                                     f"{str(error).split(': ', 1)[1]}{hint}") from None
+            points.append({"key": key, "radius_um": radius * 1e6, "emodulus_kpa": modulus * 1e-3, "options": options})
     settings = {"channel_shape": shape, "channel_radius_um": r_ch * 1e6, "channel_width_um": width * 1e6,
                 "flow_rate_ul_s": q * 1e9, "viscosity_mpa_s": viscosity_mpa_s, **fluid.as_dict(),
                 "pressure_gradient_pa_m": driving["pressure_gradient"],
@@ -779,6 +792,22 @@ def run_point(task: tuple[dict, str]) -> dict:
 
 
 # =========================================================================== output
+def check_identifier(identifier: str | None) -> None:
+    """Refuse (ParameterError ``identifier``) an identifier dclab cannot register: empty, or the name of one of
+    dclab's own tables (``dclab.features.emodulus.load.get_internal_lut_names_dict``), which
+    ``register_lut`` refuses as in use."""
+    if identifier is None:
+        return
+    if not str(identifier).strip():
+        raise ParameterError("identifier", "must not be empty")
+    from dclab.features.emodulus.load import get_internal_lut_names_dict  # lazy: dclab is needed only here
+
+    if str(identifier) in get_internal_lut_names_dict():
+        raise ParameterError("identifier", f"{identifier!r} is one of dclab's own tables "
+                                           f"({', '.join(sorted(get_internal_lut_names_dict()))}), which "
+                                           "dclab.features.emodulus.register_lut refuses as in use: choose another")
+
+
 def lut_metadata(settings: dict, identifier: str) -> dict:
     """dclab's metadata keys (units as dclab asserts them; for a power law also those of dclab's HE-*-FEM-22
     tables) plus elastocell's own settings."""
@@ -963,6 +992,7 @@ def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=Non
     out = Path(out)
     if out.exists() and out.is_dir():
         raise ParameterError("out", f"{out} is a directory; give a file name such as lut.txt")
+    check_identifier(identifier)
     points, settings = plan(channel_radius, flow_rate, viscosity, radii, moduli, quick, poisson_ratio, material,
                             resolution, duration, stationary_tolerance, channel_width=channel_width,
                             channel_shape=channel_shape, channel_height=channel_height, medium=medium,
