@@ -327,6 +327,10 @@ def fit_result(**changes):
     ({"residual_runs_z": -8.0, "residual_systematic": 0.1}, "structured residuals", ()),
     ({"residual_runs_z": -8.0, "residual_systematic": 0.005}, None, ()),  # significant, but a small misfit
     ({"converged": False}, "did not converge", ()),
+    # a force in nN read as N: E x 1e9 (the bound: 1 GPa; the value stays, flagged)
+    ({"youngs_modulus": 5e11, "youngs_modulus_ci_low": 4.9e11, "youngs_modulus_ci_high": 5.1e11},
+     "not a cell, gel or tissue", ()),
+    ({"youngs_modulus": 9e8, "youngs_modulus_ci_low": 8.9e8, "youngs_modulus_ci_high": 9.1e8}, None, ()),
 ])
 def test_check_fit(changes, reason, nan):
     """Each check alone (the brief's cases: E = 2.4e-290 Pa, E = 1.9e4 Pa in [-6.6e5, 7.0e5]); values that
@@ -376,3 +380,217 @@ def test_hertz_sphere_estimate_returns_the_modulus_of_a_hertz_sphere_curve():
         fixed = fit_hertz_sphere(x, force, bead, 0.48, contact_point=contact)
         assert fixed["youngs_modulus"] == pytest.approx(E, rel=0.02)
     assert inside >= 17
+
+
+# ---------------------------------------------------------------- the audit's defects (one test each)
+
+WORKSHOP_2021 = DATA / "fmt-afm-workshop-fd_single_2021-10-22_14.16.csv"
+NTMDT = DATA / "fmt-ntmdt-txt-fd_2015_01_17_gel4-0,1_mQ_adh_6B_Curve_DFL_Height_51.txt"
+EXAMPLE = DATA / "force-save-example.jpk-force"
+
+
+def hertz_curve(path, force_scale=1.0, displacement_scale=1.0, seed=1):
+    """A plain CSV of a Hertz plate curve (E = 1 kPa, R = 8 um, contact at 5 um, noise 1 pN), its columns
+    multiplied by the scales (1: SI, as the format wants)."""
+    displacement = np.linspace(0, 12e-6, 600)
+    force = 1e3 * (8e-6) ** 2 * hertz_force(np.maximum(displacement - 5e-6, 0) / 16e-6, 0.48)
+    force = force + 1e-12 * np.random.default_rng(seed).normal(size=displacement.size)
+    pd.DataFrame({"displacement": displacement * displacement_scale, "force": force * force_scale}).to_csv(
+        path, index=False)
+    return displacement, force
+
+
+def test_a_tilted_baseline_on_the_igor_curve_is_a_flag_not_a_crash(tmp_path):
+    """Regression: the change-point scan under a tilted baseline met a candidate before every point with p = 1,
+    whose power-law column is the baseline's slope itself, and np.linalg.solve raised LinAlgError "Singular
+    matrix" (fit_curve raised it before the Schur-complement test). Now the curve is fitted and flagged (its
+    contact point is on the rise region's edge: measured), and the command exits 3, not with a traceback or a
+    "fit failed" row."""
+    [curve] = read_curves(DATA / "fmt-igor-fd_U3_3_p10004.ibw")
+    row = fit_curve(curve.name, curve.displacement, curve.force, FitSettings(radius="8um", baseline_tilt=True))
+    assert row["flag"] and "fit failed" not in row["flag"]
+    out = tmp_path / "tilt"
+    result = runner.invoke(app, ["fit", "afm", str(DATA / "fmt-igor-fd_U3_3_p10004.ibw"), "--radius", "8um",
+                                 "--baseline-tilt", "--no-plots", "--out", str(out)])
+    assert result.exit_code == 3, result.output
+    flag = pd.read_csv(out / "fits.csv", keep_default_na=False)["flag"].iloc[0]
+    assert flag and "fit failed" not in flag and "LinAlgError" not in flag
+
+
+def test_a_contact_point_outside_the_curve_says_so_with_the_range_in_um(tmp_path):
+    """--contact-point 500 um on force-save-example (displacement -78.3 to -48.5 um, from read_curves): a
+    flagged row whose flag names the contact point and the curve's range in um (the range printed to 6 digits,
+    as read_curves gives it), exit code 3; below the range too."""
+    [curve] = read_curves(EXAMPLE)
+    low, high = curve.displacement.min() * 1e6, curve.displacement.max() * 1e6
+    for contact in ("500um", f"{low - 10:.6g}um"):
+        out = tmp_path / contact
+        result = runner.invoke(app, ["fit", "afm", str(EXAMPLE), "--radius", "10um", "--contact-point", contact,
+                                     "--no-plots", "--out", str(out)])
+        assert result.exit_code == 3, result.output
+        flag = pd.read_csv(out / "fits.csv")["flag"].iloc[0]
+        assert f"--contact-point {float(contact[:-2]):.6g} um is outside the curve's displacement range" in flag
+        assert f"({low:.6g} to {high:.6g} um)" in flag
+    # inside the range the fixed contact point is fitted as before (a finite E)
+    row = fit_curve(curve.name, curve.displacement, curve.force,
+                    FitSettings(radius="10um", contact_point=f"{(low + high) / 2}um"))
+    assert np.isfinite(row["youngs_modulus"])
+
+
+@pytest.mark.parametrize("scales, needle", [((1e9, 1.0), "nN x 1e-9"), ((1.0, 1e6), "um x 1e-6")])
+def test_a_plain_csv_in_other_units_is_refused_naming_the_column(tmp_path, scales, needle):
+    """Force in nN (values up to 32, read as N they gave E = 1e12 Pa) or displacement in um (a 12 m span: "fewer
+    than 3 points in contact"): the file is unreadable, exit code 2, one line naming it and the column's unit; its
+    row in fits.csv says so. The same curve in SI is read and fitted to E = 1 kPa (Hertz, its own model: 1 %)."""
+    path = tmp_path / "curve.csv"
+    hertz_curve(path, *scales)
+    out = tmp_path / "o"
+    result = runner.invoke(app, ["fit", "afm", str(path), "--radius", "8um", "--no-plots", "--out", str(out)])
+    lines = [line for line in result.output.strip().splitlines() if line]
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert "curve.csv" in lines[0] and needle in lines[0]
+    row = pd.read_csv(out / "fits.csv").iloc[0]
+    assert row["flag"] == "unreadable" and needle in row["error"]
+    hertz_curve(path)
+    result = runner.invoke(app, ["fit", "afm", str(path), "--radius", "8um", "--no-plots", "--model", "hertz",
+                                 "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert pd.read_csv(out / "fits.csv")["youngs_modulus"].iloc[0] == pytest.approx(1e3, rel=0.01)
+
+
+def test_a_modulus_above_a_gigapascal_is_flagged():
+    """The Python API takes arrays as they are: the SI curve (E = 1 kPa) with its force in nN fits E = 1e12 Pa
+    (the fit scales with the force: 1e9 x, to 1e-6), which is flagged "not a cell, gel or tissue"; the same curve
+    in N is accepted."""
+    displacement = np.linspace(0, 12e-6, 600)
+    force = 1e3 * (8e-6) ** 2 * hertz_force(np.maximum(displacement - 5e-6, 0) / 16e-6, 0.48)
+    force = force + 1e-12 * np.random.default_rng(1).normal(size=displacement.size)
+    settings = FitSettings(radius="8um", model="hertz")
+    good = fit_curve("si", displacement, force, settings)
+    bad = fit_curve("nN", displacement, force * 1e9, settings)
+    assert good["flag"] == ""
+    assert bad["youngs_modulus"] == pytest.approx(1e9 * good["youngs_modulus"], rel=1e-6)
+    assert "not a cell, gel or tissue" in bad["flag"] and "check the units" in bad["flag"]
+
+
+def test_an_unexpected_error_in_one_curve_is_a_flagged_row_and_the_others_are_fitted(tmp_path, monkeypatch):
+    """A bug that raises while one curve is fitted (simulated: fit_curve raises RuntimeError for that curve)
+    becomes that curve's flagged row, "fit failed: RuntimeError: ... (an internal error: please report it)";
+    the curve after it is fitted and accepted (E = 1 kPa, 1 %), and the command exits 0. KeyboardInterrupt still
+    stops the batch."""
+    import elastocell.inverse.fit as fit_module
+
+    broken, good = tmp_path / "broken.csv", tmp_path / "good.csv"
+    hertz_curve(broken)
+    hertz_curve(good, seed=2)
+    original = fit_module.fit_curve
+
+    def fit_or_fail(name, *args, **kwargs):
+        if name == "broken":
+            raise RuntimeError("index 3 is out of bounds")
+        return original(name, *args, **kwargs)
+
+    monkeypatch.setattr(fit_module, "fit_curve", fit_or_fail)
+    out = tmp_path / "o"
+    result = runner.invoke(app, ["fit", "afm", str(broken), str(good), "--radius", "8um", "--model", "hertz",
+                                 "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(out / "fits.csv", keep_default_na=False)
+    assert list(table["file"]) == ["broken", "good"]
+    assert table["flag"].iloc[0] == ("fit failed: RuntimeError: index 3 is out of bounds (an internal error: please "
+                                     "report it)")
+    assert table["flag"].iloc[1] == "" and float(table["youngs_modulus"].iloc[1]) == pytest.approx(1e3, rel=0.01)
+    assert (out / "broken.png").exists()  # drawn, in the warning colour, like any flagged curve
+
+    def interrupt(name, *args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(fit_module, "fit_curve", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        fit_files([good], FitSettings(radius="8um"), tmp_path / "stopped", plots=False)
+
+
+def test_an_unreadable_file_keeps_its_place_and_is_counted(tmp_path):
+    """fitting.md: one row per curve in input order; an unreadable file is one row (flag "unreadable", its
+    error) in its place, the others are fitted and written, and the command exits 2 naming each unreadable file;
+    the summary line counts them."""
+    first, last = tmp_path / "first.csv", tmp_path / "last.jpk-force"
+    first.write_text("x,y\n1,2\n")
+    last.write_bytes(b"PK\x03\x04 truncated")
+    good = tmp_path / "good.csv"
+    hertz_curve(good)
+    out = tmp_path / "o"
+    result = runner.invoke(app, ["fit", "afm", str(first), str(good), str(last), "--radius", "8um", "--model",
+                                 "hertz", "--no-plots", "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    table = pd.read_csv(out / "fits.csv", keep_default_na=False)
+    assert list(table["file"]) == ["first", "good", "last"]
+    assert list(table["flag"]) == ["unreadable", "", "unreadable"]
+    assert table["error"].iloc[0] and table["error"].iloc[2] and table["error"].iloc[1] == ""
+    assert "1 curve(s), 1 accepted, 0 flagged, 2 unreadable" in result.output
+    errors = [line for line in result.output.splitlines() if line.startswith("elastocell: error:")]
+    assert len(errors) == 2 and "first.csv" in errors[0] and "last.jpk-force" in errors[1]
+
+
+def test_an_ntmdt_sensitivity_in_nm_per_na_is_the_bare_number(tmp_path):
+    """NT-MDT's signal is a photodiode current: --sensitivity 61nm/nA (the --help's unit, refused before as
+    "unknown unit 'nA'"), 61 m/A and 0.061um/nA give the force of the bare 61 (afmformats' own test value,
+    61 nm/nA = 61 m/A), exactly; 122nm/nA doubles it (F = k s signal). A per-ampere sensitivity on a JPK file
+    (a voltage signal) is refused naming the file. fits.csv says which unit each row's sensitivity holds."""
+    [bare] = read_curves(NTMDT, 0.055, FitSettings(radius="8um", sensitivity=61).sensitivity)
+    for text in ("61nm/nA", "61 m/A", "0.061um/nA"):
+        settings = FitSettings(radius="8um", sensitivity=text)
+        assert settings.sensitivity == pytest.approx(61e-9, rel=1e-12) and settings.sensitivity_unit == "m/nA"
+        [curve] = read_curves(NTMDT, 0.055, settings.sensitivity, settings.sensitivity_unit)
+        assert np.allclose(curve.force, bare.force, rtol=1e-12, atol=0) and curve.sensitivity_unit == "m/nA"
+    double = FitSettings(radius="8um", sensitivity="122nm/nA")
+    [curve] = read_curves(NTMDT, 0.055, double.sensitivity, double.sensitivity_unit)
+    assert np.allclose(curve.force, 2 * bare.force, rtol=1e-12, atol=0)
+    with pytest.raises(CurveError, match="per ampere.*nm/V"):
+        read_curves(EXAMPLE, None, 61e-9, "m/nA")
+    rows = []
+    for text in ("61nm/nA", "61"):
+        out = tmp_path / text.replace("/", "_")
+        result = runner.invoke(app, ["fit", "afm", str(NTMDT), "--radius", "8um", "--spring-constant", "0.055",
+                                     "--sensitivity", text, "--no-plots", "--out", str(out)])
+        assert result.exit_code in (0, 3), result.output
+        rows.append(pd.read_csv(out / "fits.csv").iloc[0])
+    assert rows[0]["youngs_modulus"] == rows[1]["youngs_modulus"] and rows[0]["sensitivity"] == pytest.approx(61e-9)
+    assert rows[0]["sensitivity_unit"] == rows[1]["sensitivity_unit"] == "m/nA"
+    out = tmp_path / "jpk"
+    result = runner.invoke(app, ["fit", "afm", str(EXAMPLE), "--radius", "8um", "--sensitivity", "61nm/nA",
+                                 "--no-plots", "--out", str(out)])
+    lines = [line for line in result.output.strip().splitlines() if line]
+    assert result.exit_code == 2 and len(lines) == 1 and EXAMPLE.name in lines[0] and "per ampere" in lines[0]
+    # one batch, both makers, a bare sensitivity: m/nA on the NT-MDT row, m/V on the JPK row
+    out = tmp_path / "mixed"
+    result = runner.invoke(app, ["fit", "afm", str(NTMDT), str(EXAMPLE), "--radius", "8um", "--spring-constant",
+                                 "0.055", "--sensitivity", "61", "--no-plots", "--out", str(out)])
+    assert result.exit_code in (0, 3), result.output
+    table = pd.read_csv(out / "fits.csv")
+    assert list(table["sensitivity_unit"]) == ["m/nA", "m/V"] and np.allclose(table["sensitivity"], 61e-9)
+
+
+def test_a_workshop_file_of_force_says_the_sensitivity_did_not_apply(tmp_path):
+    """The AFM Workshop 2021 file stores force in nN (afmformats reads it times 1e-9): --sensitivity 1000 leaves
+    the force as it is (the file's column x 1e-9, exactly), and fits.csv says so (calibration: the file's force,
+    the sensitivity given did not apply; sensitivity NaN), with the E of no sensitivity at all. The 2018 file (a
+    signal in V) is recomputed with it (test_files_without_calibration_say_so_and_take_it_from_the_options)."""
+    [without] = read_curves(WORKSHOP_2021, 20.0)
+    [given] = read_curves(WORKSHOP_2021, 20.0, 1e-6)
+    column = np.loadtxt(WORKSHOP_2021, skiprows=11, delimiter=",")[:, 1]  # Extend Force(nN)
+    assert np.array_equal(given.force, without.force)
+    assert np.allclose(given.force, column[:len(given.force)] * 1e-9, rtol=1e-12, atol=0)
+    assert "did not apply" in given.calibration and np.isnan(given.sensitivity)
+    assert "recomputed" not in given.calibration and "deflection" in given.calibration
+    results = []
+    for extra in ([], ["--sensitivity", "1000"]):
+        out = tmp_path / str(len(extra))
+        result = runner.invoke(app, ["fit", "afm", str(WORKSHOP_2021), "--radius", "8um", "--spring-constant", "20",
+                                     *extra, "--no-plots", "--out", str(out)])
+        assert result.exit_code in (0, 3), result.output
+        results.append(pd.read_csv(out / "fits.csv").iloc[0])
+    assert results[0]["youngs_modulus"] == results[1]["youngs_modulus"]
+    assert "the sensitivity given did not apply" in results[1]["calibration"] and np.isnan(results[1]["sensitivity"])
+    [signal] = read_curves(DATA / "fmt-afm-workshop-fd_single_2018-08-01_13.06.09.csv", 20.0, 10e-9)
+    assert signal.calibration == "recomputed by afmformats from the raw signal"

@@ -320,3 +320,122 @@ def test_only_the_layer_goes_without_a_radius():
         FitSettings(geometry="sphere-indenter", cell_shape="layer", indenter_radius="5um")
     layer = FitSettings(geometry="sphere-indenter", cell_shape="layer", indenter_radius="5um", layer_thickness="20um")
     assert layer.radius is None and layer.length_unit == pytest.approx(20e-6) and layer.indenter_ratio == 0.25
+
+
+# ---------------------------------------------------------------- options that the geometry does not use
+
+PLATES = {"radius": "10um"}
+BEAD = {"radius": "10um", "geometry": "sphere-indenter", "indenter_radius": "5um"}
+LAYER_BEAD = {"geometry": "sphere-indenter", "indenter_radius": "5um", "cell_shape": "layer", "layer_thickness": "20um"}
+CONE = {"geometry": "cone", "half_angle": "35deg", "cell_shape": "layer", "layer_thickness": "5um"}
+
+
+@pytest.mark.parametrize("settings, option, belongs", [
+    (PLATES | {"indenter_radius": "18.64um"}, "indenter_radius", "sphere-indenter"),
+    (PLATES | {"cell_shape": "cap"}, "cell_shape", "sphere-indenter, cone or pyramid"),
+    (PLATES | {"cap_height": "5um"}, "cap_height", "--cell-shape cap"),
+    (PLATES | {"layer_thickness": "5um"}, "layer_thickness", "--cell-shape layer"),
+    (PLATES | {"depth_max": 0.2}, "depth_max", "sphere-indenter, cone or pyramid"),
+    (BEAD | {"delta_max": 0.5}, "delta_max", "parallel-plates"),
+    (CONE | {"delta_max": 0.5}, "delta_max", "parallel-plates"),
+    (BEAD | {"cap_height": "5um"}, "cap_height", "--cell-shape cap"),
+    (BEAD | {"layer_thickness": "20um"}, "layer_thickness", "--cell-shape layer"),
+    (BEAD | {"cell_shape": "cap", "cap_height": "5um", "layer_thickness": "20um"}, "layer_thickness",
+     "--cell-shape layer"),
+    (LAYER_BEAD | {"cap_height": "5um"}, "cap_height", "--cell-shape cap"),
+    (CONE | {"cap_height": "5um"}, "cap_height", "--cell-shape cap"),
+    (CONE | {"geometry": "pyramid", "cap_height": "5um"}, "cap_height", "--cell-shape cap"),
+])
+def test_an_option_the_geometry_does_not_use_is_refused_naming_where_it_belongs(settings, option, belongs):
+    """Before: ignored (the audit's plates fit with --indenter-radius, --cell-shape cap, --cap-height and
+    --depth-max reported an accepted E of parallel plates). Each case alone is refused naming the option and the
+    geometry it belongs to."""
+    with pytest.raises(ParameterError, match=option) as error:
+        FitSettings(**settings)
+    assert error.value.parameter == option and belongs in str(error.value) and "does not apply" in str(error.value)
+
+
+@pytest.mark.parametrize("settings", [
+    PLATES, PLATES | {"delta_max": 0.5, "cell_shape": "sphere"}, BEAD | {"depth_max": 0.2},
+    BEAD | {"cell_shape": "cap", "cap_height": "5um"}, LAYER_BEAD, LAYER_BEAD | {"radius": "10um"}, CONE,
+    CONE | {"radius": "10um"}, CONE | {"geometry": "pyramid"},
+])
+def test_the_options_each_geometry_uses_are_still_taken(settings):
+    """The control of the refusals: every option where it applies (a layer records --radius when given)."""
+    FitSettings(**settings)
+
+
+def test_the_audits_plates_command_is_refused_in_one_line_before_anything_is_written(tmp_path):
+    out = tmp_path / "fits"
+    result = runner.invoke(app, ["fit", "afm", str(DATA / "force-save-example.jpk-force"), "--radius", "10um",
+                                 "--indenter-radius", "18.64um", "--cell-shape", "cap", "--cap-height", "5um",
+                                 "--depth-max", "0.2", "--out", str(out)])
+    lines = [line for line in result.output.strip().splitlines() if line]
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert lines[0].startswith("elastocell: error: --indenter-radius: does not apply to --geometry parallel-plates")
+    assert not out.exists()
+
+
+# ---------------------------------------------------------------- lengths in a plausible range
+
+@pytest.mark.parametrize("name, value, shown", [
+    ("radius", "8e-6", "8e-06 um"),  # the audit's: a bare number is in um, so 8 pm
+    ("radius", 8000, "8000 um"),  # 8 mm: gave an accepted E of 21 Pa
+    ("radius", "0.099um", "0.099 um"),
+    ("radius", "1.01mm", "1010 um"),
+    ("radius", 5e-8, "0.05 um"),  # a Python SI float (legacy rule: 50 nm), then the bound
+    ("indenter_radius", "9nm", "0.009 um"),
+    ("indenter_radius", "1.1mm", "1100 um"),
+    ("cap_height", "0.05um", "0.05 um"),
+    ("layer_thickness", "9nm", "0.009 um"),
+    ("layer_thickness", "11mm", "1.1e+04 um"),
+])
+def test_a_length_outside_its_range_is_refused_with_its_value_in_um(name, value, shown):
+    """Bounds: a cell radius and a cap height 0.1 um to 1 mm, an indenter radius 10 nm to 1 mm, a layer
+    thickness 10 nm to 10 mm (LENGTH_BOUNDS); the message shows the value as read, in um, and the bare-number
+    rule."""
+    settings = {"radius": "10um", "geometry": "sphere-indenter", "indenter_radius": "5um", "cell_shape": "sphere"}
+    if name == "cap_height":
+        settings["cell_shape"] = "cap"
+    if name == "layer_thickness":
+        settings["cell_shape"] = "layer"
+    settings[name] = value
+    with pytest.raises(ParameterError) as error:
+        FitSettings(**settings)
+    assert error.value.parameter == name and shown in str(error.value)
+    assert "a bare number is in um" in str(error.value)
+
+
+@pytest.mark.parametrize("name, value, metres", [
+    ("radius", "0.1um", 1e-7), ("radius", "1mm", 1e-3), ("radius", 8e-6, 8e-6), ("radius", 8, 8e-6),
+    ("indenter_radius", "10nm", 1e-8), ("layer_thickness", "10mm", 1e-2), ("cap_height", "4um", 4e-6),
+])
+def test_lengths_on_the_edges_of_their_range_are_taken(name, value, metres):
+    """The bounds are inclusive, and the legacy SI float (8e-6 m) and the bare um (8) read as 8 um."""
+    settings = {"radius": "10um", "geometry": "sphere-indenter", "indenter_radius": "5um",
+                "cell_shape": {"cap_height": "cap", "layer_thickness": "layer"}.get(name, "sphere"),
+                **({"cap_height": "5um"} if name == "cap_height" else {}),
+                **({"layer_thickness": "20um"} if name == "layer_thickness" else {})}
+    settings[name] = value
+    assert getattr(FitSettings(**settings), name) == pytest.approx(metres, rel=1e-12)
+
+
+def test_the_audits_radius_in_metres_on_the_command_line_is_refused(tmp_path):
+    """`--radius 8e-6` (meant as metres) is 8 pm: before, a misleading "fewer than 3 points in contact" and exit
+    3; now one line naming --radius with the value in um, exit 2, nothing written."""
+    out = tmp_path / "fits"
+    result = runner.invoke(app, ["fit", "afm", str(DATA / "force-save-example.jpk-force"), "--radius", "8e-6",
+                                 "--out", str(out)])
+    lines = [line for line in result.output.strip().splitlines() if line]
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert lines[0].startswith("elastocell: error: --radius: 8e-06 um is outside") and "bare number" in lines[0]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("text", ["auto", "AUTO", " Auto "])
+def test_the_python_api_takes_auto_for_the_contact_point_like_the_cli(text):
+    """`--contact-point auto` is the CLI's default; FitSettings refused the same word before."""
+    settings = FitSettings(radius="8um", contact_point=text)
+    assert settings.contact_point is None and settings == FitSettings(radius="8um")
+    with pytest.raises(ParameterError, match="contact_point"):
+        FitSettings(radius="8um", contact_point="automatic")

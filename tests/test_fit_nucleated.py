@@ -268,8 +268,8 @@ def test_a_homogeneous_layer_refuses_the_nucleus_options(extra):
 
 @pytest.mark.parametrize("model", ["both", "hertz"])
 def test_a_nucleus_too_large_for_the_cap_is_refused_in_one_line_before_anything_is_written(tmp_path, model):
-    """With or without the nucleated fit (--model hertz computes no curve): a nucleus of 0.5 R in a cap of
-    0.375 R."""
+    """A nucleus of 0.5 R in a cap of 0.375 R, named before anything else is said about the options (with
+    --model hertz too, which the nucleus options refuse as well: test_hertz_alone_refuses_the_nucleus_options)."""
     out = tmp_path / "fits"
     result = runner.invoke(app, ["fit", "afm", str(DATA / "force-save-example.jpk-force"), "--radius", "8um",
                                  "--geometry", "sphere-indenter", "--cell-shape", "cap", "--cap-height", "3um",
@@ -304,3 +304,23 @@ def test_a_real_curve_gets_the_nucleated_columns_and_the_curve_is_recorded(tmp_p
     assert curve["stiffness_ratio"] == 2 and curve["size_ratio"] == 0.5
     assert curve["indenter_ratio"] == pytest.approx(18.64 / 20)
     assert curve["stopped"] == ""
+
+
+def test_hertz_alone_refuses_the_nucleus_options(tmp_path):
+    """--model hertz with --nucleus-size-ratio/--stiffness-ratio ran half before: no nucleated fit (it needs the
+    master curve or surface), but the volume-average conversions of the Hertz E written as cytoplasm moduli. Now
+    refused in one line naming --model and what to use instead, before anything is written; master and both take
+    the options (FitSettings alone: no curve is computed here)."""
+    out = tmp_path / "fits"
+    result = runner.invoke(app, ["fit", "afm", str(DATA / "force-save-example.jpk-force"), "--radius", "10um",
+                                 "--model", "hertz", "--nucleus-size-ratio", "0.5", "--stiffness-ratio", "2",
+                                 "--out", str(out)])
+    lines = [line for line in result.output.strip().splitlines() if line]
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert lines[0].startswith("elastocell: error: --model:") and "--model master or both" in lines[0]
+    assert not out.exists()
+    for geometry in ({}, {"geometry": "sphere-indenter", "indenter_radius": "5um"}):
+        with pytest.raises(ParameterError, match="model"):
+            FitSettings(radius="10um", model="hertz", nucleus_size_ratio=0.5, stiffness_ratio=2.0, **geometry)
+        for model in ("master", "both"):
+            FitSettings(radius="10um", model=model, nucleus_size_ratio=0.5, stiffness_ratio=2.0, **geometry)

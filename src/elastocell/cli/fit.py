@@ -153,9 +153,14 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
            units="R, the cell radius (the layer: h, its thickness)",
            shown="the master surface's range: min(R_b, R/2) (the cap: about min(R_b, H/2); the cone: h/4)"),
        "spring_constant",
-       "sensitivity", opt("poisson_ratio", help="nu (shipped: 0.45, 0.48, 0.49)."),
+       # parsed by FitSettings (first thing the command does): parse_quantity has no ampere for NT-MDT's nm/nA
+       opt("sensitivity", quantity=None, help="Deflection sensitivity (InvOLS): overrides the file's or supplies a "
+           "missing one (deflection = sensitivity x detector signal). A quantity like 50nm/V (NT-MDT, whose signal "
+           "is a photodiode current: 61nm/nA); a bare number is in nm/V (NT-MDT: nm/nA)."),
+       opt("poisson_ratio", help="nu (shipped: 0.45, 0.48, 0.49)."),
        opt("material", help="Master curve's law."),
-       "model", opt("delta_max", help="Fit the data up to this delta = 1 - h/(2R) (<= 0.75)."), "contact_point",
+       "model", opt("delta_max", help="Parallel plates: fit the data up to this delta = 1 - h/(2R) (<= 0.75)."),
+       "contact_point",
        "bootstrap", opt("seed", annotation=int, default=0, help="Seed of the bootstrap."), "nucleus_size_ratio",
        opt("stiffness_ratio", annotation=float | None, default=None, help="gamma = E_n/E_c.",
            shown="none: homogeneous"),
@@ -181,9 +186,9 @@ def fit_afm(files: list[Path], radius: str | None, geometry: str, cell_shape: st
         fit_files,
     )
 
-    contact = None if contact_point.strip().lower() == "auto" else contact_point
     settings = FitSettings(radius=radius, poisson_ratio=poisson_ratio, material=material, geometry=geometry,
-                           model=model, delta_max=delta_max, contact_point=contact, bootstrap=bootstrap, seed=seed,
+                           model=model, delta_max=delta_max, contact_point=contact_point, bootstrap=bootstrap,
+                           seed=seed,
                            baseline_fraction=baseline_fraction, threshold=threshold, baseline_tilt=baseline_tilt,
                            nucleus_size_ratio=nucleus_size_ratio, stiffness_ratio=stiffness_ratio,
                            spring_constant=spring_constant, sensitivity=sensitivity, indenter_radius=indenter_radius,
@@ -209,7 +214,8 @@ def fit_afm(files: list[Path], radius: str | None, geometry: str, cell_shape: st
             typer.echo(f"{row['file']}: E = {row['youngs_modulus']:.4g} Pa [{row['youngs_modulus_ci_low']:.4g}, "
                        f"{row['youngs_modulus_ci_high']:.4g}] ({row['model']}), {reach}"
                        + (f", Hertz {hertz:.4g} Pa" if hertz == hertz else ""))
-        typer.echo(f"{len(rows)} curve(s), {accepted} accepted, {len(rows) - accepted} flagged, in "
+        unreadable = f", {len(result['errors'])} unreadable" if result["errors"] else ""
+        typer.echo(f"{len(rows)} curve(s), {accepted} accepted, {len(rows) - accepted} flagged{unreadable}, in "
                    f"{result['wall_time_s']:.2f} s ({result['execution']}) -> {out / 'fits.csv'}")
     if result["errors"]:
         for _, message in result["errors"]:

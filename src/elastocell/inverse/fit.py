@@ -17,7 +17,9 @@ face half-angle ``half_angle`` (the sharp tip of most AFM cantilevers), fitted a
 cone (:func:`elastocell.scenarios.indentation.pyramid_equivalent_cone`).
 
 Reading (:func:`read_curves`): a ``.csv``/``.tsv``/``.txt`` whose header names the columns ``displacement`` (m)
-and ``force`` (N) is elastocell's plain CSV, read as it is (its displacement is the plate's own). Every other file
+and ``force`` (N) is elastocell's plain CSV, read as it is (its displacement is the plate's own); a force above
+:data:`PLAIN_FORCE_MAX` (1 mN) or a displacement span above :data:`PLAIN_DISPLACEMENT_SPAN_MAX` (1 mm) is a
+column in another unit (nN, um) and the file is refused, naming it. Every other file
 goes to afmformats (JPK ``.jpk-force``/``-force-map``/``-qi-series``/``-qi-data``, Asylum ``.ibw``, AFM Workshop
 ``.csv``, NT-MDT ``.txt``, afmformats' ``.tab``/``.h5``), and afmformats' own error is the one reported. Each
 curve's approach segment (cut at the piezo's turning point) becomes the tip's displacement towards the sample,
@@ -27,10 +29,14 @@ the cantilever's deflection, the convention of afmformats and of nanite's ``comp
 indentation and E comes out too low. ``spring_constant`` (N/m) and ``sensitivity`` (m/V) override the file's
 calibration or supply a missing one, with ``F = k * deflection`` and ``deflection = sensitivity * signal``: afmformats
 recomputes the force from the raw detector signal where its reader takes them (JPK, AFM Workshop, NT-MDT; the
-NT-MDT signal is a photodiode current in nA, so its sensitivity is in nm/nA, given here as nm/V); for the other
-formats the signal is recovered from the file's own calibration, ``signal = F / (k_file s_file)``, and
-``F = k s signal``. An AFM Workshop file that stores force in nN has no signal to rescale: ``k`` then only turns
-the force into the deflection.
+NT-MDT signal is a photodiode current in nA, so its sensitivity is in nm/nA: ``"61nm/nA"`` or a bare 61 (a
+value written in nm/V is taken as that number of nm/nA, as before), held in m/nA, fits.csv's
+``sensitivity_unit``; a sensitivity given per ampere is refused for a file of any other maker, whose signal is a
+voltage); for the other formats the signal is recovered from the file's own calibration,
+``signal = F / (k_file s_file)``, and ``F = k s signal``. An AFM Workshop file that stores force in nN has no
+signal to rescale: ``k`` then only turns the force into the deflection, and a sensitivity does not apply
+(detected by reading the file again with it doubled: the force stays; fits.csv's ``calibration`` says so and its
+``sensitivity`` is NaN).
 
 Contact point (``contact_point="auto"``, :func:`estimate_contact`):
 1. Baseline: the first ``baseline_fraction`` (20 %) of the approach (sorted by displacement), its mean (with
@@ -62,14 +68,18 @@ positive, E at the solver's lower bound, an interval bound below zero) is writte
 - the contact point inside the rise region and not on its edge;
 - E finite, positive and above the solver's floor; its interval finite with both bounds > 0 and not wider
   than E itself (``ci_high - ci_low <= E``);
+- E at most :data:`PLAUSIBLE_MODULUS_MAX` (1 GPa): above it no cell, gel or tissue, a unit or calibration error;
 - at least :data:`MIN_POINTS_IN_CONTACT` points in contact;
 - residuals without structure: the signs of the in-contact residuals, taken one per correlation length of the
   baseline noise (so coloured noise is not mistaken for a misfit), have a runs-test z above
   :data:`RUNS_Z_LIMIT`, or the misfit is small (the rms of the residuals smoothed over a twentieth of the contact
   region, below :data:`SYSTEMATIC_LIMIT` of the largest fitted force).
-A curve that cannot be fitted at all (no contact, too few points, a curve of a map afmformats cannot convert) is
-a row with NaN values and its reason as the flag; a file that cannot be read is a row flagged "unreadable" with its
-``error``. The command exits with code 2 when a file cannot be read, 3 when no curve was accepted.
+A curve that cannot be fitted at all (no contact, too few points, a fixed contact point outside the curve's
+displacement range, a curve of a map afmformats cannot convert) is a row with NaN values and its reason as the
+flag; an unexpected exception while fitting one curve (a bug) is such a row flagged "fit failed: <type>:
+<message> (an internal error: please report it)", and the other curves go on; a file that cannot be read is a row
+flagged "unreadable" with its ``error``, in the file's place among the rows. The command exits with code 2 when a
+file cannot be read (after fitting the others), 3 when no curve was accepted.
 
 Many files: :func:`fit_files` runs one Dask task per file (:mod:`elastocell.simulation.distributed`) with ``workers`` or
 ``scheduler``, or by itself from :data:`DASK_AUTO_MIN_FILES` files on; ``fits.csv`` is the same either way.
@@ -141,9 +151,26 @@ largest force) reach at most 1.6 % (none flagged; coloured noise alone reaches r
 runs test is not enough on its own); the wrong model (master-curve data fitted by Hertz to delta 0.75, and the
 reverse) 6.6-9.3 %; the real curves of tests/data/afm 0.1-2.0 % where accepted (parallel plates, R = 8 um)."""
 
+PLAUSIBLE_MODULUS_MAX = 1e9
+"""Pa: a fitted E above this (1 GPa; bone is about 20 GPa, the stiffest cells and tissues measured by AFM reach
+MPa) is no cell, gel or tissue, and is flagged: a force or displacement in the wrong unit, or a wrong calibration,
+gives such numbers (a plain CSV's force in nN read as N multiplies E by 1e9)."""
+PLAIN_FORCE_MAX = 1e-3
+"""N: the largest |force| of a plain CSV (in N) that is read; AFM forces are pN to uN, so a larger value is a
+force in another unit (nN, pN) and the file is refused."""
+PLAIN_DISPLACEMENT_SPAN_MAX = 1e-3
+"""m: the largest displacement span of a plain CSV (in m) that is read; an AFM approach travels nm to tens of
+um, so a larger span is a displacement in another unit (um, nm) and the file is refused."""
+LENGTH_BOUNDS = {"radius": (1e-7, 1e-3, "a cell radius"), "cap_height": (1e-7, 1e-3, "a cap height"),
+                 "indenter_radius": (1e-8, 1e-3, "an indenter radius"),
+                 "layer_thickness": (1e-8, 1e-2, "a layer thickness")}
+"""(lowest, highest in m, what it is) of each length :class:`FitSettings` takes: a value outside is a length in
+another unit than meant (``--radius 8e-6`` is 8 pm: a bare number is in um) and is refused."""
+
 # makers whose afmformats reader recomputes the force from the raw signal with a user's calibration
 _RECALIBRATING_READERS = ("JPK Instruments", "AFM workshop", "NT-MDT Spectrum Instruments")
 _NTMDT = "NT-MDT Spectrum Instruments"
+_WORKSHOP = "AFM workshop"  # its files hold a detector signal in V or a force in nN (then no calibration applies)
 
 
 class CurveError(ValueError):
@@ -167,16 +194,57 @@ def _setting(value, unit: str, parameter: str, legacy: bool = False) -> float | 
     return parse_quantity(value, unit, parameter)[0]
 
 
+_PER_CURRENT = re.compile(r"\s*([+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)\s*([pnu\u00b5\u03bcm]?m)\s*/\s*"
+                          r"([pnu\u00b5\u03bcm]?)A\s*")
+_CURRENT_PREFIXES = {"": 1.0, "m": 1e-3, "u": 1e-6, "\u00b5": 1e-6, "\u03bc": 1e-6, "n": 1e-9, "p": 1e-12}
+
+
+def _sensitivity_setting(value) -> tuple[float | None, str | None]:
+    """A FitSettings sensitivity and its unit: a length per current (``'61nm/nA'``, ``'61 m/A'``: NT-MDT, whose
+    detector signal is a photodiode current) in m/nA, the number a bare value (nm/nA) gives, with ``"m/nA"``;
+    anything else as :func:`_setting` reads a sensitivity (m/V, with the legacy SI rule) with ``"m/V"`` (None:
+    no sensitivity, ``(None, None)``). parse_quantity has no ampere: the per-current spelling is read here."""
+    if value is None:
+        return None, None
+    if isinstance(value, str) and len(value) <= 64:
+        match = _PER_CURRENT.fullmatch(value)
+        if match is not None:
+            metres = parse_quantity(match[1] + match[2], "m", "sensitivity")[0]
+            return metres / _CURRENT_PREFIXES[match[3]] * 1e-9, "m/nA"
+    return _setting(value, "m/V", "sensitivity", legacy=True), "m/V"
+
+
+def _check_length(name: str, value: float | None) -> None:
+    """Refuse (ParameterError naming ``name``) a length outside :data:`LENGTH_BOUNDS`."""
+    if value is None or name not in LENGTH_BOUNDS:
+        return
+    low, high, noun = LENGTH_BOUNDS[name]
+    if not low <= value <= high:
+        raise ParameterError(name, f"{value * 1e6:.4g} um is outside [{low * 1e6:g}, {high * 1e6:g}] um, the range "
+                                   f"of {noun} (a bare number is in um: 8 is 8 um, and on the command line 8e-6 is "
+                                   "8 pm; give the unit, e.g. 8um)")
+
+
 @dataclass(frozen=True)
 class FitSettings:
     """What ``elastocell fit afm`` fits, under the CLI's names.
 
     Quantities follow the CLI's rule: a string with a unit (``radius="8um"``, ``spring_constant="50mN/m"``,
     ``sensitivity="50nm/V"``) or a bare number in its documented unit (lengths in um, spring constant N/m,
-    sensitivity nm/V). Lengths given as SI floats (``radius=8e-6``) keep working: a radius, indenter radius, cap
-    height or layer thickness, or a sensitivity, below :data:`LEGACY_SI_BELOW` cannot be meant in um or nm/V and
-    is read as metres (m/V); ``contact_point`` has no such reading (any value can be a contact point): bare, it is
-    in um. After construction every field holds SI floats (m, N/m, m/V), as fits.csv and fit_settings.json record.
+    sensitivity nm/V; NT-MDT, whose signal is a current: ``"61nm/nA"`` or a bare number in nm/nA). Lengths given
+    as SI floats (``radius=8e-6``) keep working: a radius, indenter radius, cap height or layer thickness, or a
+    sensitivity, below :data:`LEGACY_SI_BELOW` cannot be meant in um or nm/V and is read as metres (m/V); then
+    each length must lie within :data:`LENGTH_BOUNDS` (a cell radius and cap height 0.1 um to 1 mm, an indenter
+    radius 10 nm to 1 mm, a layer thickness 10 nm to 10 mm). ``contact_point`` has no such reading (any value can
+    be a contact point): bare, it is in um; ``"auto"`` (any case) is None. After construction every field holds
+    SI floats (m, N/m, m/V; a sensitivity given per ampere: m/nA, :attr:`sensitivity_unit`), as fits.csv and
+    fit_settings.json record.
+
+    An option that does not apply to the geometry is refused, naming it, rather than ignored: the plates take no
+    ``indenter_radius``, ``cap_height``, ``layer_thickness``, ``depth_max`` or ``cell_shape`` other than sphere;
+    the indenters no ``delta_max`` other than 0.75; the sphere no ``cap_height`` or ``layer_thickness``, the cap no
+    ``layer_thickness``, the layer (and the cone's) no ``cap_height``. ``model="hertz"`` with the nucleus options
+    is refused (the nucleated fit needs the master curve or surface).
 
     geometry: ``parallel-plates`` (``plates``) or ``sphere-indenter`` (a bead of radius ``indenter_radius``, needed,
     pressed into a cell of shape ``cell_shape`` on a dish; the x-axis is the bead's depth). ``delta_max`` limits the
@@ -211,18 +279,29 @@ class FitSettings:
     half_angle: float | str | None = None  # degrees after construction (cone; pyramid: the face's)
 
     def __post_init__(self):
+        if isinstance(self.contact_point, str) and self.contact_point.strip().lower() == "auto":
+            object.__setattr__(self, "contact_point", None)  # the CLI's default spelling
+        sensitivity, sensitivity_unit = _sensitivity_setting(self.sensitivity)
+        object.__setattr__(self, "sensitivity", sensitivity)
+        object.__setattr__(self, "_sensitivity_unit", sensitivity_unit)  # not a field: m/V or m/nA, as given
         for name, unit, legacy in (("radius", "m", True), ("contact_point", "m", False),
-                                   ("spring_constant", "N/m", False), ("sensitivity", "m/V", True),
+                                   ("spring_constant", "N/m", False),
                                    ("indenter_radius", "m", True), ("cap_height", "m", True),
                                    ("layer_thickness", "m", True)):
             object.__setattr__(self, name, _setting(getattr(self, name), unit, name, legacy))
-        layer = GEOMETRIES.get(str(self.geometry).strip().lower()) in INDENTERS and self.cell_shape == "layer"
-        if GEOMETRIES.get(str(self.geometry).strip().lower()) in CONES:
+        for name in ("radius", "spring_constant", "sensitivity", "indenter_radius", "cap_height", "layer_thickness"):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise ParameterError(name, f"must be > 0, got {value}")
+            _check_length(name, value)
+        resolved = GEOMETRIES.get(str(self.geometry).strip().lower())
+        layer = resolved in INDENTERS and self.cell_shape == "layer"
+        if resolved in CONES:
             surface_shape(self.cell_shape, "cone")  # the layer's surface only: named before --radius would be
+        if resolved is not None:  # an option the geometry ignores: named before what the geometry needs
+            self._refuse_what_does_not_apply(resolved)
         if self.radius is None and not layer:
             raise ParameterError("radius", "required (the cell radius, e.g. 8um)")
-        if self.radius is not None and not (math.isfinite(self.radius) and self.radius > 0):
-            raise ParameterError("radius", f"must be > 0, got {self.radius}")
         if not (math.isfinite(self.poisson_ratio) and -1 < self.poisson_ratio < 0.5):
             raise ParameterError("poisson_ratio", f"must be in (-1, 0.5), got {self.poisson_ratio}")
         geometry = GEOMETRIES.get(str(self.geometry).strip().lower())
@@ -271,10 +350,6 @@ class FitSettings:
             raise ParameterError("baseline_fraction", f"must be in [0.02, 0.8], got {self.baseline_fraction}")
         if not self.threshold > 0:
             raise ParameterError("threshold", f"must be > 0, got {self.threshold}")
-        for name in ("spring_constant", "sensitivity", "indenter_radius", "cap_height", "layer_thickness"):
-            value = getattr(self, name)
-            if value is not None and not (math.isfinite(value) and value > 0):
-                raise ParameterError(name, f"must be > 0, got {value}")
         if (self.nucleus_size_ratio is None) != (self.stiffness_ratio is None):
             raise ParameterError("nucleus_size_ratio", "give both --nucleus-size-ratio and --stiffness-ratio, or neither")
         if self.nucleus_size_ratio is not None:
@@ -286,6 +361,50 @@ class FitSettings:
                                self.cap_ratio)
             if not (math.isfinite(self.stiffness_ratio) and self.stiffness_ratio > 0):
                 raise ParameterError("stiffness_ratio", f"must be > 0, got {self.stiffness_ratio}")
+            if self.model == "hertz":
+                raise ParameterError("model", "hertz fits no cell with a nucleus: the nucleated fit "
+                                              "(--nucleus-size-ratio, --stiffness-ratio) needs the master curve or "
+                                              "surface; use --model master or both")
+
+    def _refuse_what_does_not_apply(self, geometry: str) -> None:
+        """A ParameterError naming the first option given that ``geometry`` (resolved) and ``cell_shape`` do not
+        use, and saying which geometry it belongs to: an option silently ignored would fit something else than
+        the user described."""
+        given = {name: getattr(self, name) is not None for name in ("indenter_radius", "cap_height",
+                                                                    "layer_thickness", "depth_max")}
+        if geometry == "parallel-plates":
+            belongs = {"indenter_radius": "--geometry sphere-indenter (the bead's radius)",
+                       "cap_height": "--geometry sphere-indenter --cell-shape cap",
+                       "layer_thickness": "--geometry sphere-indenter, cone or pyramid with --cell-shape layer",
+                       "depth_max": "--geometry sphere-indenter, cone or pyramid (the plates fit up to --delta-max)"}
+            for name, where in belongs.items():
+                if given[name]:
+                    raise ParameterError(name, f"does not apply to --geometry parallel-plates: it belongs to {where}")
+            if self.cell_shape != "sphere":
+                raise ParameterError("cell_shape", f"{self.cell_shape!r} does not apply to --geometry "
+                                                   "parallel-plates (a suspended cell between plates): it belongs to "
+                                                   "--geometry sphere-indenter, cone or pyramid")
+            return
+        default = self.__dataclass_fields__["delta_max"].default
+        if self.delta_max != default:
+            raise ParameterError("delta_max", f"does not apply to --geometry {geometry}: it belongs to --geometry "
+                                              "parallel-plates; an indenter is fitted up to --depth-max")
+        shape = self.cell_shape
+        if geometry in CONES and given["cap_height"]:
+            raise ParameterError("cap_height", f"does not apply to --geometry {geometry} (a layer): it belongs to "
+                                               "--geometry sphere-indenter --cell-shape cap")
+        if geometry == "sphere-indenter":
+            check_shape(shape)
+            for name, shapes in (("cap_height", ("cap",)), ("layer_thickness", ("layer",))):
+                if given[name] and shape not in shapes:
+                    raise ParameterError(name, f"does not apply to --cell-shape {shape}: it belongs to --geometry "
+                                               f"sphere-indenter --cell-shape {shapes[0]}")
+
+    @property
+    def sensitivity_unit(self) -> str | None:
+        """The unit ``sensitivity`` holds: ``"m/V"``, ``"m/nA"`` when it was given per ampere (``'61nm/nA'``, for
+        NT-MDT files only), None without a sensitivity."""
+        return getattr(self, "_sensitivity_unit", None if self.sensitivity is None else "m/V")
 
     @property
     def length_unit(self) -> float:
@@ -339,7 +458,10 @@ def parse_spring_constant(value, parameter: str = "spring_constant") -> float:
 
 
 def parse_sensitivity(value, parameter: str = "sensitivity") -> float:
-    """A deflection sensitivity in m/V from '50nm/V' or a bare number (nm/V)."""
+    """A deflection sensitivity in m/V from '50nm/V' or a bare number (nm/V); NT-MDT's per current, '61nm/nA', in
+    m/nA (the number the bare 61 gives)."""
+    if isinstance(value, str) and len(value) <= 64 and _PER_CURRENT.fullmatch(value):
+        return _sensitivity_setting(value)[0]
     return parse_quantity(value, "m/V", parameter)[0]
 
 
@@ -360,21 +482,26 @@ class Curve:
     instrument: str = ""
     format: str = "plain CSV"
     spring_constant: float = float("nan")  # N/m
-    sensitivity: float = float("nan")  # m/V (NT-MDT: m/nA)
+    sensitivity: float = float("nan")  # m/V (NT-MDT: m/nA): sensitivity_unit
     calibration: str = "file"
     position: str = "displacement column"
+    sensitivity_unit: str = ""  # "m/V", "m/nA" (NT-MDT: its signal is a current); "" (plain CSV) none
 
     def info(self) -> dict:
         """The columns fits.csv records about the curve's reading."""
         return {"source": self.source, "curve_index": self.index, "instrument": self.instrument,
                 "format": self.format, "spring_constant": self.spring_constant, "sensitivity": self.sensitivity,
-                "calibration": self.calibration, "position": self.position}
+                "sensitivity_unit": self.sensitivity_unit, "calibration": self.calibration,
+                "position": self.position}
 
 
-def read_curves(path: Path, spring_constant: float | None = None, sensitivity: float | None = None) -> list[Curve]:
+def read_curves(path: Path, spring_constant: float | None = None, sensitivity: float | None = None,
+                sensitivity_unit: str | None = None) -> list[Curve]:
     """Every approach curve in ``path`` (see the module docstring): elastocell's plain CSV, or afmformats'
-    formats with the tip position; ``spring_constant`` (N/m) and ``sensitivity`` (m/V) override or supply the
-    file's calibration. Raises CurveError naming the file (with afmformats' own error for its formats)."""
+    formats with the tip position; ``spring_constant`` (N/m) and ``sensitivity`` (m/V; NT-MDT m/nA) override or
+    supply the file's calibration. ``sensitivity_unit="m/nA"`` (a sensitivity given per ampere,
+    :attr:`FitSettings.sensitivity_unit`) is refused for a file whose signal is a voltage (every maker but NT-MDT).
+    Raises CurveError naming the file (with afmformats' own error for its formats)."""
     path = Path(path)
     if not path.exists():
         raise CurveError(f"{path}: no such file")
@@ -392,7 +519,7 @@ def read_curves(path: Path, spring_constant: float | None = None, sensitivity: f
             raise CurveError(f"{path}: missing column(s) 'displacement' and/or 'force' (plain CSV needs both)")
         raise CurveError(f"{path}: unsupported file type {path.suffix!r} (plain CSV, or afmformats' "
                          f"{', '.join(afmformats.supported_extensions)})")
-    return _read_afmformats(path, spring_constant, sensitivity)
+    return _read_afmformats(path, spring_constant, sensitivity, sensitivity_unit)
 
 
 def _looks_plain(path: Path) -> bool:
@@ -425,6 +552,18 @@ def _read_plain(path: Path):
         force = pd.to_numeric(table[columns["force"]], errors="raise").to_numpy(float)
     except (ValueError, TypeError):
         raise CurveError(f"{path}: non-numeric values in 'displacement' or 'force'") from None
+    # the plain CSV is in SI: a force in nN or a displacement in um would give a wrong modulus by powers of 1e3
+    finite_force = force[np.isfinite(force)]
+    largest = float(np.max(np.abs(finite_force))) if finite_force.size else 0.0
+    if largest > PLAIN_FORCE_MAX:
+        raise CurveError(f"{path}: the force column reaches {largest:.4g} N, above {PLAIN_FORCE_MAX:g} N: a plain "
+                         "CSV's force is in N (AFM forces are pN to uN); convert it to N, e.g. nN x 1e-9")
+    finite_displacement = displacement[np.isfinite(displacement)]
+    span = float(np.ptp(finite_displacement)) if finite_displacement.size else 0.0
+    if span > PLAIN_DISPLACEMENT_SPAN_MAX:
+        raise CurveError(f"{path}: the displacement column spans {span:.4g} m, above {PLAIN_DISPLACEMENT_SPAN_MAX:g} "
+                         "m: a plain CSV's displacement is in m (an AFM approach travels nm to tens of um); convert "
+                         "it to m, e.g. um x 1e-6")
     return displacement, force
 
 
@@ -453,7 +592,8 @@ def _load_afmformats(path: Path, meta_override: dict):
         logger.setLevel(level)
 
 
-def _read_afmformats(path: Path, spring_constant: float | None, sensitivity: float | None) -> list[Curve]:
+def _read_afmformats(path: Path, spring_constant: float | None, sensitivity: float | None,
+                     sensitivity_unit: str | None = None) -> list[Curve]:
     import warnings
 
     import afmformats
@@ -465,6 +605,10 @@ def _read_afmformats(path: Path, spring_constant: float | None, sensitivity: flo
         if isinstance(error, (KeyboardInterrupt, SystemExit)):
             raise
         raise _afmformats_error(path, error) from None
+    if sensitivity is not None and sensitivity_unit == "m/nA" and maker != _NTMDT:
+        raise CurveError(f"{path}: --sensitivity is given per ampere ({sensitivity * 1e9:.4g} nm/nA, for NT-MDT's "
+                         f"photodiode current) but this file's ({maker}) detector signal is a voltage: give it in "
+                         "nm/V")
     overridden = spring_constant is not None or sensitivity is not None
     recalibrates = maker in _RECALIBRATING_READERS
     override = {}
@@ -481,12 +625,15 @@ def _read_afmformats(path: Path, spring_constant: float | None, sensitivity: flo
         if isinstance(error, (KeyboardInterrupt, SystemExit)):
             raise
         raise _afmformats_error(path, error) from None
+    force_in_file = False
+    if override and maker == _WORKSHOP:  # a file of force in nN: the calibration does not enter the force
+        force_in_file = _calibration_leaves_the_force(path, override, datasets)
     curves = []
     for index, data in enumerate(datasets):
         name = path.stem if len(datasets) == 1 else f"{path.stem}_{index:04d}"
         try:
             curves.append(_afmformats_curve(data, name, str(path), index, maker, spring_constant, sensitivity,
-                                            overridden and not recalibrates))
+                                            overridden and not recalibrates, force_in_file))
         except CurveError as error:
             curves.append(CurveError(f"{path}: curve {index}: {error}"))
     if not curves:
@@ -496,9 +643,35 @@ def _read_afmformats(path: Path, spring_constant: float | None, sensitivity: flo
     return curves
 
 
+def _calibration_leaves_the_force(path: Path, override: dict, datasets) -> bool:
+    """Whether afmformats' force of ``path`` stays the same when the calibration in ``override`` changes: the file
+    holds a force (AFM Workshop's ``Force(nN)`` columns), not a detector signal, so a given sensitivity does not
+    apply and a spring constant only turns the force into the deflection. Probed by reading the file again with
+    the sensitivity (else the spring constant) doubled: a signal's force doubles, a stored force does not."""
+    import warnings
+
+    key = "sensitivity" if "sensitivity" in override else "spring constant"
+    probe = dict(override, **{key: 2 * override[key]})
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            probed = _load_afmformats(path, probe)
+    except Exception:  # the first reading worked with these keys: the probe should too; if not, assume a signal
+        return False
+    if len(probed) != len(datasets):
+        return False
+    for first, second in zip(datasets, probed, strict=True):
+        if "force" not in first.columns or "force" not in second.columns:
+            return False
+        if not np.array_equal(np.asarray(first["force"], float), np.asarray(second["force"], float), equal_nan=True):
+            return False
+    return True
+
+
 def _afmformats_curve(data, name: str, source: str, index: int, maker: str, spring_constant, sensitivity,
-                      rescale: bool) -> Curve:
-    """One afmformats dataset as a Curve (tip position; calibration overridden or supplied)."""
+                      rescale: bool, force_in_file: bool = False) -> Curve:
+    """One afmformats dataset as a Curve (tip position; calibration overridden or supplied). ``force_in_file``:
+    the file holds a force that the calibration does not change (:func:`_calibration_leaves_the_force`)."""
     metadata = data.metadata
     columns = set(data.columns)
     file_k = metadata.get("spring constant")
@@ -524,6 +697,13 @@ def _afmformats_curve(data, name: str, source: str, index: int, maker: str, spri
                              "--spring-constant/--sensitivity cannot rescale its force")
         force = force * (k / file_k) * (s / file_s)
         calibration = "rescaled by elastocell from the file's calibration (signal = F/(k_file s_file))"
+    elif force_in_file:  # say what the options did: the force is the file's
+        calibration = "the file's force (no detector signal to recompute it from)"
+        if spring_constant is not None:
+            calibration += "; the spring constant given turns it into the deflection F/k (tip position)"
+        if sensitivity is not None:
+            calibration += "; the sensitivity given did not apply"
+            s = None  # no sensitivity entered the force
     elif spring_constant is not None or sensitivity is not None:
         calibration = "recomputed by afmformats from the raw signal"
     if maker == _NTMDT and s:
@@ -552,7 +732,7 @@ def _afmformats_curve(data, name: str, source: str, index: int, maker: str, spri
                  instrument=instrument, format=str(metadata.get("format", maker)),
                  spring_constant=float(k) if k else float("nan"), sensitivity=float(s) if s else float("nan"),
                  calibration=calibration, position=position + " = piezo height - deflection"
-                 if "file's" not in position else position)
+                 if "file's" not in position else position, sensitivity_unit="m/nA" if maker == _NTMDT else "m/V")
 
 
 def _clean(name: str, displacement: np.ndarray, force: np.ndarray):
@@ -651,7 +831,18 @@ def _change_point(x: np.ndarray, y: np.ndarray, low: float, high: float, tilt: b
             for i in range(k):
                 for j in range(i):
                     gram[:, i, j] = gram[:, j, i]
-            usable = gg > 0
+            # the power-law term must not lie in the baseline's span (a candidate before every point with p = 1
+            # under a tilted baseline is the slope itself: a singular system): the part of g that the baseline
+            # columns cannot represent (a Schur complement) must be a real share of g
+            basis = gram[:, :k - 1, :k - 1]
+            cross = gram[:, :k - 1, k - 1]
+            if tilt:
+                determinant = sums["1"] * sums["xx"] - sums["x"] ** 2
+                projected = (sums["xx"] * cross[:, 0] ** 2 - 2 * sums["x"] * cross[:, 0] * cross[:, 1]
+                             + sums["1"] * cross[:, 1] ** 2) / max(determinant, 1e-300)
+            else:
+                projected = cross[:, 0] ** 2 / basis[:, 0, 0]
+            usable = (gg > 0) & (gg - projected > 1e-9 * gg)
             gram[~usable] = np.eye(k)
             coefficients = np.linalg.solve(gram, rhs[..., None])[..., 0]
             ssr = sums["yy"] - np.sum(coefficients * rhs, axis=1)
@@ -942,6 +1133,9 @@ def check_fit(fit: dict, region: tuple[float, float] | None = None) -> list[str]
             reasons.append(f"interval wider than E ({low:.3g} to {high:.3g} Pa for {modulus:.3g} Pa)")
         elif not math.isfinite(low) and math.isfinite(high) and high > 2 * modulus:
             reasons.append(f"interval wider than E (up to {high:.3g} Pa for {modulus:.3g} Pa)")
+        if modulus > PLAUSIBLE_MODULUS_MAX:
+            reasons.append(f"E = {modulus:.3g} Pa is above {PLAUSIBLE_MODULUS_MAX:.0e} Pa: not a cell, gel or tissue: "
+                           "check the units and the calibration")
     for key in ("youngs_modulus_bootstrap_ci_low", "youngs_modulus_bootstrap_ci_high"):
         if key in fit and not (fit[key] > 0 and math.isfinite(modulus)):
             fit[key] = nan  # a bound at or below zero (or of no E) is no result either
@@ -991,6 +1185,10 @@ def fit_curve(name: str, displacement, force, settings: FitSettings,
     displacement, force = _clean(name, np.asarray(displacement, float), np.asarray(force, float))
     start = time.perf_counter()
     fit_contact = settings.contact_point is None
+    if not fit_contact and not displacement[0] <= settings.contact_point < displacement[-1]:
+        raise CurveError(f"{name}: --contact-point {settings.contact_point * 1e6:.6g} um is outside the curve's "
+                         f"displacement range ({displacement[0] * 1e6:.6g} to {displacement[-1] * 1e6:.6g} um): "
+                         "no point before or after it to fit")
     try:
         estimate = estimate_contact(displacement, force, settings.baseline_fraction, settings.threshold, name,
                                     settings.baseline_tilt)
@@ -1340,13 +1538,17 @@ def _flagged_row(name: str, message: str, curve: Curve | None, settings: FitSett
 def _fit_path(path: Path, settings: FitSettings, curve: MasterCurve | None, plot_directory: Path | None,
               nucleated: NucleatedCurve | None = None) -> list:
     """Fit every curve of one file: ``[(name, row, None), ...]`` in file order (a curve that cannot be fitted is a
-    row with its reason as the flag; one failing curve does not stop the others); ``[(None, None, message)]``
-    when the file cannot be read. Plots go to ``plot_directory/<name>.png``."""
+    row with its reason as the flag, an unexpected exception while fitting it (a bug) one flagged "fit failed:
+    <type>: <message> (an internal error: please report it)"; one failing curve does not stop the others);
+    ``[(None, None, message)]`` when the file cannot be read. Plots go to ``plot_directory/<name>.png``."""
     out = []
     try:
-        curves = read_curves(path, settings.spring_constant, settings.sensitivity)
+        curves = read_curves(path, settings.spring_constant, settings.sensitivity, settings.sensitivity_unit)
     except CurveError as error:
         return [(None, None, str(error))]
+    except Exception as error:  # not KeyboardInterrupt/SystemExit: the other files go on
+        return [(None, None, f"{path}: reading failed: {type(error).__name__}: {error} (an internal error: please "
+                             "report it)")]
     for index, item in enumerate(curves):
         if isinstance(item, CurveError):  # a curve of a map afmformats could not convert
             name = f"{path.stem}_{index:04d}" if len(curves) > 1 else path.stem
@@ -1360,6 +1562,9 @@ def _fit_path(path: Path, settings: FitSettings, curve: MasterCurve | None, plot
                 if message.startswith(f"{name}: "):
                     message = message[len(name) + 2:]
                 row = _flagged_row(name, message, item, settings)
+            except Exception as error:  # not KeyboardInterrupt/SystemExit: one curve does not lose the batch
+                row = _flagged_row(name, f"fit failed: {type(error).__name__}: {error} (an internal error: please "
+                                         "report it)", item, settings)
         row.update(info)
         if plot_directory is not None and "_plot" in row:
             plot_fit(plot_directory / f"{name}.png", row)
@@ -1394,7 +1599,7 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
     """Fit every curve of every file; write ``out/fits.csv``, ``out/<curve>.png``, ``out/fit_settings.json``.
 
     ``fits.csv`` has one row per curve (a file that cannot be read: one row with ``flag`` "unreadable" and its
-    ``error``); ``flag`` is empty for an accepted curve. Returns ``{"rows": [...], "accepted": n,
+    ``error``, in the file's place); ``flag`` is empty for an accepted curve. Returns ``{"rows": [...], "accepted": n,
     "errors": [(file, message), ...], "wall_time_s": ..., "execution": ...}``; ``rows`` holds every curve's row,
     flagged ones included.
     Execution: with ``scheduler`` (a Dask address) or ``workers`` (local cluster of that many processes), or
@@ -1452,17 +1657,19 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
         finally:
             if bar is not None:
                 bar.stop()
-    rows, errors, used_names = [], [], set()
+    rows, errors, used_names, table = [], [], set(), []
     for index, path in enumerate(files):
         for name, row, message in per_file[index]:
-            if name is None:  # the file could not be read
-                errors.append((str(path), message))
-                continue
-            unique, counter = name, 1
+            unique, counter = name if name is not None else path.stem, 1
+            base = unique
             while unique in used_names:
-                unique = f"{name}_{counter}"
+                unique = f"{base}_{counter}"
                 counter += 1
             used_names.add(unique)
+            if name is None:  # the file could not be read: its row in its place
+                errors.append((str(path), message))
+                table.append({"file": unique, "source": str(path), "flag": "unreadable", "error": message})
+                continue
             row["file"] = unique
             if plots and use_dask:
                 source = out / f".plots-{index:06d}" / f"{name}.png"
@@ -1471,6 +1678,7 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
             elif plots and "_plot" in row:
                 plot_fit(out / f"{unique}.png", row)
             rows.append(row)
+            table.append({k: v for k, v in row.items() if k != "_plot"})
         if use_dask and plots:
             folder = out / f".plots-{index:06d}"
             if folder.is_dir():
@@ -1478,8 +1686,6 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
                     leftover.unlink()
                 folder.rmdir()
     accepted = sum(1 for row in rows if not row.get("flag"))
-    table = [{k: v for k, v in row.items() if k != "_plot"} for row in rows]
-    table += [{"file": Path(f).stem, "source": f, "flag": "unreadable", "error": message} for f, message in errors]
     frame = pd.DataFrame(table)
     for column in CONTRACT_COLUMNS:
         if column not in frame:
@@ -1496,13 +1702,15 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
         pass
     wall = time.perf_counter() - start
     curve_keys = ("file", "source", "curve_index", "instrument", "format", "spring_constant", "sensitivity",
-                  "calibration", "position", "flag")
+                  "sensitivity_unit", "calibration", "position", "flag")
     write_json(out / "fit_settings.json", {
         "settings": asdict(settings), "files": [str(p) for p in files],
         "curves": [{key: row.get(key) for key in curve_keys if key in row} for row in rows],
         "units": {"radius": "m", "indenter_radius": "m", "cap_height": "m", "layer_thickness": "m",
                   "depth_max": "m in fits.csv, units of R in settings (a layer, a cone: h)", "contact_point": "m", "spring_constant": "N/m",
-                  "sensitivity": "m/V (NT-MDT: m/nA)", "youngs_modulus": "Pa"},
+                  "sensitivity": "m/V (NT-MDT: m/nA)", "youngs_modulus": "Pa",
+                  "sensitivity_of_each_curve": "its sensitivity_unit column (m/V, or m/nA for NT-MDT)",
+                  "sensitivity_given": settings.sensitivity_unit},
         "master_curve": (curve.metadata | {"poisson_ratio": curve.poisson_ratio, "material": curve.material}
                          | ({"hertz_blend_below": curve.hertz_blend_below} if isinstance(curve, MasterCurve) else {})
                          ) if curve else None,
@@ -1527,16 +1735,15 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
         "checks": {"min_points_in_contact": MIN_POINTS_IN_CONTACT, "runs_z_limit": RUNS_Z_LIMIT,
                    "systematic_limit": SYSTEMATIC_LIMIT, "modulus_floor": MODULUS_FLOOR,
                    "interval": "finite, low > 0, high - low <= E", "contact": "inside the rise region, not on "
-                   "its edge"},
+                   "its edge", "plausible_modulus_max": PLAUSIBLE_MODULUS_MAX},
         "nucleated_curve": None if nucleated is None else nucleated.metadata,
         "heterogeneous_conversion": None if settings.nucleus_size_ratio is None else (
             "youngs_modulus_cytoplasm_nucleated: E_c fitted to the nucleated cell's own curve (nucleated_curve: "
             "axisymmetric solver, concentric nucleus), no conversion; effective_stiffness_ratio_fitted = "
             "youngs_modulus / that E_c. Conversions of the homogeneous fit beside it: E_c = E_eff / (1 + (gamma - "
             "1) phi) (youngs_modulus_cytoplasm, volume average, phi the nucleus's volume fraction) and the "
-            "Hashin-Shtrikman upper bound (*_hashin_shtrikman_upper); E_n = gamma E_c."
-            + ("" if settings.model != "hertz" else " model hertz: no nucleated fit (it needs the master "
-               "curve or surface)")),
+            "Hashin-Shtrikman upper bound (*_hashin_shtrikman_upper); E_n = gamma E_c. The nucleated fit needs "
+            "the master curve or surface: model hertz with a nucleus is refused."),
         "execution": execution, "dask_auto_min_files": DASK_AUTO_MIN_FILES, "n_curves": len(rows),
         "n_accepted": accepted, "n_flagged": len(rows) - accepted, "n_unreadable": len(errors),
         "n_errors": len(errors),  # the name earlier outputs used for n_unreadable
