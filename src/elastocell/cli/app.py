@@ -46,7 +46,8 @@ mastercurve: master curves of a homogeneous cell (compression, shear), shipped, 
 bench: lattice-Boltzmann throughput of this machine.
 
 A bare number is in the option's documented unit (each --help says which); the --radius and --youngs-modulus
-of a simulated cell are dimensionless (units of R and E_c) unless given with a unit (8um, 1kPa)."""
+of a simulated cell, and indent's --indenter-radius, --cap-height and --layer-thickness, are dimensionless
+(units of R and E_c) unless given with a unit (8um, 1kPa)."""
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help=HELP)
 

@@ -144,7 +144,7 @@ def mastercurve_indentation(poisson_ratio: float, material: str, out: Path | Non
            "the dish, H/R in [0.3, 1]; layer: a tissue section, gel or flat cell of thickness --layer-thickness "
            "bonded to the dish)."),
        opt("indenter_radius", annotation=str | None, default=None, scale=None, shown="required with sphere-indenter"),
-       opt("cap_height", scale=None), opt("layer_thickness", scale=None),
+       opt("cap_height", scale=None, shown="required with --cell-shape cap"), opt("layer_thickness", scale=None),
        opt("half_angle", help="--geometry cone: the cone's half-angle (axis to flank); --geometry pyramid: the "
            "face half-angle (axis to face), fitted as the cone of tan(alpha_c) = 2/sqrt(pi) tan(alpha).",
            shown="required with --geometry cone or pyramid"),

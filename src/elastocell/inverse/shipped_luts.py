@@ -6,13 +6,24 @@ hold dclab's ``identifier``, channel, flow rate and fluid viscosity, and elastoc
 temperature, resolution, which points reached a stationary shape).
 
     import elastocell, dclab
+    from dclab.features.emodulus import get_emodulus
     elastocell.register_lut()            # every shipped table, by its identifier
     ds = dclab.new_dataset("measurement.rtdc")
-    ds.config["calculation"] = {"emodulus lut": "elastocell-...", "emodulus medium": "0.59% MC-PBS",
-                                "emodulus temperature": 23.0, "emodulus viscosity model": "buyukurganci-2022"}
-    ds["emodulus"]
+    setup = ds.config["setup"]
+    emodulus_kpa = get_emodulus(area_um=ds["area_um"], deform=ds["deform"], medium=setup["medium"],
+                                channel_width=setup["channel width"], flow_rate=setup["flow rate"],
+                                px_um=ds.config["imaging"]["pixel size"], temperature=setup["temperature"],
+                                lut_data="elastocell-...", visc_model="buyukurganci-2022")
 
-dclab then scales the table to the measurement's flow rate, channel width and viscosity as for its own tables.
+dclab then scales the table to the measurement's flow rate, channel width and viscosity as for its own tables
+(``temperature`` in degC, within the viscosity model's range: 22-37 degC for MC-PBS with "buyukurganci-2022",
+0-40 degC for water with "kestin-1978"; outside it dclab only warns and extrapolates). Calling
+:func:`~dclab.features.emodulus.get_emodulus` on the file's ``area_um`` and ``deform`` is the reliable way:
+dclab's shortcut, setting ``ds.config["calculation"]`` ("emodulus lut", "emodulus medium", "emodulus
+temperature", "emodulus viscosity model") and reading ``ds["emodulus"]``, computes the modulus only when the file
+stores none: where ``"emodulus" in ds.features_innate`` (files whose instrument computed it, e.g. dclab's
+``fmt-hdf5_fl_wide-channel_2023`` test file) ``ds["emodulus"]`` is the stored modulus, silently, whatever table
+is configured. ``elastocell fit rtdc FILES --lut <the table's file>`` does all of this and recomputes every event.
 """
 
 from __future__ import annotations
