@@ -401,3 +401,15 @@ def test_the_figure_labels_events_by_their_reason(measurements, tmp_path, monkey
     (figure,) = figures
     labels = sorted(t.get_text() for t in figure.axes[0].get_legend().get_texts())
     assert labels == ["converted (12)", "no temperature (7)", "outside the table (4)"]
+
+
+def test_the_python_api_takes_the_commands_names(measurements, tmp_path):
+    """``elastocell.fit_rtdc`` is ``elastocell fit rtdc``: ``lut`` (one name or a list) as --lut; the older
+    keyword ``tables`` gives the same conversion (12 of the 16 events of the wide-channel file in LE-2D-FEM-19,
+    as the command reports it above)."""
+    import elastocell
+
+    path = measurements["fmt-hdf5_wide-channel_2023"]
+    by_name = elastocell.fit_rtdc([path], lut="LE-2D-FEM-19", out=tmp_path / "a", plots=False)
+    older = elastocell.fit_rtdc([path], tables=["LE-2D-FEM-19"], out=tmp_path / "b", plots=False)
+    assert by_name["totals"] == older["totals"] == {"LE-2D-FEM-19": (12, 16)}

@@ -562,3 +562,18 @@ def test_the_help_states_the_full_grids_duration():
 
     shown = " ".join(runner.invoke(app, ["lut", "--help"], env={"COLUMNS": "300"}).output.split())
     assert f"[default: ({FULL['duration']:g}, stopping earlier once stationary;" in shown
+
+
+def test_the_python_api_takes_the_commands_names(tmp_path):
+    """``elastocell.lut`` is ``elastocell lut``: a square channel in MC-PBS given by keywords alone (no Newtonian
+    channel_radius or viscosity to pass) reaches the same checks; here dclab's own identifier, refused before
+    anything runs; and flow_rate is required by name."""
+    import elastocell
+
+    with pytest.raises(ParameterError, match="identifier.*dclab's own"):
+        elastocell.lut(tmp_path / "lut.txt", channel_width="20um", channel_shape="square", flow_rate="0.04uL/s",
+                       medium="0.59%MC-PBS", identifier="HE-3D-FEM-22")
+    with pytest.raises(ParameterError, match="flow_rate.*required"):
+        elastocell.lut(tmp_path / "lut.txt", channel_width="20um", channel_shape="square", medium="0.59%MC-PBS",
+                       quick=True)
+    assert not (tmp_path / "lut_runs").exists()

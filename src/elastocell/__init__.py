@@ -25,6 +25,8 @@ _PUBLIC = {
     "indent": "elastocell.api.indentation",
     "shear": "elastocell.api.shear",
     "pipe": "elastocell.api.pipe",
+    "lut": ("elastocell.inverse.lut", "compute_lut"),
+    "fit_rtdc": "elastocell.inverse.rtdc",
     "register_lut": "elastocell.inverse.shipped_luts",
     "shipped_luts": "elastocell.inverse.shipped_luts",
     "study": ("elastocell.studies", "run_study"),
@@ -46,5 +48,6 @@ def __dir__():
     return sorted(list(globals()) + list(_PUBLIC))
 
 
-__all__ = ["cell_parameters", "compress", "equivalent", "indent", "shear", "pipe", "register_lut", "shipped_luts", "study",
+__all__ = ["cell_parameters", "compress", "equivalent", "indent", "shear", "pipe", "lut", "fit_rtdc", "register_lut",
+           "shipped_luts", "study",
            "reproduce", "ParameterError", "__version__"]

@@ -328,7 +328,7 @@ def lut_medium(name=None, temperature=None, flow_index=None, viscosity=None) -> 
     return medium(key, temperature, flow_index), None
 
 
-def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: bool = False,
+def plan(channel_radius=None, flow_rate=None, viscosity=None, radii=None, moduli=None, quick: bool = False,
          poisson_ratio: float = 0.48, material: str = "neo-hookean", resolution: float | None = None,
          duration: float | None = None, stationary_tolerance: float | None = None,
          channel_width=None, channel_shape=None, channel_height=None, medium=None, temperature=None,
@@ -355,6 +355,8 @@ def plan(channel_radius, flow_rate, viscosity, radii=None, moduli=None, quick: b
     shape = channel_shape_of(channel_shape)
     cell = cell_model(stiffness_ratio, size_ratio)
     r_ch = channel_radius_from(channel_radius, channel_width, shape, channel_height)
+    if flow_rate is None:
+        raise ParameterError("flow_rate", "required (the pump's flow rate, e.g. 0.04uL/s)")
     q = _positive(flow_rate, "m^3/s", "flow_rate")
     fluid, eta = lut_medium(medium, temperature, flow_index, viscosity)
     defaults = QUICK if quick else FULL
@@ -951,7 +953,7 @@ def read_lut(path: str | Path) -> tuple[np.ndarray, dict, list[str]]:
 
 
 # =========================================================================== driver
-def compute_lut(out: str | Path, channel_radius, flow_rate, viscosity, radii=None, moduli=None,
+def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=None, radii=None, moduli=None,
                 quick: bool = False, poisson_ratio: float = 0.48, material: str = "neo-hookean",
                 resolution: float | None = None, duration: float | None = None,
                 stationary_tolerance: float | None = None, identifier: str | None = None,

@@ -353,9 +353,12 @@ def expand_files(files: list[Path]) -> list[Path]:
     return expanded
 
 
-def fit_rtdc(files: list[Path], tables: list[str], out: Path, medium: str | None = None,
-             temperature: float | str | None = None, plots: bool = True) -> dict:
-    """Young's modulus of every event of every file through every table. ``medium`` (any of dclab's names, case
+def fit_rtdc(files: list[Path], lut: list[str] | str = ("LE-2D-FEM-19",), out: Path = Path("fits"),
+             medium: str | None = None, temperature: float | str | None = None, plots: bool = True,
+             tables: list[str] | None = None) -> dict:
+    """Young's modulus of every event of every file through every table: ``lut`` as ``elastocell fit rtdc
+    --lut`` (dclab's names or files in dclab's format; one name or a list; ``tables`` is an older name of it).
+    ``medium`` (any of dclab's names, case
     and blanks ignored: :func:`known_medium`) and ``temperature`` (a quantity such as "23degC", "23°C" or
     "296.15K"; a bare number in degC) stand in where a file records none; both are refused in one line (before
     any file is read) when dclab knows no viscosity for them (:func:`check_medium`, :func:`check_temperature`).
@@ -378,7 +381,9 @@ def fit_rtdc(files: list[Path], tables: list[str], out: Path, medium: str | None
     """
     import pandas as pd
 
-    tables = check_tables(list(tables))
+    if tables is not None:
+        lut = tables
+    tables = check_tables([lut] if isinstance(lut, (str, Path)) else list(lut))
     medium = check_medium(medium)
     temperature = check_temperature(temperature, medium)
     files = expand_files(files)
