@@ -577,3 +577,17 @@ def test_the_python_api_takes_the_commands_names(tmp_path):
         elastocell.lut(tmp_path / "lut.txt", channel_width="20um", channel_shape="square", medium="0.59%MC-PBS",
                        quick=True)
     assert not (tmp_path / "lut_runs").exists()
+
+
+def test_shipped_luts_lists_what_ships_and_an_empty_list_is_no_error():
+    """``elastocell shipped-luts`` exits 0 either way: with no table shipped it says so (an empty listing is no
+    error of the input, exit code 2's meaning); otherwise each shipped identifier is listed."""
+    from elastocell.inverse.shipped_luts import shipped_luts
+
+    result = runner.invoke(app, ["shipped-luts"])
+    assert result.exit_code == 0, result.output
+    found = shipped_luts()
+    if not found:
+        assert "ships no look-up table" in result.output
+    for identifier in found:
+        assert identifier in result.output

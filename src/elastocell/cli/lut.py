@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from elastocell.cli.common import fail, user_errors
+from elastocell.cli.common import user_errors
 from elastocell.cli.options import opt, takes
 
 
@@ -98,8 +98,10 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
             typer.echo(f"failed {failure['key']}: {failure['error']}", err=True)
         if result["records"]:
             typer.echo(f"wrote {result['lut']} (identifier {result['identifier']}) and {result['isoelastics']}")
-    if not result["records"]:
-        fail(f"no grid point finished ({result['failures'][0]['error'] if result['failures'] else 'empty grid'})")
+    if not result["records"]:  # the runs failed (exit code 1), the input was checked before they started
+        typer.echo(f"elastocell: error: no grid point finished "
+                   f"({result['failures'][0]['error'] if result['failures'] else 'empty grid'})", err=True)
+        raise typer.Exit(code=1)
     if result["failures"]:
         raise typer.Exit(code=1)
 
@@ -113,8 +115,9 @@ def shipped_luts():
     )
 
     found = tables()
-    if not found:
-        fail("this version of elastocell ships no look-up table: make one with elastocell lut")
+    if not found:  # an empty listing, not an error of the input (exit code 2 is for those)
+        typer.echo("this version of elastocell ships no look-up table: make one with elastocell lut")
+        return
     for identifier, table in found.items():
         meta = table["metadata"]
         settings = meta.get("elastocell", {})
