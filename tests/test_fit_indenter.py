@@ -439,3 +439,13 @@ def test_the_python_api_takes_auto_for_the_contact_point_like_the_cli(text):
     assert settings.contact_point is None and settings == FitSettings(radius="8um")
     with pytest.raises(ParameterError, match="contact_point"):
         FitSettings(radius="8um", contact_point="automatic")
+
+
+def test_the_python_api_reads_plain_numbers_given_as_text_and_refuses_quantities_there():
+    """A plain-number setting given as text (as the CLI passes it) is read; a quantity where a plain number belongs
+    (depth_max is in units of R) is refused naming it, no TypeError from inside the checks."""
+    assert FitSettings(radius="8um", poisson_ratio="0.45") == FitSettings(radius="8um", poisson_ratio=0.45)
+    with pytest.raises(ParameterError, match="depth_max: a plain number"):
+        FitSettings(radius="8um", geometry="sphere-indenter", indenter_radius="5um", depth_max="2um")
+    with pytest.raises(ParameterError, match="threshold: a plain number"):
+        FitSettings(radius="8um", threshold=[5])

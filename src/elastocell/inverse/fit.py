@@ -225,6 +225,13 @@ def _check_length(name: str, value: float | None) -> None:
                                    "8 pm; give the unit, e.g. 8um)")
 
 
+NUMBER_FIELDS = {"poisson_ratio": "dimensionless", "delta_max": "delta = 1 - h/(2R)",
+                 "depth_max": "units of R, the layer's h", "baseline_fraction": "a share of the approach",
+                 "threshold": "baseline standard deviations", "nucleus_size_ratio": "lambda = R_n/R",
+                 "stiffness_ratio": "gamma = E_n/E_c"}
+"""The :class:`FitSettings` fields that are plain numbers (no unit), with what they are measured in."""
+
+
 @dataclass(frozen=True)
 class FitSettings:
     """What ``elastocell fit afm`` fits, under the CLI's names.
@@ -279,6 +286,14 @@ class FitSettings:
     half_angle: float | str | None = None  # degrees after construction (cone; pyramid: the face's)
 
     def __post_init__(self):
+        for name, unit in NUMBER_FIELDS.items():  # plain numbers: a string of one is read, anything else refused
+            value = getattr(self, name)
+            if value is None or (isinstance(value, (int, float)) and not isinstance(value, bool)):
+                continue
+            try:
+                object.__setattr__(self, name, float(value))
+            except (TypeError, ValueError):
+                raise ParameterError(name, f"a plain number ({unit}), got {value!r}") from None
         if isinstance(self.contact_point, str) and self.contact_point.strip().lower() == "auto":
             object.__setattr__(self, "contact_point", None)  # the CLI's default spelling
         sensitivity, sensitivity_unit = _sensitivity_setting(self.sensitivity)
