@@ -591,3 +591,15 @@ def test_shipped_luts_lists_what_ships_and_an_empty_list_is_no_error():
         assert "ships no look-up table" in result.output
     for identifier in found:
         assert identifier in result.output
+
+
+def test_dclabs_name_of_the_buffer_plans_the_same_table():
+    """`--medium "CellCarrier B"` (dclab's name of 0.59 % MC-PBS) is the same table, point for point (run keys
+    equal), as `--medium 0.59%MC-PBS`."""
+    from elastocell.inverse.lut import plan
+
+    common = {"channel_width": "20um", "channel_shape": "square", "temperature": 23, "radii": "5,6",
+              "moduli": "1kPa,2kPa"}
+    ours, _ = plan(None, "0.04uL/s", None, medium="0.59%MC-PBS", **common)
+    dclabs, _ = plan(None, "0.04uL/s", None, medium="CellCarrier B", **common)
+    assert [p["key"] for p in dclabs] == [p["key"] for p in ours]

@@ -278,3 +278,19 @@ def test_cell_in_a_square_channel_of_mc_pbs(cell):
     assert s["axial_position" if "axial_position" in s else "axial_velocity_mean"] > 0
     assert s["strain_axial_mean"] > 1.0
     assert math.isfinite(s["volume_change_max_abs"]) and s["volume_change_max_abs"] < 0.05
+
+
+def test_every_dclab_name_of_an_mc_pbs_buffer_is_its_preset():
+    """Reference: dclab's own alias table (``ALIAS_MEDIA``). Each of its names of an MC-PBS buffer ("CellCarrier B",
+    "0.6% MC-PBS", ...) is the same preset here, so `lut --medium CellCarrierB` is the table dclab converts with;
+    water is no preset of the lattice (its viscosity is Newtonian: --viscosity)."""
+    from dclab.features.emodulus.viscosity import ALIAS_MEDIA
+
+    from elastocell.parameters.medium import canonical_name
+
+    buffers = {alias: name for alias, name in ALIAS_MEDIA.items() if "MC-PBS" in name}
+    assert len(buffers) >= 20
+    for alias, name in buffers.items():
+        assert canonical_name(alias) == name.replace(" ", ""), alias
+    with pytest.raises(ParameterError, match="unknown medium"):
+        canonical_name("honey")

@@ -73,13 +73,24 @@ class Medium:
                 "consistency_pa_s_n": self.consistency, "temperature_c": self.temperature}
 
 
+MC_PBS_ALIASES = {"cellcarrier": "0.49%MC-PBS", "0.5%mc-pbs": "0.49%MC-PBS", "0.50%mc-pbs": "0.49%MC-PBS",
+                  "cellcarrierb": "0.59%MC-PBS", "0.6%mc-pbs": "0.59%MC-PBS", "0.60%mc-pbs": "0.59%MC-PBS",
+                  "0.8%mc-pbs": "0.83%MC-PBS", "0.80%mc-pbs": "0.83%MC-PBS"}
+"""dclab's other names of the MC-PBS buffers (``dclab.features.emodulus.viscosity.ALIAS_MEDIA``: the commercial
+CellCarrier is 0.49 %, CellCarrier B 0.59 %), case and blanks removed, and the preset each names."""
+
+
 def canonical_name(name: str) -> str:
-    """The preset key of a medium name: case and blanks ignored ("0.59% MC-PBS" -> "0.59%MC-PBS")."""
+    """The preset key of a medium name: case and blanks ignored ("0.59% MC-PBS" -> "0.59%MC-PBS"), dclab's other
+    names of the buffers too (:data:`MC_PBS_ALIASES`: "CellCarrier B" -> "0.59%MC-PBS")."""
     key = str(name).replace(" ", "").lower()
     for preset in (*MEDIA, "power-law"):
         if preset.lower() == key:
             return preset
-    raise ParameterError("medium", f"unknown medium {name!r}: use one of {', '.join(MEDIA)} or power-law")
+    if key in MC_PBS_ALIASES:
+        return MC_PBS_ALIASES[key]
+    raise ParameterError("medium", f"unknown medium {name!r}: use one of {', '.join(MEDIA)} (or dclab's names "
+                                   "CellCarrier, CellCarrier B) or power-law")
 
 
 def mc_pbs(name: str, temperature: float = DEFAULT_TEMPERATURE) -> Medium:
