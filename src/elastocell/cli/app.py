@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 
 import typer
@@ -455,10 +456,17 @@ def _click_exceptions():
     return exceptions.UsageError, getattr(exceptions, "NoArgsIsHelpError", NoSuchException), typer.Abort
 
 
+def _console_warning(message, category, filename, lineno, line=None) -> str:
+    """A warning as the console command prints it: one line, ``elastocell: warning: ...``, without the Python
+    source location and line (what it says is for the user, not about the code)."""
+    return f"elastocell: warning: {' '.join(str(message).split())}\n"
+
+
 def main(argv: list[str] | None = None) -> None:
     """The ``elastocell`` console command: the typer app, with a usage error (an unknown or missing option, a
     value of the wrong type) reported as one line naming the option, exit code 2, as every other user error."""
     usage_error, no_args_is_help, abort = _click_exceptions()
+    warnings.formatwarning = _console_warning
     try:
         code = app(args=argv, prog_name="elastocell", standalone_mode=False)
     except no_args_is_help as error:
