@@ -425,3 +425,18 @@ def test_a_bare_radius_is_in_um_in_fit_shear(tmp_path):
         assert result.exit_code == 0, result.output
         radii.append(np.genfromtxt(out / "shear_fits.csv", delimiter=",", names=True)["radius"])
     assert radii[0] == radii[1] == pytest.approx(8e-6, rel=1e-12)
+
+
+def test_the_console_prints_a_warning_as_one_line_and_gives_pythons_format_back(capsys):
+    """``main`` formats warnings as one ``warning:`` line without the source location while a command runs, and
+    restores Python's format for an in-process caller afterwards."""
+    import warnings
+
+    from elastocell.cli.app import _console_warning, main
+
+    before = warnings.formatwarning
+    assert _console_warning("K and n\n  are extrapolated", UserWarning, "/x/y.py", 3) == \
+        "warning: K and n are extrapolated\n"
+    with pytest.raises(SystemExit):
+        main(["--version"])
+    assert warnings.formatwarning is before

@@ -30,6 +30,7 @@ from elastocell.inverse.fit import (
     hertz_sphere_force,
     read_curves,
 )
+from elastocell.parameters.units import ParameterError
 from elastocell.scenarios.compression import hertz_force
 
 afmformats = pytest.importorskip("afmformats")
@@ -594,3 +595,23 @@ def test_a_workshop_file_of_force_says_the_sensitivity_did_not_apply(tmp_path):
     assert "the sensitivity given did not apply" in results[1]["calibration"] and np.isnan(results[1]["sensitivity"])
     [signal] = read_curves(DATA / "fmt-afm-workshop-fd_single_2018-08-01_13.06.09.csv", 20.0, 10e-9)
     assert signal.calibration == "recomputed by afmformats from the raw signal"
+
+
+def test_the_columns_of_fits_csv_do_not_depend_on_which_file_comes_first(tmp_path):
+    """An unreadable file first (its row is in its place) must not move the columns: the contract columns, then a
+    fitted curve's columns in their order, the unreadable file's ``error`` last."""
+    unreadable = DATA / "fmt-jpk-cl_calibration_force-save-2015.02.04-11.25.21.294.jpk-force"  # no calibration
+    good = DATA / "force-save-example.jpk-force"
+    settings = FitSettings(radius="8um")
+    fit_files([good], settings, tmp_path / "alone", plots=False, dask=False)
+    fit_files([unreadable, good], settings, tmp_path / "both", plots=False, dask=False)
+    alone = pd.read_csv(tmp_path / "alone" / "fits.csv")
+    both = pd.read_csv(tmp_path / "both" / "fits.csv")
+    assert list(both.columns) == list(alone.columns) + ["error"]
+    assert both["flag"].tolist()[0] == "unreadable" and both["file"].tolist()[1] == "force-save-example"
+
+
+def test_whole_number_settings_given_as_text_are_read():
+    assert FitSettings(radius="8um", bootstrap="20", seed="3") == FitSettings(radius="8um", bootstrap=20, seed=3)
+    with pytest.raises(ParameterError, match="bootstrap: a whole number"):
+        FitSettings(radius="8um", bootstrap="2.5")

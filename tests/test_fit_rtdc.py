@@ -243,14 +243,15 @@ def test_kelvin_converts(measurements, tmp_path):
 
 def test_each_events_temperature_wins_over_the_option_and_out_of_range_events_are_flagged(measurements, tmp_path):
     # a file without setup:temperature but with a per-event temp: 30 degC, except 3 events at 45 degC (outside
-    # buyukurganci-2022's 22-37 degC) and one without a temperature (NaN); --temperature 23 must not replace them
+    # buyukurganci-2022's 22-37 degC) and one without a temperature (NaN); --temperature 23 must not replace them,
+    # and stands in for the NaN one only (it records none)
     source = measurements["fmt-hdf5_wide-channel_2023"]  # 16 events, 0.59 % MC-PBS, no stored emodulus
     temp = np.full(16, 30.0)
     temp[[0, 2, 3]], temp[5] = 45.0, np.nan
     path = _copy_with(source, tmp_path / "in" / "per_event.rtdc", delete=("setup:temperature",), temp=temp)
     code, output = _fit(path, "--temperature", "23", "--out", tmp_path / "fit", "--no-plots")
     assert code == 0, output
-    assert "warning: per_event.rtdc: 4 of 16 events not converted" in output and "22-37 degC" in output
+    assert "warning: per_event.rtdc: 3 of 16 events not converted" in output and "22-37 degC" in output
     events = pd.read_csv(tmp_path / "fit" / "rtdc_fits.csv", keep_default_na=False, na_values=[""])
     moduli = events["youngs_modulus"].to_numpy()
     # reference: dclab's own pipeline when no "emodulus temperature" is set: each event's temp (its case A)
@@ -268,13 +269,22 @@ def test_each_events_temperature_wins_over_the_option_and_out_of_range_events_ar
     assert both.sum() >= 6 and np.all(np.abs(moduli[both] / at_23[both] - 1) > 0.02)  # 30 degC is not 23 degC
     # dclab converts the 45 degC events (a plausible number, with a warning only); here they get none
     assert np.isfinite(reference[[0, 2, 3]]).any()
-    assert np.isnan(moduli[~good]).all()
+    assert np.isnan(moduli[[0, 2, 3]]).all()
+    np.testing.assert_allclose(moduli[5], at_23[5], rtol=1e-7, equal_nan=True)  # the NaN event at --temperature
     flags = events["flag"].fillna("")
     assert all("45 degC" in f and "22-37 degC" in f for f in flags[[0, 2, 3]])
-    assert "no temperature" in flags[5]
     coverage = pd.read_csv(tmp_path / "fit" / "rtdc_coverage.csv", keep_default_na=False)
-    assert coverage["temperature_source"].item() == "temp"
+    assert coverage["temperature_source"].item() == "temp (NaN: --temperature)"
     assert "3 temperature outside the viscosity model's range" in coverage["not_converted"].item()
+    # every temp NaN: the file records no temperature; --temperature stands in for all, and without it none
+    nan_path = _copy_with(source, tmp_path / "in" / "all_nan.rtdc", delete=("setup:temperature",),
+                          temp=np.full(16, np.nan))
+    code, output = _fit(nan_path, "--temperature", "23", "--out", tmp_path / "nan", "--no-plots")
+    assert code == 0, output
+    coverage = pd.read_csv(tmp_path / "nan" / "rtdc_coverage.csv", keep_default_na=False)
+    assert coverage["temperature_source"].item() == "--temperature"
+    code, output = _fit(nan_path, "--out", tmp_path / "none", "--no-plots")
+    assert code == 3 and "give --temperature" in output, output
 
 
 def test_a_recorded_temperature_outside_the_range_converts_nothing_and_says_why(measurements, tmp_path):

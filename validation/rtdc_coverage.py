@@ -73,7 +73,7 @@ def main() -> None:
         part = coverage[coverage["file"] == name].set_index("lut")
         first = part.iloc[0]
         assumed = "" if first.get("flag") or "temperature_c" not in part else (
-            "*" if _unrecorded(files, name) else "")
+            "*" if "--temperature" in str(first.get("temperature_source", "")) else "")
         row = {"file": name, "channel_um": first.get("channel_width_um", float("nan")),
                "flow_uL_s": first.get("flow_rate_ul_s", float("nan")),
                "medium": first.get("medium", ""), "T_degC": f"{first.get('temperature_c', float('nan')):.4g}{assumed}",
@@ -107,17 +107,6 @@ def main() -> None:
                formats={"median": ".3f", "q1": ".3f", "q3": ".3f", "min": ".3f", "max": ".3f"})
     page.print(f"wall time {time.time() - start:.0f} s; per-event moduli in {out / 'fit' / 'rtdc_fits.csv'}")
     page.write()
-
-
-def _unrecorded(files: list[Path], name: str) -> bool:
-    import warnings
-
-    import dclab
-
-    (path,) = [f for f in files if f.name == name]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return "temperature" not in dclab.new_dataset(str(path)).config["setup"]
 
 
 if __name__ == "__main__":

@@ -457,16 +457,16 @@ def _click_exceptions():
 
 
 def _console_warning(message, category, filename, lineno, line=None) -> str:
-    """A warning as the console command prints it: one line, ``elastocell: warning: ...``, without the Python
-    source location and line (what it says is for the user, not about the code)."""
-    return f"elastocell: warning: {' '.join(str(message).split())}\n"
+    """A warning as the console command prints it: one line, ``warning: ...`` as the commands' own warnings, without
+    the Python source location and line (what it says is for the user, not about the code)."""
+    return f"warning: {' '.join(str(message).split())}\n"
 
 
 def main(argv: list[str] | None = None) -> None:
     """The ``elastocell`` console command: the typer app, with a usage error (an unknown or missing option, a
     value of the wrong type) reported as one line naming the option, exit code 2, as every other user error."""
     usage_error, no_args_is_help, abort = _click_exceptions()
-    warnings.formatwarning = _console_warning
+    python_format, warnings.formatwarning = warnings.formatwarning, _console_warning
     try:
         code = app(args=argv, prog_name="elastocell", standalone_mode=False)
     except no_args_is_help as error:
@@ -480,6 +480,8 @@ def main(argv: list[str] | None = None) -> None:
     except (abort, KeyboardInterrupt):
         typer.echo("elastocell: aborted", err=True)
         raise SystemExit(130) from None
+    finally:  # an in-process caller of main() gets Python's format back
+        warnings.formatwarning = python_format
     raise SystemExit(code if isinstance(code, int) and not isinstance(code, bool) else 0)
 
 

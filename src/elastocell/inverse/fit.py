@@ -286,6 +286,16 @@ class FitSettings:
     half_angle: float | str | None = None  # degrees after construction (cone; pyramid: the face's)
 
     def __post_init__(self):
+        for name in ("bootstrap", "seed"):  # whole numbers: a string of one is read, anything else refused
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int):
+                try:
+                    number = float(value)
+                except (TypeError, ValueError):
+                    number = math.nan
+                if not (math.isfinite(number) and number == int(number)):
+                    raise ParameterError(name, f"a whole number, got {value!r}")
+                object.__setattr__(self, name, int(number))
         for name, unit in NUMBER_FIELDS.items():  # plain numbers: a string of one is read, anything else refused
             value = getattr(self, name)
             if value is None or (isinstance(value, (int, float)) and not isinstance(value, bool)):
@@ -1706,7 +1716,11 @@ def fit_files(paths, settings: FitSettings, out: Path, plots: bool = True, progr
         if column not in frame:
             frame[column] = np.nan
     frame["flag"] = frame["flag"].fillna("").astype(str)
-    frame = frame[CONTRACT_COLUMNS + [c for c in frame.columns if c not in CONTRACT_COLUMNS]]
+    # the columns in the order of a fitted curve's row, whatever row comes first; an unreadable file's error last
+    fitted = list(dict.fromkeys(key for row in rows for key in row if key != "_plot"))
+    rest = [c for c in fitted if c not in CONTRACT_COLUMNS and c in frame.columns]
+    rest += [c for c in frame.columns if c not in CONTRACT_COLUMNS and c not in rest and c != "error"]
+    frame = frame[CONTRACT_COLUMNS + rest + (["error"] if "error" in frame.columns else [])]
     replace_atomically(out / "fits.csv", lambda temporary: frame.to_csv(temporary, index=False, float_format="%.8g"))
     versions = software_versions()
     try:

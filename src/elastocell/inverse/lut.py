@@ -797,13 +797,15 @@ def run_point(task: tuple[dict, str]) -> dict:
 def check_identifier(identifier: str | None) -> None:
     """Refuse (ParameterError ``identifier``) an identifier dclab cannot register: empty, or the name of one of
     dclab's own tables (``dclab.features.emodulus.load.get_internal_lut_names_dict``), which
-    ``register_lut`` refuses as in use."""
+    ``register_lut`` refuses as in use (without dclab installed: only the empty one)."""
     if identifier is None:
         return
     if not str(identifier).strip():
         raise ParameterError("identifier", "must not be empty")
-    from dclab.features.emodulus.load import get_internal_lut_names_dict  # lazy: dclab is needed only here
-
+    try:
+        from dclab.features.emodulus.load import get_internal_lut_names_dict  # lazy: dclab only here
+    except ImportError:  # without dclab (an optional extra) there is nothing to register with, nor to clash
+        return
     if str(identifier) in get_internal_lut_names_dict():
         raise ParameterError("identifier", f"{identifier!r} is one of dclab's own tables "
                                            f"({', '.join(sorted(get_internal_lut_names_dict()))}), which "

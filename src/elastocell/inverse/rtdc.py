@@ -238,7 +238,8 @@ def conditions_of(config, medium: str | None = None, temperature: float | None =
     """The :class:`Conditions` of a dataset's configuration (``dataset.config``). ``medium`` and ``temperature``
     (degC) stand in where the file records none (or a medium dclab does not know, such as "other"); a recorded
     value is kept. The temperature is, first found first, the file's ``setup:temperature``, each event's own
-    (``event_temperature``: dclab's ``temp`` feature), ``temperature``. Raises :class:`Unconvertible` with the
+    (``event_temperature``: dclab's ``temp`` feature; ``temperature`` for the events whose ``temp`` is NaN, and for
+    all of them when every one is), ``temperature``. Raises :class:`Unconvertible` with the
     reason when something is still missing."""
     setup, imaging = config["setup"], config["imaging"]
     region = setup.get("chip region", "channel")
@@ -260,8 +261,10 @@ def conditions_of(config, medium: str | None = None, temperature: float | None =
                             "CellCarrier, CellCarrierB or water): give --medium", "medium unknown to dclab")
     if setup.get("temperature") is not None:
         value, source = float(setup["temperature"]), "setup:temperature"
-    elif event_temperature is not None:
+    elif event_temperature is not None and np.isfinite(np.asarray(event_temperature, dtype=float)).any():
         value, source = np.asarray(event_temperature, dtype=float), "temp"  # each event's own (dclab's "temp")
+        if temperature is not None and not np.isfinite(value).all():  # --temperature stands in where temp is NaN
+            value, source = np.where(np.isfinite(value), value, float(temperature)), "temp (NaN: --temperature)"
     elif temperature is not None:
         value, source = float(temperature), "--temperature"
     else:
