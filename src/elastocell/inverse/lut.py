@@ -173,9 +173,24 @@ def channel_driving(channel: str, half_width: float, flow_rate: float, fluid: Me
     if channel == "cylinder" and n == 1.0:  # Poiseuille, written as the table's keys were always computed
         g = pressure_gradient(flow_rate, a, k)
     else:
-        g = k * (flow_rate / (unit_flow_rate(channel, n) * a ** (3.0 + 1.0 / n))) ** n
+        g = k * (flow_rate / (unit_flow_rate_of_keys(channel, n) * a ** (3.0 + 1.0 / n))) ** n
     tau = g * a / 2.0
     return {"pressure_gradient": g, "wall_shear_stress": tau, "wall_shear_rate": (tau / k) ** (1.0 / n)}
+
+
+UNIT_FLOW_RATE_DIGITS = 9
+"""Significant digits q1(n) keeps where a table's points are computed from it: the power law's duct value comes
+from an iterative sparse solve whose last bits differ between machines (1e-14 relative measured), and everything
+computed from q1 (Ca_w, a transit's duration) is part of a point's key, which must be the same on every machine."""
+
+
+def unit_flow_rate_of_keys(channel: str, flow_index: float) -> float:
+    """q1(n) (:func:`~elastocell.scenarios.pipe.unit_flow_rate`) as a table's keys use it: the closed forms as they
+    are, the power law's duct value rounded to :data:`UNIT_FLOW_RATE_DIGITS` significant digits."""
+    q1 = unit_flow_rate(channel, flow_index)
+    if channel == "cylinder" or flow_index == 1.0:
+        return q1
+    return float(f"{q1:.{UNIT_FLOW_RATE_DIGITS}g}")
 
 
 def dclab_viscosity(fluid: Medium, flow_rate: float, channel_width: float) -> float:
