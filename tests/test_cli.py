@@ -432,11 +432,15 @@ def test_the_console_prints_a_warning_as_one_line_and_gives_pythons_format_back(
     restores Python's format for an in-process caller afterwards."""
     import warnings
 
-    from elastocell.cli.app import _console_warning, main
+    from elastocell.cli.app import _console_warning_format, main
 
     before = warnings.formatwarning
-    assert _console_warning("K and n\n  are extrapolated", UserWarning, "/x/y.py", 3) == \
+    console_warning = _console_warning_format()
+    assert console_warning("K and n\n  are extrapolated", UserWarning, "/x/y.py", 3) == \
         "warning: K and n are extrapolated\n"
+    # the same text again (a check repeated for each resolution of a run) is said once; another text is said
+    assert console_warning("K and n are extrapolated", UserWarning, "/x/z.py", 4) == ""
+    assert console_warning("run longer", UserWarning, "/x/y.py", 3) == "warning: run longer\n"
     with pytest.raises(SystemExit):
         main(["--version"])
     assert warnings.formatwarning is before

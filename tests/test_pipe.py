@@ -383,6 +383,10 @@ def test_a_sweep_restarts_only_the_run_of_a_pair_whose_checkpoint_cannot_continu
         (["--capillary-number-wall", "0.2", "--medium", "honey"], "--medium"),
         (["--capillary-number-wall", "0.2", "--medium", "0.59%MC-PBS", "--temperature", "150"], "--temperature"),
         (["--capillary-number-wall", "0.2", "--medium", "power-law"], "--flow-index"),
+        (["--capillary-number-wall", "0.2", "--temperature", "30"], "--temperature"),  # Newtonian: no temperature
+        (["--capillary-number-wall", "0.2", "--duration", "0.01"], "--duration"),  # under one record interval
+        (["--capillary-number-wall", "0.2", "--medium", "power-law", "--flow-index", "0.6", "--temperature", "30"],
+         "--temperature"),
         (["--capillary-number-wall", "0.2", "--resolution", "4", "--extrapolate", "--coarse-resolution", "4"],
          "--coarse-resolution"),
         (["--capillary-number-wall", "0.2", "--no-extrapolate", "--coarse-resolution", "6"], "--coarse-resolution"),

@@ -380,6 +380,7 @@ def test_cli_shear_physical_input_with_equivalent_keeps_the_physical_shear_rate(
     (["--capillary-number", "0.1", "--confinement", "1.5"], "--confinement"),
     (["--capillary-number", "0.1", "--confinement", "0.8", "--resolution", "4"], "--confinement"),  # wall gap
     (["--capillary-number", "0.1", "--duration", "0"], "--duration"),
+    (["--capillary-number", "0.1", "--duration", "0.01"], "--duration"),  # under one record interval (0.05)
     (["--capillary-number", "0.1", "--size-ratio", "1.2"], "--size-ratio"),
     (["--viscosity", "1mPa*s", "--shear-rate", "100/s"], "--youngs-modulus"),
 ])

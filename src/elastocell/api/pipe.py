@@ -36,7 +36,7 @@ from elastocell.simulation.extrapolation import (
     run_extrapolated,
 )
 from elastocell.simulation.output import directory_summary, run_in_directory, warn_if_not_stationary
-from elastocell.simulation.runner import StopCriteria, check_run_cost
+from elastocell.simulation.runner import StopCriteria, check_record_interval, check_run_cost
 
 EXTRAPOLATED = ("strain_axial_mean", "strain_radial_mean", "strain_transverse_mean", "deformation_mean",
                 "projected_area_mean", "deformation_views_mean", "projected_area_views_mean", "axial_velocity_mean")
@@ -367,6 +367,8 @@ def _single(out, params, capillary_number_wall, cell, equivalent, duration, resu
                              f"got {stationary_observable!r}")
     stop = StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                         stationary_observable=stationary_observable, unit=PipeRun.TIME_UNIT)
+    check_record_interval(duration, PipeRun.DEFAULT_RECORD_INTERVAL if record_interval is None else record_interval,
+                          PipeRun.TIME_UNIT)
     if channel_length is not None:
         stop = TransitStop(**{**stop.__dict__, "channel_length": channel_length})
     if vtk_interval is not None and not vtk_interval > 0:

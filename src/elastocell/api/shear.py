@@ -26,7 +26,7 @@ from elastocell.simulation.extrapolation import (
     run_extrapolated,
 )
 from elastocell.simulation.output import directory_summary, run_in_directory, warn_if_not_stationary
-from elastocell.simulation.runner import StopCriteria, check_run_cost
+from elastocell.simulation.runner import StopCriteria, check_record_interval, check_run_cost
 
 EXTRAPOLATED = ("taylor_deformation_mean", "inclination_deg_mean", "tank_treading_frequency")
 """The stationary values an extrapolated run reports extrapolated (the others are the finer run's)."""
@@ -104,6 +104,8 @@ def _single(out, capillary_number, cell, equivalent, params, duration, resume, p
     """One run at ``params.resolution`` in ``out`` (:func:`shear`'s arguments; ``part`` labels its progress):
     (its summary, its time series)."""
     stop = StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance)
+    check_record_interval(duration, ShearRun.DEFAULT_RECORD_INTERVAL if record_interval is None else record_interval,
+                          ShearRun.TIME_UNIT)
     if vtk_interval is not None and not vtk_interval > 0:
         raise ParameterError("vtk_interval", f"must be > 0 (strain), got {vtk_interval}")
     if capillary_number_modulus not in ("reference", "mu_c"):

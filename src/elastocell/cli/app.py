@@ -456,17 +456,28 @@ def _click_exceptions():
     return exceptions.UsageError, getattr(exceptions, "NoArgsIsHelpError", NoSuchException), typer.Abort
 
 
-def _console_warning(message, category, filename, lineno, line=None) -> str:
-    """A warning as the console command prints it: one line, ``warning: ...`` as the commands' own warnings, without
-    the Python source location and line (what it says is for the user, not about the code)."""
-    return f"warning: {' '.join(str(message).split())}\n"
+def _console_warning_format():
+    """A ``warnings.formatwarning`` for the console command: a warning is one line, ``warning: ...`` as the commands'
+    own warnings, without the Python source location and line (what it says is for the user, not about the code),
+    and a text said once: a check repeated for every resolution of a run (the medium's temperature range) does not
+    print again (Python's own once-per-location registry is reset by every ``catch_warnings``)."""
+    said = set()
+
+    def console_warning(message, category, filename, lineno, line=None) -> str:
+        text = " ".join(str(message).split())
+        if text in said:
+            return ""
+        said.add(text)
+        return f"warning: {text}\n"
+
+    return console_warning
 
 
 def main(argv: list[str] | None = None) -> None:
     """The ``elastocell`` console command: the typer app, with a usage error (an unknown or missing option, a
     value of the wrong type) reported as one line naming the option, exit code 2, as every other user error."""
     usage_error, no_args_is_help, abort = _click_exceptions()
-    python_format, warnings.formatwarning = warnings.formatwarning, _console_warning
+    python_format, warnings.formatwarning = warnings.formatwarning, _console_warning_format()
     try:
         code = app(args=argv, prog_name="elastocell", standalone_mode=False)
     except no_args_is_help as error:

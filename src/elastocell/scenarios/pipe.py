@@ -80,7 +80,7 @@ from elastocell.lattice.rheology import (
 )
 from elastocell.parameters.cell import require
 from elastocell.parameters.flow import FlowLatticeParameters, check_capillary_number
-from elastocell.parameters.medium import Medium, medium
+from elastocell.parameters.medium import MC_PBS, Medium, medium
 from elastocell.parameters.units import ParameterError
 from elastocell.simulation.output import save_time_series_figure, time_series_figure
 from elastocell.simulation.runner import FlowRun, StopCriteria, window_verdict
@@ -606,7 +606,11 @@ class PipeFlowParameters(FlowLatticeParameters):
                 f"a square channel has H/W = 1, got {aspect}: use channel_shape rectangle")
         require(self.channel_shape != "cylinder" or aspect == 1.0, "channel_aspect_ratio",
                 f"a cylinder has no aspect ratio (got {aspect}): use channel_shape rectangle")
-        pipe_medium(self)  # refuses an unknown medium or an impossible temperature / flow index
+        fluid = pipe_medium(self)  # refuses an unknown medium or an impossible temperature / flow index
+        require(self.temperature is None or fluid.name in MC_PBS, "temperature",
+                f"only an MC-PBS medium depends on temperature; the {fluid.name} medium's run is set by its "
+                f"dimensionless numbers alone (give --medium 0.59%MC-PBS, or leave out --temperature), got "
+                f"{self.temperature} degC")
         require(math.isfinite(self.hydrodynamic_radius_correction)
                 and 0 <= self.hydrodynamic_radius_correction < 0.5 * self.resolution,
                 "hydrodynamic_radius_correction", f"must be in [0, R/2) = [0, {0.5 * self.resolution:g}) dx, "
