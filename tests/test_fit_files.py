@@ -615,3 +615,17 @@ def test_whole_number_settings_given_as_text_are_read():
     assert FitSettings(radius="8um", bootstrap="20", seed="3") == FitSettings(radius="8um", bootstrap=20, seed=3)
     with pytest.raises(ParameterError, match="bootstrap: a whole number"):
         FitSettings(radius="8um", bootstrap="2.5")
+
+
+def test_the_real_adhesive_curve_is_flagged_and_the_cell_curves_are_not():
+    """The NT-MDT gel file named "adh" dips about 7 % of its largest force below the baseline before contact
+    (28 sigma of its baseline's moving average, measured): flagged as adhesion. The JPK cell curves (force-save
+    example, spot3, the map) dip 0.1-1.0 % (2-3 sigma): not flagged for adhesion."""
+    settings = FitSettings(radius="8um", sensitivity=61)
+    [curve] = read_curves(NTMDT, 0.055, settings.sensitivity, settings.sensitivity_unit)
+    row = fit_curve(curve.name, curve.displacement, curve.force, settings)
+    assert "adhesion: the force dips" in row["flag"] and 0.05 < row["adhesion_dip_fraction"] < 0.1
+    for path in (EXAMPLE, DATA / "fmt-jpk-fd_spot3-0192.jpk-force", DATA / "fmt-jpk-fd_map2x2_extracted.jpk-force-map"):
+        for curve in read_curves(path):
+            row = fit_curve(curve.name, curve.displacement, curve.force, FitSettings(radius="8um"))
+            assert "adhesion" not in row["flag"] and row["adhesion_dip_fraction"] < 0.015, (curve.name, row["flag"])

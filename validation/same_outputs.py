@@ -88,9 +88,25 @@ TOLERANCES = {"compression": 1e-9, "flow": 1e-6, "fit": 1e-9}
 #   (up to 2.4e-14 E_c R^2 apart over 8 checks, i.e. 6e-6 of the value).
 # - refinement_steps of the single-precision factorisation: 83 or 84, 147 or 148 for the same curve; compared
 #   within 5 %.
+#
+# Measured on a second 2-core machine (another CPU than the record's) with the code of 521fec0: compression and
+# fits as above; the float32 flows (shear, and pipe on JAX/CPU) differ from the record by up to 7.3e-6 of the
+# value, all of it in quantities that are near zero by symmetry or are the spread of a stationary window: the
+# cell's and nucleus's centre off their start or the axis (about 1e-3 R), the radial position and the local
+# capillary number of a cell on the axis (1e-6 R_ch), the volume change (1e-4 V0), and the standard deviations
+# over the averaged window (every ``_std``: 1e-7 to 1e-4): 1e-12 to 7e-10 absolute, float32 round-off of
+# another instruction set. These are compared on the scale of the quantity they belong to, 1 in the runs' own
+# units (R, R_ch, V0, u_max, R^2 for an area of pi, Ca_w = 0.2), not relative to their own near-zero value; with
+# that, every flow quantity on the second machine is within 6.8e-8 of the record (shear's max_speed), 15x below
+# the tolerance.
+CELL_SCALE = {"floor": 1.0}
 SPECIAL = {
     "solver.max_plate_force_imbalance": {"floor": 1.0},
     "solver.refinement_steps": {"tolerance": 0.05},
+    **{suffix: CELL_SCALE for suffix in (
+        "centre_x", "centre_y", "centre_z", "radial_position", "radial_position_mean", "volume_change",
+        "volume_change_mean", "volume_change_max_abs", "local_capillary_number", "local_capillary_number_mean",
+        "_std")},
 }
 
 
