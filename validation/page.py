@@ -185,6 +185,8 @@ PAGES: dict[str, tuple[str, dict[str, tuple[str, str]]]] = {
         "fit.py": ("Accuracy, Hertz's bias, interval coverage and cost of the AFM fit",
                    "python validation/fit.py --curves 200 --coverage 50"),
         "mastercurves.py": ("The shipped master curves", "python validation/mastercurves.py"),
+        "afm_adhesion.py": ("The adhesion check: E's bias under an adhesion dip, and the curves flagged",
+                            "python validation/afm_adhesion.py"),
     }),
     "afm": ("AFM fits of real instrument files against nanite", {
         "afm_nanite.py": ("elastocell's Hertz-sphere estimate beside nanite's fit, same curves, same contact point",
