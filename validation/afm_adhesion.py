@@ -5,7 +5,8 @@
 1. Synthetic plate curves (Hertz to delta 0.3, E = 1 kPa, R = 8 um, 600 points, Gaussian noise a fraction of the
    largest force) with a DMT-like adhesion: an attraction -F_a exp(-(c - x)/20 nm) before contact and the pull-off
    force -F_a in contact, F_a a fraction of the largest force. Reference: the E the curve was made with. For each
-   fraction: E's bias (mean over the seeds), how many curves the other checks flag, how many the adhesion check flags.
+   fraction: E's bias (mean over the seeds), how many curves the other checks flag, how many the adhesion check flags;
+   and the same adhesion under the sphere-indenter's Hertz estimate (a 5 um bead, 1.5 um deep).
 2. The real files of tests/data/afm (fitted as plates, R = 8 um, with the calibration the tests supply): the dip
    each reads, in sigma of its baseline's moving average and in % of its largest fitted force, and whether the
    adhesion check flags it.
@@ -30,6 +31,8 @@ from elastocell.inverse.fit import (
     CurveError,
     FitSettings,
     fit_curve,
+    fit_hertz_sphere,
+    hertz_sphere_force,
     read_curves,
 )
 from elastocell.scenarios.compression import hertz_force
@@ -78,6 +81,28 @@ def synthetic(page: Page, seeds: int) -> None:
                      f"adhesion above {ADHESION_DIP_SIGMAS:g} sigma and {100 * ADHESION_DIP_LIMIT:g} % of F_max)")
 
 
+def sphere(page: Page, seeds: int) -> None:
+    """The sphere-indenter's Hertz estimate (``fit_hertz_sphere``): a bead of 5 um, contact at 2 um, 1.5 um deep,
+    1 % noise, the same DMT-like adhesion."""
+    bead, contact = 5e-6, 2e-6
+    rows = []
+    for fraction in (0.0, 0.02, 0.05, 0.1):
+        moduli, flagged = [], 0
+        for seed in range(seeds):
+            depth = np.linspace(0.0, contact + 1.5e-6, 600)
+            force = E * hertz_sphere_force(depth - contact, 0.48, bead)
+            pull_off = fraction * force.max()
+            force = force + np.where(depth < contact, -pull_off * np.exp(-(contact - depth) / 20e-9), -pull_off)
+            force += np.random.default_rng(seed).normal(0.0, 0.01 * force.max(), len(depth))
+            fit = fit_hertz_sphere(depth, force, bead)
+            moduli.append(fit["youngs_modulus"])
+            flagged += "adhesion" in fit["flag"]
+        rows.append({"pull-off [% of F_max]": f"{100 * fraction:g}",
+                     "E/E_true - 1 [%]": f"{100 * (np.mean(moduli) / E - 1):+.1f}",
+                     "flagged adhesion": f"{flagged}/{seeds}"})
+    page.table(rows, f"The sphere-indenter's Hertz estimate (bead 5 um, 1.5 um deep, 1 % noise), {seeds} seeds")
+
+
 def real(page: Page) -> None:
     logging.getLogger("afmformats").setLevel(logging.CRITICAL)
     rows = []
@@ -114,6 +139,7 @@ def main() -> None:
         "decaying over 20 nm before contact and the same pull-off force in contact). The real files' truth is "
         "unknown; the NT-MDT file is a gel curve its authors named 'adh'."))
     synthetic(page, arguments.seeds)
+    sphere(page, arguments.seeds)
     real(page)
     page.write()
 
