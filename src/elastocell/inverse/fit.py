@@ -156,15 +156,14 @@ ADHESION_DIP_POINTS = 5
 ADHESION_DIP_SIGMAS = 5.0
 """An adhesion dip must lie this many standard deviations of the baseline's own moving average below it."""
 ADHESION_DIP_LIMIT = 0.02
-"""The depth of an adhesion dip, over the largest fitted force, above which the fit is flagged. Measured on
-synthetic plate curves (Hertz to delta 0.3, 1 % noise) with a DMT-like adhesion (an attraction before contact and
-the same pull-off force in contact): E comes out high by 1.4 % per % of dip (1.4 % at 1 %, 7 % at 5 %, 14 % at
-10 %; the sphere-indenter's Hertz estimate the same) and the other checks flag none up to 5 %; a 2 % dip biases
-E by about 3 %; flagged: 7 of 10 curves at a
-2 % dip with 1 % noise (5 of 10 with 0.3 %), all at 3 %, none without adhesion (``python
-validation/afm_adhesion.py``, docs/validation/fit.md). The real curves of tests/data/afm (fitted as plates, R = 8 um): the
-JPK cell curves 0.1-1.0 % (2-3 sigma); flagged the NT-MDT gel file named "adh" (7.3 %, 28 sigma) and the AFM
-Workshop 2018 curve whose baseline drifts down into contact (6.2 %, 7.4 sigma)."""
+"""The depth of an adhesion dip, over the largest fitted force, above which the fit is flagged. Measured on synthetic
+plate curves (Hertz to delta 0.3, 1 % noise) with a DMT-like adhesion (an attraction before contact and the same
+pull-off force in contact): E comes out high by 1.4 % per % of dip (1.4 % at 1 %, 7 % at 5 %, 14 % at 10 %; the
+sphere-indenter's Hertz estimate the same) and the other checks flag none up to 5 %; a 2 % dip biases E by about 3
+%; flagged: 7 of 10 curves at a 2 % dip with 1 % noise (5 of 10 with 0.3 %), all at 3 %, none without adhesion
+(``python validation/afm_adhesion.py``, docs/validation/fit.md). The real curves of tests/data/afm (fitted as
+plates, R = 8 um): the JPK cell curves 0.1-1.0 % (2-3 sigma); flagged the NT-MDT gel file named "adh" (7.3 %, 28
+sigma) and the AFM Workshop 2018 curve whose baseline drifts down into contact (6.2 %, 7.4 sigma)."""
 
 PLAUSIBLE_MODULUS_MAX = 1e9
 """Pa: a fitted E above this (1 GPa; bone is about 20 GPa, the stiffest cells and tissues measured by AFM reach
