@@ -196,6 +196,7 @@ def test_dclab_loads_the_lut_and_isoelastics(tmp_path):
     (["--resolution", "0"], "--resolution"),  # was a ZeroDivisionError
     (["--resolution", "-3"], "--resolution"),  # was blamed on --hydrodynamic-radius-correction
     (["--moduli", "1,2"], "--moduli"),  # 1 Pa: Ca_w beyond the pipe's limit, was named --capillary-number-wall
+    (["--duration", "0.05"], "--duration"),  # under one record interval: each point failed after the lock was taken
 ])
 def test_one_line_refusals(tmp_path, extra, option):
     _refused(BASE, extra, option, tmp_path)
@@ -624,3 +625,33 @@ def test_dclabs_name_of_the_buffer_plans_the_same_table():
     ours, _ = plan(None, "0.04uL/s", None, medium="0.59%MC-PBS", **common)
     dclabs, _ = plan(None, "0.04uL/s", None, medium="CellCarrier B", **common)
     assert [p["key"] for p in dclabs] == [p["key"] for p in ours]
+
+
+def test_a_finished_point_under_an_older_key_of_the_same_options_is_adopted(tmp_path):
+    """A table resumed on another machine (or after the keys' rounding changed) keeps its finished points: a
+    point.json whose options differ from the plan's only by 1e-10 in Ca_w (what the re-keying of the standard table
+    measured) is renamed to the new key and read back without running; one that differs by 1e-6, or in a text
+    option, is a different point and is left alone."""
+    from elastocell.inverse.lut import POINT_FILE, adopt_finished_point, run_point
+
+    points, _ = plan(None, "0.04uL/s", None, radii=[5], moduli=[2000], channel_width="20um",
+                     channel_shape="square", medium="0.59%MC-PBS", temperature=23)
+    point = points[0]
+    prefix = point["key"].rsplit("_", 1)[0]
+
+    def finished(name, **changes):
+        options = {**point["options"], **changes}
+        directory = tmp_path / f"{prefix}_{name}"
+        directory.mkdir()
+        (directory / POINT_FILE).write_text(json.dumps({"key": directory.name, "deform": 0.01, "options": options}))
+        return directory
+
+    ca = point["options"]["capillary_number_wall"]
+    far = finished("0000000001", capillary_number_wall=ca * (1 + 1e-6))
+    other = finished("0000000002", medium="0.49%MC-PBS")
+    assert not adopt_finished_point(tmp_path, point)
+    near = finished("0000000003", capillary_number_wall=ca * (1 + 1e-10))
+    record = run_point((point, str(tmp_path)))  # read back: nothing runs
+    assert record["key"] == point["key"] and record["deform"] == 0.01 and record["options"] == point["options"]
+    assert not near.exists() and (tmp_path / point["key"] / POINT_FILE).exists()
+    assert far.exists() and other.exists()

@@ -8,7 +8,7 @@
    fraction: E's bias (mean over the seeds), how many curves the other checks flag, how many the adhesion check flags;
    and the same adhesion under the sphere-indenter's Hertz estimate (a 5 um bead, 1.5 um deep).
 2. The real files of tests/data/afm (fitted as plates, R = 8 um, with the calibration the tests supply): the dip
-   each reads, in sigma of its baseline's moving average and in % of its largest fitted force, and whether the
+   each reads, in sigma of its baseline's running median and in % of its largest fitted force, and whether the
    adhesion check flags it.
 
 The tables go into docs/validation/fit.md (``validation/page.py``); the constants of the check
@@ -81,6 +81,28 @@ def synthetic(page: Page, seeds: int) -> None:
                      f"adhesion above {ADHESION_DIP_SIGMAS:g} sigma and {100 * ADHESION_DIP_LIMIT:g} % of F_max)")
 
 
+def clean(page: Page, seeds: int) -> None:
+    """False alarms: curves without adhesion (many seeds), and glitches of 1-3 points 30 % of F_max deep."""
+    settings = FitSettings(radius=R, model="hertz", delta_max=0.3)
+    rows = []
+    for noise in (0.003, 0.01, 0.03):
+        fits = [fit_curve("clean", *dmt_curve(0.0, 1000 + seed, noise), settings) for seed in range(10 * seeds)]
+        sigmas = [fit["adhesion_dip_sigmas"] for fit in fits]
+        rows.append({"curves": f"no adhesion, {100 * noise:g} % noise", "n": len(fits),
+                     "largest dip [sigma]": f"{max(sigmas):.2f}",
+                     "largest dip [% of F_max]": f"{100 * max(f['adhesion_dip_fraction'] for f in fits):.2f}",
+                     "flagged adhesion": sum("adhesion" in f["flag"] for f in fits)})
+    for points in (1, 2, 3):
+        displacement, force = dmt_curve(0.0, 1, 0.01)
+        force[250:250 + points] -= 0.3 * force.max()
+        fit = fit_curve("glitch", displacement, force, settings)
+        rows.append({"curves": f"a glitch of {points} point(s) 30 % of F_max below, 1 % noise", "n": 1,
+                     "largest dip [sigma]": f"{fit['adhesion_dip_sigmas']:.2f}",
+                     "largest dip [% of F_max]": f"{100 * fit['adhesion_dip_fraction']:.2f}",
+                     "flagged adhesion": int("adhesion" in fit["flag"])})
+    page.table(rows, "False alarms: curves without adhesion, and glitches (the running median ignores 1-2 points)")
+
+
 def sphere(page: Page, seeds: int) -> None:
     """The sphere-indenter's Hertz estimate (``fit_hertz_sphere``): a bead of 5 um, contact at 2 um, 1.5 um deep,
     1 % noise, the same DMT-like adhesion."""
@@ -132,13 +154,14 @@ def main() -> None:
     arguments = parser.parse_args()
     page = Page("fit", "afm_adhesion.py", intro=(
         "The adhesion check of `fit afm`: a dip of the baseline-corrected force below the baseline between the "
-        "baseline window and the contact (the minimum of its 5-point moving average) deeper than "
-        f"{ADHESION_DIP_SIGMAS:g} standard deviations of the baseline window's own moving average and "
+        "baseline window and the onset past the contact (the minimum of its 5-point running median) deeper than "
+        f"{ADHESION_DIP_SIGMAS:g} standard deviations of the baseline window's own running median and "
         f"{100 * ADHESION_DIP_LIMIT:g} % of the largest fitted force is flagged. Reference for the synthetic "
         "curves: the E they were made with (Hertz, plates, to delta 0.3; a DMT-like adhesion: an attraction "
         "decaying over 20 nm before contact and the same pull-off force in contact). The real files' truth is "
         "unknown; the NT-MDT file is a gel curve its authors named 'adh'."))
     synthetic(page, arguments.seeds)
+    clean(page, arguments.seeds)
     sphere(page, arguments.seeds)
     real(page)
     page.write()

@@ -99,7 +99,7 @@ TOLERANCES = {"compression": 1e-9, "flow": 1e-6, "fit": 1e-9}
 # units (R, R_ch, V0, u_max, R^2 for an area of pi, Ca_w = 0.2), not relative to their own near-zero value; with
 # that, every flow quantity on the second machine is within 6.8e-8 of the record (shear's max_speed), 15x below
 # the tolerance.
-CELL_SCALE = {"floor": 1.0}
+CELL_SCALE = {"floor": 1.0, "kinds": ("flow",)}
 SPECIAL = {
     "solver.max_plate_force_imbalance": {"floor": 1.0},
     "solver.refinement_steps": {"tolerance": 0.05},
@@ -124,8 +124,11 @@ def _intended(key: str) -> str | None:
     return INTENDED_CHANGES.get(key.split("[")[0])
 
 
-def _special(key: str) -> dict:
-    return next((rule for suffix, rule in SPECIAL.items() if key.endswith(suffix)), {})
+def _special(key: str, kind: str) -> dict:
+    """The rule of SPECIAL whose suffix ends ``key`` and that applies to runs of ``kind`` (a rule with ``kinds``
+    only to those: the flows' near-zero quantities, not a fit's ``contact_point_std``)."""
+    return next((rule for suffix, rule in SPECIAL.items()
+                 if key.endswith(suffix) and kind in rule.get("kinds", (kind,))), {})
 
 
 # Keys of JSON files (at any depth) and table columns that are not compared: timings, rates from timings,
@@ -448,7 +451,7 @@ def compare(expected: dict, results: dict, echo=print, failures_only: bool = Fal
                 rows.append((key, "recorded", "missing", "inf", "FAIL"))
                 ok = False
                 continue
-            rule = _special(key)
+            rule = _special(key, recorded_run["kind"])
             difference, shown_recorded, shown_now, where = _difference(
                 recorded_q[key], now_q[key], rule.get("floor", 0.0), "tolerance" in rule)
             allowed = max(rule.get("tolerance", tolerance), now_run["resolution"].get(key, 0.0),
@@ -471,9 +474,10 @@ def summary_of_differences(expected: dict, results: dict) -> dict:
     out = {}
     for name, now_run in results.items():
         recorded_q = expected["runs"].get(name, {}).get("quantities", {})
+        kind = expected["runs"].get(name, {}).get("kind", "")
         worst, where = 0.0, ""
         for key, value in now_run["quantities"].items():
-            rule = _special(key)
+            rule = _special(key, kind)
             if key in recorded_q and "tolerance" not in rule and not _intended(key):
                 difference, _, _, index = _difference(recorded_q[key], value, rule.get("floor", 0.0))
                 if difference > worst:

@@ -85,6 +85,7 @@ from elastocell.scenarios.pipe import (
     PIPE_CHANNEL_WALL,
     PIPE_HYDRODYNAMIC_RADIUS_CORRECTION,
     PipeFlowParameters,
+    PipeRun,
     pipe_lattice_units,
     unit_flow_rate,
 )
@@ -97,7 +98,7 @@ from elastocell.simulation.extrapolation import (
     part_directory,
     requested_coarse_resolution,
 )
-from elastocell.simulation.runner import StopCriteria, resume_or_restart
+from elastocell.simulation.runner import StopCriteria, check_record_interval, resume_or_restart
 from elastocell.version import __version__
 
 POINT_FILE = "point.json"
@@ -436,6 +437,8 @@ def plan(channel_radius=None, flow_rate=None, viscosity=None, radii=None, moduli
         transit = {"channel_length": length * 1e6}
         if duration_given is None:
             duration = cap
+    check_record_interval(duration, PipeRun.DEFAULT_RECORD_INTERVAL, PipeRun.TIME_UNIT,
+                          "each point records its shape every interval")
     points = []
     for radius in radii_m:
         ratio = r_ch / radius
@@ -763,11 +766,55 @@ def point_state(record: dict) -> str:
     return record.get("state") or ("stationary" if record.get("stationary") else "cap")
 
 
+ADOPT_TOLERANCE = 1e-9
+"""Relative difference below which two numbers of a grid point's options are the same point: the last bits that a
+key computed on another machine, or before :data:`UNIT_FLOW_RATE_DIGITS` rounded it, differ by (1e-10 measured)."""
+
+
+def _same_options(recorded: dict | None, options: dict) -> bool:
+    """Whether a finished point's recorded options are ``options`` up to :data:`ADOPT_TOLERANCE` in its numbers."""
+    if not isinstance(recorded, dict) or set(recorded) != set(options):
+        return False
+    for name, value in options.items():
+        other = recorded[name]
+        numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (value, other))
+        if numbers and not (value == other or abs(value - other) <= ADOPT_TOLERANCE * max(abs(value), abs(other))):
+            return False
+        if not numbers and value != other:
+            return False
+    return True
+
+
+def adopt_finished_point(runs_directory: Path, point: dict) -> bool:
+    """Give a finished run of the same grid point under another key ``point``'s key: a run whose recorded options
+    equal ``point``'s up to :data:`ADOPT_TOLERANCE` (its key was computed on another machine, or by an older
+    version, from the last bits of the same numbers) is renamed to ``point["key"]`` and its point.json given the
+    key and options, so that a table resumed elsewhere keeps what it has computed. True when one was adopted."""
+    target = runs_directory / point["key"]
+    if target.exists() and any(target.iterdir()):  # a run under this key has started: it stands
+        return False
+    prefix = point["key"].rsplit("_", 1)[0] + "_"  # R<radius>um_E<modulus>kPa_: the same radius and modulus
+    for marker in sorted(runs_directory.glob(f"{prefix}*/{POINT_FILE}")):
+        if marker.parent == target:
+            continue
+        record = json.loads(marker.read_text())
+        if _same_options(record.get("options"), point["options"]):
+            if target.exists():
+                target.rmdir()
+            marker.parent.rename(target)
+            write_json(target / POINT_FILE, {**record, "key": point["key"], "options": point["options"]})
+            return True
+    return False
+
+
 def run_point(task: tuple[dict, str]) -> dict:
-    """Run one grid point in ``runs_directory/<key>`` (a Dask task); a finished point is read back."""
+    """Run one grid point in ``runs_directory/<key>`` (a Dask task); a finished point is read back (also one
+    finished under another key of the same options, :func:`adopt_finished_point`)."""
     point, runs_directory = task
     directory = Path(runs_directory) / point["key"]
     marker = directory / POINT_FILE
+    if not marker.exists():
+        adopt_finished_point(Path(runs_directory), point)
     if marker.exists():
         record = json.loads(marker.read_text())
         if "outline_fallback" not in record and (directory / "summary.json").exists():  # a point of an older grid

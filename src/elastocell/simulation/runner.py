@@ -64,12 +64,13 @@ def check_run_cost(lattice_updates: float, parameter: str = "duration") -> float
     return typical
 
 
-def check_record_interval(duration: float, record_interval: float, unit: str) -> None:
+def check_record_interval(duration: float, record_interval: float, unit: str,
+                          hint: str = "give a shorter --record-interval") -> None:
     """Refuse a ``duration`` shorter than one ``record_interval`` (both in ``unit``): a run advances record by
-    record, so it would run a whole record interval, longer than it was asked to."""
+    record, so it would run a whole record interval, longer than it was asked to. ``hint``: what the user can do."""
     if math.isfinite(duration) and math.isfinite(record_interval) and 0 < duration < record_interval:
         raise ParameterError("duration", f"must be at least one record interval ({record_interval:g} {unit}): a run "
-                             f"advances record by record; give a shorter --record-interval, got {duration:g}")
+                             f"advances record by record; {hint}, got {duration:g}")
 
 
 STATIONARY_DRIFT_TOLERANCE = 1e-3
