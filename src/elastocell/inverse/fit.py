@@ -73,7 +73,11 @@ positive, E at the solver's lower bound, an interval bound below zero) is writte
 - residuals without structure: the signs of the in-contact residuals, taken one per correlation length of the
   baseline noise (so coloured noise is not mistaken for a misfit), have a runs-test z above
   :data:`RUNS_Z_LIMIT`, or the misfit is small (the rms of the residuals smoothed over a twentieth of the contact
-  region, below :data:`SYSTEMATIC_LIMIT` of the largest fitted force).
+  region, below :data:`SYSTEMATIC_LIMIT` of the largest fitted force);
+- no adhesion dip (:func:`adhesion_dip`): flagged where the force's running median falls below the baseline
+  around contact by more than both :data:`ADHESION_DIP_SIGMAS` of the baseline's noise and
+  :data:`ADHESION_DIP_LIMIT` of the largest fitted force (a snap-in, an adhesive tip or a baseline drifting into
+  contact biases E high).
 A curve that cannot be fitted at all (no contact, too few points, a fixed contact point outside the curve's
 displacement range, a curve of a map afmformats cannot convert) is a row with NaN values and its reason as the
 flag; an unexpected exception while fitting one curve (a bug) is such a row flagged "fit failed: <type>:
