@@ -203,7 +203,8 @@ def compare(tables: Path, write_page: bool) -> None:
     rows = [{"R [um]": r["radius_um"], "E [kPa]": r["emodulus_kpa"], "state": r["state"],
              "t_end": r.get("duration"), "area_um": r["area_um"], "deform": r["deform"],
              f"E {COMPARED} [kPa]": 1e-3 * e, "ratio": 1e-3 * e / r["emodulus_kpa"],
-             "max |dV/V|": r.get("volume_change_max_abs", float("nan"))}
+             "max |dV/V|": r.get("volume_change_max_abs", float("nan")),
+             "hull": r.get("outline_fallback", float("nan"))}
             for r, e in zip(records, e_pa, strict=True)]
     inside = [row for row in rows if np.isfinite(row["ratio"])]
     within = [row for row in inside if abs(row["ratio"] - 1.0) <= 0.05]
@@ -217,7 +218,9 @@ def compare(tables: Path, write_page: bool) -> None:
         f"the duration cap t = {metadata['duration']:g}/gdot_w, state `cap`) read through dclab's {COMPARED} at the same conditions "
         "(buyukurganci-2022 viscosity, no pixelation correction). `ratio`: E_dclab/E_input (1 where the two "
         "tables agree); `max |dV/V|`: the largest volume change of the cell in its run (the immersed boundary's "
-        "leak, docs/validation/pipe_dclab.md). The runs' ducts are the channel's own width (whole lattice nodes, the cell's R/dx moved to "
+        "leak, docs/validation/pipe_dclab.md); `hull`: the share of the final window's records whose side view is "
+        "the nodes' hull, not the smooth outline (deform biased high there: a point read "
+        "partly on the hull is no smooth shape). The runs' ducts are the channel's own width (whole lattice nodes, the cell's R/dx moved to "
         "make it so: 7.90-8.13). Near its convex hull (the "
         "softest, most deformed cells of an area) dclab's HE-3D-FEM-22 is not FEM runs but its isoelastics "
         "extrapolated by third-order polynomials (the header of dclab's lut_HE-3D-FEM-22.txt), so a ratio there "
@@ -225,7 +228,7 @@ def compare(tables: Path, write_page: bool) -> None:
         "grows with it; dclab's notes: " + ("; ".join(n.rstrip(".") for n in notes) or "none") + "."))
     page.table(rows, f"Finished points of the standard table against {COMPARED}",
                formats={"t_end": ".1f", "area_um": ".2f", "deform": ".5f", f"E {COMPARED} [kPa]": ".3f",
-                        "ratio": ".3f", "max |dV/V|": ".2g"})
+                        "ratio": ".3f", "max |dV/V|": ".2g", "hull": ".2f"})
     page.print(summary)
     if write_page:
         page.write()
