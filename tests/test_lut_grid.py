@@ -17,6 +17,7 @@ from elastocell.inverse.lut import (
     read_events,
     reference_table,
 )
+from elastocell.parameters.units import ParameterError
 
 pytest.importorskip("dclab")
 ROOT = Path(__file__).resolve().parents[1]
@@ -119,3 +120,25 @@ def test_a_table_scaled_as_dclab_scales_it_is_the_same_runs_in_mc_pbs(width, flo
             tolerance = 1e-9 if name == "capillary_number_wall" else 1e-12
             assert twin_options[name] == (pytest.approx(value, rel=tolerance) if isinstance(value, float)
                                           else value), name
+
+
+def test_the_volume_projection_is_its_own_points_and_leaves_the_earlier_keys():
+    """``--volume-correction projection`` plans the same grid with the option in every point's options and the
+    settings, so its points have their own keys; without it the keys are those the standard table's first
+    computation committed (validation/tables/..._runs/R4.5um_E0.85kPa_50a01ed485: a key is a contract, the runs
+    and records made with it are adopted by it)."""
+    def planned(volume_correction=None):
+        return plan(None, "0.04uL/s", None, channel_width="20um", channel_shape="square", medium="0.59%MC-PBS",
+                    temperature=23, radii=["4.5um"], moduli=["0.85kPa"], volume_correction=volume_correction)
+
+    (plain,), settings = planned()
+    (none,), _ = planned("none")
+    (projected,), projected_settings = planned("projection")
+    assert plain["key"] == none["key"] == "R4.5um_E0.85kPa_50a01ed485"
+    assert "volume_correction" not in plain["options"] and "volume_correction" not in settings
+    assert projected["options"]["volume_correction"] == "projection"
+    assert projected_settings["volume_correction"] == "projection"
+    assert projected["key"] != plain["key"]
+    assert {k: v for k, v in projected["options"].items() if k != "volume_correction"} == plain["options"]
+    with pytest.raises(ParameterError, match="volume_correction"):
+        planned("penalty")

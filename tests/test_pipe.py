@@ -33,6 +33,7 @@ from elastocell.scenarios.pipe import (
     relax_to_steady,
     run_pipe,
 )
+from elastocell.simulation.runner import StopCriteria
 
 SMALL = dict(resolution=4, channel_radius_ratio=2.5, box_length=6)
 
@@ -801,3 +802,25 @@ def test_a_study_saves_the_finer_runs_last_shape_of_an_extrapolated_pipe(tmp_pat
     _save_final_shape(tmp_path, summary, {})
     with np.load(tmp_path / "shape.npz") as shape:
         np.testing.assert_allclose(shape["positions"], (positions - positions.mean(axis=0)) / 8.0)
+
+
+def test_a_deformation_read_on_the_nodes_hull_is_never_stationary():
+    # A flat deformation series is stationary; the same series whose last records were read on the nodes' hull
+    # (outline_fallback 1) is not: a reading that switched to the hull looks flat while the smooth shape drifts (a
+    # soft table point was stopped so, its window drifting 0.0286 against a bound of 0.0059).
+    t = np.arange(0.0, 5.0, 0.1)
+    series = {"time": t, "deformation": np.full(t.size, 0.05), "outline_fallback": np.zeros(t.size)}
+    stop = StopCriteria(stationary_tolerance=1e-3, stationary_observable="deformation", unit=PipeRun.TIME_UNIT)
+    assert stop.is_stationary(series, "time")
+    series["outline_fallback"][-5:] = 1.0
+    assert not stop.is_stationary(series, "time")
+    series["outline_fallback"][:] = 1.0
+    assert not stop.is_stationary(series, "time")
+    series["outline_fallback"][:] = 0.0  # the hull left behind, beyond the two windows the stop compares
+    series["outline_fallback"][:20] = 1.0
+    assert stop.is_stationary(series, "time")
+    # the strains are measured on the nodes, not the outline: the hull does not concern them
+    series["strain_axial"] = np.full(t.size, 1.01)
+    series["outline_fallback"][:] = 1.0
+    assert StopCriteria(stationary_tolerance=1e-3, stationary_observable="strain_axial",
+                        unit=PipeRun.TIME_UNIT).is_stationary(series, "time")

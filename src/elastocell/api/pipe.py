@@ -248,6 +248,7 @@ def pipe(
     flow_index: float | None = None,
     hold_flow_rate: bool | None = None,
     hydrodynamic_radius_correction: float | None = None,
+    volume_correction: str | None = None,
     duration: float = 10.0,
     resume: bool = False,
     progress: bool = True,
@@ -277,7 +278,8 @@ def pipe(
     hold_flow_rate: hold the flow rate the nominal G drives through the ideal channel (default True, as RT-DC's
     pump) or, False, hold G. hydrodynamic_radius_correction: the markers at R - c dx (default 0.3). Both as
     :class:`PipeFlowParameters` (``elastocell pipe --hold-flow-rate/--no-hold-flow-rate``,
-    ``--hydrodynamic-radius-correction``).
+    ``--hydrodynamic-radius-correction``). volume_correction: "none" (default) or "projection", the cell's volume
+    held by projecting the surface markers after every step (:class:`PipeFlowParameters`; ``--volume-correction``).
     duration: units of 1/gdot_w. resume: continue from ``out/checkpoint.npz`` (each part's) if it exists; a
     directory holding one run (a checkpoint, no ``resolution-*``) resumed with ``extrapolate`` None continues as
     that one run, with a warning.
@@ -314,9 +316,11 @@ def pipe(
                         ("medium", medium),
                         ("temperature", parse_temperature(temperature)), ("flow_index", flow_index),
                         ("hold_flow_rate", hold_flow_rate),
-                        ("hydrodynamic_radius_correction", hydrodynamic_radius_correction)):
+                        ("hydrodynamic_radius_correction", hydrodynamic_radius_correction),
+                        ("volume_correction", volume_correction)):
         if value is not None:
-            if name in ("hold_flow_rate", "hydrodynamic_radius_correction") and flow_options.get(name, value) != value:
+            if (name in ("hold_flow_rate", "hydrodynamic_radius_correction", "volume_correction")
+                    and flow_options.get(name, value) != value):
                 raise ParameterError(name, f"given twice, {value!r} and flow_options {flow_options[name]!r}")
             flow_options[name] = value
     params = PipeFlowParameters(capillary_number_wall=capillary_number_wall, **flow_options)

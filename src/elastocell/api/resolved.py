@@ -73,7 +73,7 @@ def resolved_parameters(scenario: str, options: dict) -> dict:
     flow_options = dict(arguments.pop("flow_options") or {})
     names = (("resolution",) if scenario == "shear" else
              ("channel_radius_ratio", "start_offset", "resolution", "hold_flow_rate", "hydrodynamic_radius_correction",
-              "channel_wall"))
+              "channel_wall", "volume_correction"))
     for name in names:
         value = arguments.pop(name)
         if value is not None:

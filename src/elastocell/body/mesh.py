@@ -350,6 +350,19 @@ def outer_surface_triangles(elements: np.ndarray) -> np.ndarray:
     return np.concatenate([faces[boundary], edge_nodes[boundary]], axis=1)
 
 
+TET_OUTWARD_FACES = np.array([(1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1)])
+"""The faces of a positively oriented tetrahedron (corner indices), each ordered so that its normal
+(b - a) x (c - a) points out of the tetrahedron."""
+
+
+def outward_surface_triangles(elements: np.ndarray) -> np.ndarray:
+    """The outer boundary's corner triangles (n_faces, 3) of positively oriented tetrahedra, each ordered so that
+    its normal points out of the body: over them, sum a . (b x c) / 6 is the volume the surface encloses."""
+    faces = elements[:, TET_OUTWARD_FACES].reshape(-1, 3)
+    _, index, counts = np.unique(np.sort(faces, axis=1), axis=0, return_index=True, return_counts=True)
+    return np.ascontiguousarray(faces[index[counts == 1]], dtype=np.int64)
+
+
 def surface_corner_edges(elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(corners, edge_nodes): for quadratic tetrahedra, one pair per end of every outer surface edge, the corner
     node at that end and the edge's mid-side node (empty for linear ones). A 6-node triangle's corner takes no

@@ -266,7 +266,7 @@ def equivalent_command(cell: dict, as_json: bool):
        opt("extrapolate", annotation=bool | None, default=None,
            shown="on in a cylinder with the cell on the axis (six side views), off in a duct or off the axis"),
        "coarse_resolution", "hold_flow_rate", opt("hydrodynamic_radius_correction", default=0.3),  # the API's
-       "channel_shape", "channel_wall",
+       "channel_shape", "channel_wall", "volume_correction",
        opt("channel_width", help="Width W of a square or rectangular channel, with a physical --radius: sets "
            "--channel-radius-ratio to W/(2R)."), "channel_height", "channel_aspect_ratio", "medium", "temperature",
        "flow_index", opt("channel_length", help="Length L of a finite channel, with a physical --radius (RT-DC chips: "
@@ -283,7 +283,7 @@ def equivalent_command(cell: dict, as_json: bool):
        "resume", "backend", "quiet")
 def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent: bool, channel_radius_ratio: float,
          start_offset: float, resolution: float, extrapolate: bool | None, coarse_resolution: float | None,
-         hold_flow_rate: bool, hydrodynamic_radius_correction: float, channel_shape, channel_wall,
+         hold_flow_rate: bool, hydrodynamic_radius_correction: float, channel_shape, channel_wall, volume_correction,
          channel_width: str | None,
          channel_height: str | None,
          channel_aspect_ratio: float | None, medium: str, temperature: str | None, flow_index: float | None,
@@ -334,7 +334,7 @@ def pipe(out: Path, capillary_number_wall: float | None, cell: dict, equivalent:
         raise ParameterError("capillary_number_wall", "required (or --pressure-gradient)")
     flow_options = {"channel_radius_ratio": channel_radius_ratio, "start_offset": start_offset, "resolution": resolution,
                     "backend": backend.value, "channel_shape": shape, "channel_aspect_ratio": channel_aspect_ratio,
-                    "channel_wall": channel_wall.value,
+                    "channel_wall": channel_wall.value, "volume_correction": volume_correction.value,
                     "medium": medium, "temperature": parse_temperature(temperature), "flow_index": flow_index}
     StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
                  stationary_observable=stationary_observable.value, unit="units of 1/gdot_w")

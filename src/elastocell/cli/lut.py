@@ -17,7 +17,7 @@ from elastocell.cli.options import opt, takes
                                  "as dclab's LE-2D-FEM-19) | square (the square duct itself, as HE-3D-FEM-22); a "
                                  "rectangle is refused.", shown="cylinder"),
        opt("channel_height", help="Height H of the channel: a table is made for square channels only (H = W).",
-           shown="--channel-width"), "channel_wall",
+           shown="--channel-width"), "channel_wall", "volume_correction",
        "flow_rate", opt("viscosity", help="Viscosity of a Newtonian medium.",
                         shown="none: required with --medium newtonian"),
        opt("medium", help="newtonian (with --viscosity) | 0.49%MC-PBS | 0.59%MC-PBS | 0.83%MC-PBS (RT-DC buffers: "
@@ -54,6 +54,7 @@ from elastocell.cli.options import opt, takes
        "identifier", opt("scheduler", help="Dask scheduler address."),
        opt("workers", help="Local Dask workers."), "quiet")
 def lut(channel_radius: str | None, channel_width: str | None, channel_shape, channel_height: str | None, channel_wall,
+        volume_correction,
         flow_rate: str, viscosity: str | None, medium: str, temperature: str | None, flow_index: float | None,
         channel_length: str | None, out: Path,
         radii: str | None, moduli: str | None, quick: bool, stiffness_ratio: float | None,
@@ -78,7 +79,7 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
                          flow_index=flow_index, extrapolate=extrapolate, coarse_resolution=coarse_resolution,
                          hydrodynamic_radius_correction=hydrodynamic_radius_correction,
                          stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, channel_length=channel_length,
-                         channel_wall=channel_wall.value)
+                         channel_wall=channel_wall.value, volume_correction=volume_correction.value)
     if not quiet:
         settings = result["settings"]
         typer.echo(f"{settings.get('cell_description', 'homogeneous cell')}, "

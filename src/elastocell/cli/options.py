@@ -60,6 +60,11 @@ class ChannelWall(str, Enum):
     interpolated = "interpolated"
 
 
+class VolumeCorrection(str, Enum):
+    none = "none"
+    projection = "projection"
+
+
 class StationaryObservable(str, Enum):
     strain_axial = "strain_axial"
     deformation = "deformation"
@@ -259,6 +264,10 @@ OPTIONS: dict[str, Opt] = _declare(
         "interpolated (interpolated bounce-back, the wall at R_ch on every link: the empty channel's profile error "
         "at most 0.3-1.0 % instead of 3.8-6.2 % of u_max) | staircase (bounce-back half-way to the nodes outside R_ch, the only "
         "wall of earlier versions). A duct's walls are the same either way."),
+    Opt("volume_correction", VolumeCorrection, VolumeCorrection.none, "How the cell's volume is kept: none (the "
+        "markers move with the fluid alone; the immersed boundary leaks, and a soft cell's volume drifts by up to "
+        "several %) | projection (after every step the surface markers are moved back to the undeformed volume "
+        "along its gradient; no force is added; the summary's volume_restored says how much it restored)."),
     Opt("channel_aspect_ratio", float | None, None, "H/W of a rectangular channel.", units=_DIMENSIONLESS,
         shown="1, or --channel-height/--channel-width"),
     Opt("channel_height", str | None, None, "Height H of a rectangular channel (with --channel-width).",

@@ -7,7 +7,15 @@ compiled chunk runs many):
    f = -dE/dx at X, spread them to the force density;
 2. one LB step with the force density; it stores the velocity its collision used,
    u = (sum c f + F/2)/rho (Guo half-force term), at the nodes of the markers' kernel supports;
-3. interpolate that u at X; 4. X += u dt.
+3. interpolate that u at X; 4. X += u dt;
+5. with the volume projection (``volume_correction="projection"``), the surface markers moved along the gradient of
+   the volume they enclose so that it is the undeformed cell's again (:func:`_project_volume`).
+
+The projection answers the immersed boundary's leak: the interpolated velocity is not divergence-free, so fluid
+crosses the marker surface and a cell's volume drifts, although the fluid inside it is incompressible (the drift
+grows with the deformation: docs/theory.md, "Volume conservation"). The correction is kinematic: no force, no
+stiffness, so the stability limit of the step is unchanged; the volume it restores is reported
+(:attr:`ImmersedCell.volume_restored`), so the leak stays visible.
 """
 
 from __future__ import annotations
@@ -19,6 +27,7 @@ import warnings
 import numpy as np
 from numba import njit
 
+from elastocell.body.mesh import outward_surface_triangles
 from elastocell.coupling import ibm
 from elastocell.coupling.elastic_forces import VOLUMETRIC_CODES, ElasticForces, elastic_forces
 from elastocell.coupling.markers import MarkerState, marker_radius, raise_flow_failure
@@ -44,6 +53,60 @@ def _velocity_box(positions, support, box):
 
 
 @njit(cache=True, error_model="numpy")
+def _enclosed_volume(positions, faces, gradient):
+    """V = sum over the triangles (a, b, c) of a . (b x c) / 6 (dx^3): the volume a closed triangulated surface
+    encloses, taken about its first corner (round-off), signed by the triangles' orientation; ``gradient`` (n, 3)
+    receives dV/dX (dx^2) at every node of the triangles (zero elsewhere): for a closed surface the sum over its
+    triangles at node a of (b x c)/6, (a, b, c) in their cyclic order, which the origin does not change."""
+    gradient[:, :] = 0.0
+    o0 = positions[faces[0, 0], 0]
+    o1 = positions[faces[0, 0], 1]
+    o2 = positions[faces[0, 0], 2]
+    volume = 0.0
+    for f in range(faces.shape[0]):
+        a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+        a0, a1, a2 = positions[a, 0] - o0, positions[a, 1] - o1, positions[a, 2] - o2
+        b0, b1, b2 = positions[b, 0] - o0, positions[b, 1] - o1, positions[b, 2] - o2
+        c0, c1, c2 = positions[c, 0] - o0, positions[c, 1] - o1, positions[c, 2] - o2
+        bc0, bc1, bc2 = b1 * c2 - b2 * c1, b2 * c0 - b0 * c2, b0 * c1 - b1 * c0  # b x c
+        ca0, ca1, ca2 = c1 * a2 - c2 * a1, c2 * a0 - c0 * a2, c0 * a1 - c1 * a0  # c x a
+        ab0, ab1, ab2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0  # a x b
+        volume += (a0 * bc0 + a1 * bc1 + a2 * bc2) / 6.0
+        gradient[a, 0] += bc0 / 6.0
+        gradient[a, 1] += bc1 / 6.0
+        gradient[a, 2] += bc2 / 6.0
+        gradient[b, 0] += ca0 / 6.0
+        gradient[b, 1] += ca1 / 6.0
+        gradient[b, 2] += ca2 / 6.0
+        gradient[c, 0] += ab0 / 6.0
+        gradient[c, 1] += ab1 / 6.0
+        gradient[c, 2] += ab2 / 6.0
+    return volume
+
+
+@njit(cache=True, error_model="numpy")
+def _project_volume(positions, faces, surface_nodes, gradient, target_volume):
+    """Move the surface nodes along g = dV/dX so that the enclosed volume V is ``target_volume`` again:
+    X += lambda g with lambda = (V0 - V) / sum |g|^2 (the least displacement that restores V to first order; the
+    error left is second order in lambda, |dV/V| ~ 1e-14 for a step's leak). The interior nodes stay where they
+    are and sum(lambda g) = 0: the centroid of the markers does not move. Returns V0 - V (dx^3), the volume
+    restored."""
+    volume = _enclosed_volume(positions, faces, gradient)
+    norm2 = 0.0
+    for i in range(surface_nodes.shape[0]):
+        m = surface_nodes[i]
+        norm2 += gradient[m, 0] ** 2 + gradient[m, 1] ** 2 + gradient[m, 2] ** 2
+    restored = target_volume - volume
+    lam = restored / norm2
+    for i in range(surface_nodes.shape[0]):
+        m = surface_nodes[i]
+        positions[m, 0] += lam * gradient[m, 0]
+        positions[m, 1] += lam * gradient[m, 1]
+        positions[m, 2] += lam * gradient[m, 2]
+    return restored
+
+
+@njit(cache=True, error_model="numpy")
 def _coupled_steps(
     n_steps, A, parity, nz, field, consts, has_walls, wall_corr, cint, opp, solid, has_solid,
     run_ptr, run_lo, run_hi, link_ptr, link_z, link_q, lb_weights, cvel, link_a, link_b, link_near, wall_memory,
@@ -51,6 +114,7 @@ def _coupled_steps(
     positions, spread_positions, has_spread, forces, velocity, kernel, support,
     elements, gradients, weights, params, node_ptr, node_slots, eforce, j_elem, volumetric, reference_volume,
     node_reference_volume, node_bulk, volume, node_pressure, pressure,
+    faces, surface_nodes, volume_gradient, target_volume,
 ):  # fmt: skip
     """Advance ``n_steps`` coupled LB + IBM steps in compiled code (see the module docstring).
 
@@ -58,11 +122,16 @@ def _coupled_steps(
     force density, at the fluid nodes of the markers' kernel supports (``fluid_velocity``, storage dtype,
     zero at solid nodes); the markers read it there, so no population is read twice.
 
-    Returns (parity, steps done, smallest det F, largest marker speed); stops early (steps done <
-    n_steps) when an element inverts or a marker velocity is not finite."""
+    With ``target_volume`` > 0 every step ends with :func:`_project_volume` onto that volume (the surface
+    ``faces`` and ``surface_nodes``; ``volume_gradient`` (n, 3) scratch); 0 leaves the markers where the fluid
+    moved them.
+
+    Returns (parity, steps done, smallest det F, largest marker speed, the volume restored in all (dx^3)); stops
+    early (steps done < n_steps) when an element inverts or a marker velocity is not finite."""
     periodic_y = not has_walls
     j_min = np.inf
     max_speed = 0.0
+    restored = 0.0
     n_markers = positions.shape[0]
     for step in range(n_steps):
         if has_spread:
@@ -71,7 +140,7 @@ def _coupled_steps(
                            j_elem, volumetric, reference_volume, node_reference_volume, node_bulk, volume,
                            node_pressure, pressure, forces)
         if not j > 0.0:
-            return parity, step, j, max_speed
+            return parity, step, j, max_speed, restored
         j_min = min(j_min, j)
         ibm._spread_field(forces, positions, kernel, periodic_y, field)
         spread_positions[:, :] = positions
@@ -88,21 +157,32 @@ def _coupled_steps(
             vz = velocity[m, 2]
             speed = vx * vx + vy * vy + vz * vz
             if not speed < 1.0:  # NaN or absurd: the fluid blew up
-                return parity, step + 1, -np.inf, np.sqrt(speed)
+                return parity, step + 1, -np.inf, np.sqrt(speed), restored
             max_speed = max(max_speed, speed)
             positions[m, 0] += vx
             positions[m, 1] += vy
             positions[m, 2] += vz
-    return parity, n_steps, j_min, np.sqrt(max_speed)
+        if target_volume > 0.0:
+            restored += _project_volume(positions, faces, surface_nodes, volume_gradient, target_volume)
+    return parity, n_steps, j_min, np.sqrt(max_speed), restored
+
+
+VOLUME_CORRECTIONS = ("none", "projection")
+"""How a coupled step keeps the cell's volume: "none" (the markers move with the fluid alone) or "projection"
+(:func:`_project_volume` after every step)."""
 
 
 def immersed_cell(backend: str, lattice_params: LatticeParams, velocity, cell, units, kernel: str,
-                  radius_correction: float = 0.0):
+                  radius_correction: float = 0.0, volume_correction: str = "none"):
     """The coupled system on a backend ("numba" or "jax"): a lattice at the equilibrium of ``velocity``
     (3, nx, ny, nz) and the cell at ``units.centre`` with radius ``units.radius`` (dx) and modulus
     ``units.youngs_modulus`` (lattice units); its markers lie on a sphere of radius ``units.radius -
     radius_correction`` (:func:`~elastocell.coupling.markers.marker_radius`). A law without a compiled force kernel
-    (``Law.has_compiled_kernel`` false) runs on "jax", whose forces are the autodiff of the law, with a warning."""
+    (``Law.has_compiled_kernel`` false) runs on "jax", whose forces are the autodiff of the law, with a warning.
+    ``volume_correction``: :data:`VOLUME_CORRECTIONS`; the projection runs on "numba" only."""
+    if volume_correction not in VOLUME_CORRECTIONS:
+        raise ValueError(f"volume_correction must be one of {', '.join(VOLUME_CORRECTIONS)}, got "
+                         f"{volume_correction!r}")
     if backend == "numba" and not cell.law.has_compiled_kernel:
         warnings.warn(f"the law {cell.law.name!r} has no compiled (Numba) force kernel: the flow runs on the JAX "
                       "backend, forces by autodiff of the law (on a CPU 10-16 times slower per step)", stacklevel=2)
@@ -112,6 +192,8 @@ def immersed_cell(backend: str, lattice_params: LatticeParams, velocity, cell, u
                       "kernel: the flow runs on the JAX backend, forces by autodiff of the law (on a CPU 10-16 times "
                       "slower per step)", stacklevel=2)
         backend = "jax"
+    if volume_correction != "none" and backend != "numba":
+        raise ValueError(f"volume_correction {volume_correction!r} runs on the Numba backend only, not {backend!r}")
     if backend == "jax":
         from elastocell.coupling.immersed_jax import (  # lazy: JAX (about 1 s) only for backend='jax'
             JaxImmersedCell,
@@ -126,6 +208,9 @@ def immersed_cell(backend: str, lattice_params: LatticeParams, velocity, cell, u
     lattice = lattice_class(lattice_params)
     lattice.initialize(velocity=velocity)
     radius = marker_radius(units.radius, radius_correction)
+    if volume_correction != "none":
+        return cell_class(lattice, cell, units.centre, radius, units.youngs_modulus, kernel=kernel,
+                          volume_correction=volume_correction)
     return cell_class(lattice, cell, units.centre, radius, units.youngs_modulus, kernel=kernel)
 
 
@@ -145,6 +230,9 @@ class ImmersedCell(MarkerState):
     youngs_modulus : float
         E_c in lattice units (rho0 dx^2/dt^2).
     kernel : "trilinear" (default) or "peskin4".
+    volume_correction : "none" (default) or "projection": after every step the surface markers are moved along
+        the gradient of the volume they enclose back to the undeformed cell's (module docstring); linear
+        elements only (the surface of quadratic ones is curved).
 
     State: :attr:`positions` (n_nodes, 3) in dx (unwrapped: periodic images are taken by the kernels),
     :attr:`time_step`. Lattice velocities are dx/dt; forces rho0 dx^4/dt^2.
@@ -153,7 +241,7 @@ class ImmersedCell(MarkerState):
     backend = "numba"
 
     def __init__(self, lattice: Lattice, cell, centre, radius: float, youngs_modulus: float,
-                 kernel: str = "trilinear"):
+                 kernel: str = "trilinear", volume_correction: str = "none"):
         self.lattice = lattice
         self.cell = cell
         self.radius = float(radius)
@@ -178,6 +266,22 @@ class ImmersedCell(MarkerState):
         self.time_step = 0
         self.max_speed = 0.0
         """Largest marker speed |u| (dx/dt) seen in the last :meth:`advance`."""
+        if volume_correction not in VOLUME_CORRECTIONS:
+            raise ValueError(f"volume_correction must be one of {', '.join(VOLUME_CORRECTIONS)}, got "
+                             f"{volume_correction!r}")
+        if volume_correction != "none" and cell.mesh.order != 1:
+            raise ValueError("volume_correction 'projection' needs linear elements (the surface of quadratic ones "
+                             "is curved, its volume not that of the corner triangles)")
+        self.volume_correction = volume_correction
+        faces = outward_surface_triangles(cell.mesh.elements)
+        self._volume_gradient = np.zeros((n, 3))
+        self._surface_faces = faces
+        self._surface_nodes = np.ascontiguousarray(np.unique(faces), dtype=np.int64)
+        self.target_volume = (_enclosed_volume(self.positions, faces, self._volume_gradient)
+                              if volume_correction == "projection" else 0.0)
+        """V0 (dx^3), the volume the projection holds (that of the undeformed surface); 0 without it."""
+        self.volume_restored = 0.0
+        """The volume the projection has restored since the start (dx^3; > 0: it replaced volume the leak took)."""
 
     def advance(self, n_steps: int) -> None:
         """n_steps coupled steps in one compiled call; raises :class:`FlowError` on an inverted element or a
@@ -190,13 +294,15 @@ class ImmersedCell(MarkerState):
         #                          consts, weights, cvel, cint, opp, link_a, link_b, link_near, memory, curved)
         (A, parity, nz, field, _, consts, has_walls, wall_corr, cint, opp, solid,
          has_solid) = ibm.lattice_arguments(lat)  # fmt: skip
-        parity, done, j_min, max_speed = _coupled_steps(
+        parity, done, j_min, max_speed, restored = _coupled_steps(
             n_steps, A, parity, nz, field, consts, has_walls, wall_corr, cint, opp, solid, has_solid,
             tables[0], tables[1], tables[2], tables[5], tables[6], tables[7], tables[9], tables[10], *tables[13:18],
             self._fluid_velocity, self._box, self.positions, self._spread_positions, self._has_spread,
             self._marker_forces, self._velocity, self._kernel_id, ibm.KERNEL_SUPPORT[self.kernel],
-            *self.forces.arguments(),
+            *self.forces.arguments(), self._surface_faces, self._surface_nodes, self._volume_gradient,
+            self.target_volume,
         )  # fmt: skip
+        self.volume_restored += float(restored)
         lat._parity = int(parity)
         lat.time_step += int(done)
         self.time_step += int(done)
@@ -213,7 +319,8 @@ class ImmersedCell(MarkerState):
         """The coupled state for a checkpoint (NumPy arrays)."""
         return {**self.lattice.state_arrays(), "positions": self.positions,
                 "spread_positions": self._spread_positions, "has_spread": np.array(self._has_spread),
-                "time_step": np.array(self.time_step), "max_speed": np.array(self.max_speed)}  # fmt: skip
+                "time_step": np.array(self.time_step), "max_speed": np.array(self.max_speed),
+                **({"volume_restored": np.array(self.volume_restored)} if self.target_volume > 0 else {})}  # fmt: skip
 
     def load_state_arrays(self, data) -> None:
         self.lattice.load_state_arrays(data)
@@ -222,11 +329,16 @@ class ImmersedCell(MarkerState):
         self._has_spread = bool(data["has_spread"])
         self.time_step = int(data["time_step"])
         self.max_speed = float(data["max_speed"])
+        self.volume_restored = float(data["volume_restored"]) if "volume_restored" in data else 0.0
 
     # ------------------------------------------------------------------ reference path (public APIs only)
     def advance_reference(self, n_steps: int) -> None:
         """The same coupled steps through public, uncompiled APIs (JAX forces of ``Cell.internal_forces``,
-        full-lattice ``Lattice.velocity``, Python loop per step): slow, for verification only."""
+        full-lattice ``Lattice.velocity``, Python loop per step): slow, for verification only; without the volume
+        projection."""
+        if self.target_volume > 0:
+            raise ValueError("advance_reference has no volume projection: build the cell with volume_correction "
+                             "'none' to compare against it")
         lat = self.lattice
         periodic_y = not lat.params.has_walls
         scale = self.youngs_modulus * self.radius**2

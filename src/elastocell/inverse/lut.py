@@ -68,6 +68,7 @@ import numpy as np
 from elastocell.api.pipe import pipe, run_state, transit_values
 from elastocell.api.resolved import resolved_parameters
 from elastocell.body.cell import Cell
+from elastocell.coupling.immersed import VOLUME_CORRECTIONS
 from elastocell.files import parameter_hash, replace_atomically, write_json
 from elastocell.parameters.cell import cell_parameters, describe_cell
 from elastocell.parameters.flow import flow_cell
@@ -351,7 +352,7 @@ def plan(channel_radius=None, flow_rate=None, viscosity=None, radii=None, moduli
          flow_index=None, extrapolate: bool = False, coarse_resolution: float | None = None,
          stiffness_ratio: float | None = None, size_ratio: float | None = None,
          channel_length=None, hydrodynamic_radius_correction: float | None = None,
-         channel_wall: str | None = None) -> tuple[list[dict], dict]:
+         channel_wall: str | None = None, volume_correction: str | None = None) -> tuple[list[dict], dict]:
     """Check every input and return (grid points, settings); raises ParameterError (named option) on an
     impossible one, before anything runs. Each point holds its key and the keyword arguments of ``pipe``.
     ``channel_width`` (a square channel's W) replaces ``channel_radius`` (give None for it); ``channel_shape``
@@ -364,7 +365,9 @@ def plan(channel_radius=None, flow_rate=None, viscosity=None, radii=None, moduli
     the nucleated cell model (:func:`cell_model`; the moduli are then the cytoplasm's E_c); ``channel_length``: the
     shape at the end of a channel of that length (:func:`transit_length`) instead of the stationary shape;
     ``channel_wall``: how the lattice places a cylinder's wall, "interpolated" (default, the pipe's) or "staircase"
-    (:data:`~elastocell.scenarios.pipe.CHANNEL_WALLS`; a square duct's walls are the same either way)."""
+    (:data:`~elastocell.scenarios.pipe.CHANNEL_WALLS`; a square duct's walls are the same either way);
+    ``volume_correction``: "none" (default) or "projection", the pipe's (each point's cell volume held by projecting
+    its surface markers after every step; a point's key says which, so points of the two never mix)."""
     from pydantic import ValidationError
 
 
@@ -423,6 +426,12 @@ def plan(channel_radius=None, flow_rate=None, viscosity=None, radii=None, moduli
         raise ParameterError("channel_wall", f"must be one of {', '.join(CHANNEL_WALLS)}, got {channel_wall!r}")
     if shape == "cylinder":  # said in full; the staircase resolves as runs before the choice (their keys stay)
         flow["channel_wall"] = wall
+    correction_method = "none" if volume_correction is None else str(volume_correction)
+    if correction_method not in VOLUME_CORRECTIONS:
+        raise ParameterError("volume_correction", f"must be one of {', '.join(VOLUME_CORRECTIONS)}, got "
+                             f"{volume_correction!r}")
+    if correction_method != "none":  # "none" as the points made before the choice existed: their keys stay
+        flow["volume_correction"] = correction_method
     if not fluid.is_newtonian:
         flow.update(medium=fluid.name, temperature=fluid.temperature)
     coarse = requested_coarse_resolution(bool(extrapolate), resolution, coarse_resolution)
@@ -489,6 +498,8 @@ def plan(channel_radius=None, flow_rate=None, viscosity=None, radii=None, moduli
                 "channel_wall": wall if shape == "cylinder" else "plane (half-way)",
                 "stationary_tolerance": tolerance, "quick": bool(quick), **cell_settings(cell, poisson_ratio),
                 "state": "stationary" if length is None else f"transit {length * 1e6:g} um"}
+    if correction_method != "none":
+        settings["volume_correction"] = correction_method
     if grid is not None:
         settings["default_grid"] = {k: v for k, v in grid.items() if k != "table"}
     if length is not None:
@@ -844,6 +855,7 @@ def run_point(task: tuple[dict, str]) -> dict:
         "projected_area_initial": summary.get("projected_area_initial"),
         "deformation_initial": summary.get("deformation_initial"),
         "strain_axial_mean": summary.get("strain_axial_mean"), "strain_radial_mean": summary.get("strain_radial_mean"),
+        "strain_transverse_mean": summary.get("strain_transverse_mean"),
         "volume_change_max_abs": summary.get("volume_change_max_abs"),
         "stop_reason": summary.get("stop_reason"), "stationary": state == "stationary", "state": state,
         "window_stationary": summary.get("stationary"),
@@ -851,6 +863,8 @@ def run_point(task: tuple[dict, str]) -> dict:
         "steps": summary.get("steps"), "options": point["options"],
         "wall_time_s": time.perf_counter() - start,
     }
+    if "volume_restored" in summary:  # the projection's (V0): the leak it answered
+        record["volume_restored"] = summary["volume_restored"]
     write_json(marker, record)
     return record
 
@@ -910,7 +924,9 @@ def lut_metadata(settings: dict, identifier: str) -> dict:
         "fluid_viscosity_unit": "mPa s",
         "date": date.today().isoformat(),
         "dimensionality": "3D",
-        "method": "LBM-IBM (lattice Boltzmann + immersed boundary, tetrahedral FEM cell)",
+        "method": ("LBM-IBM (lattice Boltzmann + immersed boundary, tetrahedral FEM cell"
+                   + (", the cell's volume held by projecting its surface markers after every step"
+                      if settings.get("volume_correction", "none") != "none" else "") + ")"),
         "model": (f"hyper-elastic solid ({settings['material']}, Poisson ratio {nu:g}"
                   + (f"; nucleus cell: gamma {settings['nucleus_stiffness_ratio']:g}, lambda "
                      f"{settings['nucleus_size_ratio']:g}, emodulus = E_c of the cytoplasm" if nucleated else "")
@@ -1026,7 +1042,8 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
                 medium=None, temperature=None, flow_index=None, extrapolate: bool = False,
                 coarse_resolution: float | None = None, stiffness_ratio: float | None = None,
                 size_ratio: float | None = None, channel_length=None,
-                hydrodynamic_radius_correction: float | None = None, channel_wall: str | None = None) -> dict:
+                hydrodynamic_radius_correction: float | None = None, channel_wall: str | None = None,
+                volume_correction: str | None = None) -> dict:
     """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``. ``security``:
     a ``distributed.Security`` for a TLS scheduler (docs/usage/cluster.md).
 
@@ -1066,7 +1083,7 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
                             coarse_resolution=coarse_resolution, stiffness_ratio=stiffness_ratio,
                             size_ratio=size_ratio, channel_length=channel_length,
                             hydrodynamic_radius_correction=hydrodynamic_radius_correction,
-                            channel_wall=channel_wall)
+                            channel_wall=channel_wall, volume_correction=volume_correction)
     lattice = check_lattice(points)
     identifier = identifier or f"elastocell-{out.stem}"
     runs = runs_directory(out)

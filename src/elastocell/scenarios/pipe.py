@@ -566,6 +566,12 @@ class PipeFlowParameters(FlowLatticeParameters):
         periodic channel; the field is then left out of the parameters' dump, as runs without it held G), and
         the flow rate falls below Q_ideal: by about a tenth for a cell of R/R_ch 0.70 in the default box at
         R/dx 8, which then deforms less (docs/validation/pipe_dclab.md, section "The flow rate held").
+    volume_correction: "none" (default: the markers move with the interpolated fluid alone, and the cell's volume
+        drifts with the immersed boundary's leak, by up to several % for soft cells in RT-DC channels) or
+        "projection" (after every step the surface markers are moved along the gradient of the volume they enclose
+        back to the undeformed cell's: :func:`~elastocell.coupling.immersed._project_volume`; the Numba backend
+        and linear elements only; the restored volume is reported as ``volume_restored`` in the summary). "none"
+        is left out of the parameters' dump, so that the keys and records of runs made without the choice stay.
     medium: "newtonian" or a shear-thinning power law: "0.49%MC-PBS", "0.59%MC-PBS", "0.83%MC-PBS" at
         ``temperature`` (degC, default 23; :mod:`elastocell.parameters.medium`), or "power-law" with ``flow_index``.
         The power law's consistency is set so that its viscosity at the nominal wall shear rate gdot_w is the
@@ -582,6 +588,7 @@ class PipeFlowParameters(FlowLatticeParameters):
     channel_shape: Literal["cylinder", "square", "rectangle"] = "cylinder"
     channel_aspect_ratio: float = 1.0
     channel_wall: Literal["staircase", "interpolated"] = PIPE_CHANNEL_WALL
+    volume_correction: Literal["none", "projection"] = "none"
     medium: str = "newtonian"
     temperature: float | None = None
     flow_index: float | None = None
@@ -617,6 +624,8 @@ class PipeFlowParameters(FlowLatticeParameters):
                 f"got {self.hydrodynamic_radius_correction}")
         check_channel_fit(self.resolution, ratio, offset, self.kernel,
                           aspect if self.channel_shape != "cylinder" else 1.0)
+        require(self.volume_correction == "none" or self.backend == "numba", "volume_correction",
+                f"the projection runs on the Numba backend only, not {self.backend!r}")
         if self.lattice_wall_shear_rate is not None:
             rate = self.lattice_wall_shear_rate
             require(math.isfinite(rate) and rate > 0, "lattice_wall_shear_rate", f"must be > 0 (1/dt), got {rate}")
@@ -629,6 +638,8 @@ class PipeFlowParameters(FlowLatticeParameters):
             data.pop("hydrodynamic_radius_correction", None)
         if self.channel_wall == "staircase" or self.channel_shape != "cylinder":  # what runs made before the
             data.pop("channel_wall", None)  # choice existed had; a duct's plane walls are the same either way
+        if self.volume_correction == "none":  # what runs made before the choice existed did
+            data.pop("volume_correction", None)
         if not self.hold_flow_rate:  # G held: what runs without the field always did (their keys stay valid); so
             data.pop("hold_flow_rate", None)  # rebuild a model from dict(params), not from this dump
         return data
@@ -831,7 +842,7 @@ def pipe_setup(cell, params: PipeFlowParameters, units: PipeUnits | None = None)
         velocity[0] = channel_profile(shape, units.channel, a, b, units.body_force, units.relaxation_time,
                                       units.rheology, params.channel_wall)[None]
     return immersed_cell(params.backend, lattice_params, velocity, cell, units, params.kernel,
-                         params.hydrodynamic_radius_correction)
+                         params.hydrodynamic_radius_correction, params.volume_correction)
 
 
 # =========================================================================== observables
@@ -1078,6 +1089,8 @@ class PipeRun(FlowRun):
         out["outline_fallback_records"] = int((fallback[keep] > 0).sum())  # the window's, on the nodes' hull
         out["outline_fallback_first_time"] = float(t[np.argmax(fallback > 0)]) if (fallback > 0).any() else None
         out["deformation_initial"] = float(s["deformation"][0])  # the outline's own at rest (p1 ~2.5e-5, p2 ~1.5e-5)
+        if self.params.volume_correction == "projection":  # the leak the projection answered, in V0 since the start
+            out["volume_restored"] = self.system.volume_restored / self.system.target_volume
         out["projected_area_initial"] = float(s["projected_area"][0])
         out["reference_extent"] = [float(v) for v in self.reference_extent]
         out["radial_position"] = float(s["radial_position"][-1])

@@ -150,6 +150,11 @@ class _StopAtRecord:
         return False
 
 
+OUTLINE_FALLBACK_OF = {"deformation": "outline_fallback", "projected_area": "outline_fallback",
+                       "deformation_views": "outline_fallback_views", "projected_area_views": "outline_fallback_views"}
+"""The column that says where a reading of the outline fell back to the nodes' hull (> 0 there)."""
+
+
 @dataclass(frozen=True)
 class StopCriteria:
     """When a run stops (whichever comes first).
@@ -161,7 +166,10 @@ class StopCriteria:
         last ``stationary_window`` (time unit) differs from the mean over the window before by less than this
         fraction of it (None: off). Checked only after ``2 * stationary_window``. The default window (1 strain)
         is about twice the relaxation of D measured for the reference cell at Ca = 0.1 (D within 1 % of its
-        final value from strain 1 on).
+        final value from strain 1 on). A reading of the cell's outline that fell back to the nodes' hull in either
+        window (:data:`OUTLINE_FALLBACK_OF`: the pipe's deformation and projected area) is not stationary: the
+        hull's reading is biased by the mesh's roughness, and one that switched to it can look flat while the
+        smooth shape still drifts.
     unit: the time unit, for messages.
     """
 
@@ -192,6 +200,9 @@ class StopCriteria:
         last = values[t > t[-1] - self.stationary_window]
         before = values[(t > t[-1] - 2 * self.stationary_window) & (t <= t[-1] - self.stationary_window)]
         if not (last.size and before.size):
+            return False
+        fallback = OUTLINE_FALLBACK_OF.get(self.stationary_observable)
+        if fallback in series and np.any(np.asarray(series[fallback])[t > t[-1] - 2 * self.stationary_window] > 0):
             return False
         mean = last.mean()
         return abs(mean - before.mean()) <= self.stationary_tolerance * abs(mean)
