@@ -423,3 +423,24 @@ def test_the_python_api_takes_the_commands_names(measurements, tmp_path):
     by_name = elastocell.fit_rtdc([path], lut="LE-2D-FEM-19", out=tmp_path / "a", plots=False)
     older = elastocell.fit_rtdc([path], tables=["LE-2D-FEM-19"], out=tmp_path / "b", plots=False)
     assert by_name["totals"] == older["totals"] == {"LE-2D-FEM-19": (12, 16)}
+
+
+def test_points_whose_cell_drifted_in_volume_are_said_but_do_not_void_the_table(tmp_path):
+    """A table whose metadata lists points with a volume drift (``elastocell.volume_drift``, the immersed boundary's
+    leak without the projection) carries a note naming them; it is not a caveat (the rest of the table stands)."""
+    from dclab.features.emodulus.load import load_lut
+
+    from elastocell.inverse.lut import lut_metadata, plan, write_lut
+    from elastocell.inverse.rtdc import table_caveats
+
+    data, meta = load_lut("LE-2D-FEM-19")
+    _, settings = plan(None, meta["flow_rate"], meta["fluid_viscosity"], radii=[5], moduli=[1000], quick=True,
+                       channel_width=f"{meta['channel_width']}um")
+    metadata = lut_metadata({**settings, "quick": False}, "elastocell-drift")
+    metadata["elastocell"].update(finished=48, volume_drift=["r5-e620", "r6-e620", "r6-e850"])
+    path = write_lut(tmp_path / "drift.txt", [{"area_um": a, "deform": d, "emodulus_kpa": e} for a, d, e in data],
+                     metadata)
+    caveat, note = table_caveats(str(path))
+    assert caveat == ""
+    assert note == ("3 of 48 points whose cell drifted in volume, their shape swollen (elastocell.volume_drift; made "
+                    "without --volume-correction projection)")

@@ -66,8 +66,9 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
     """Look-up table for deformability cytometry: pipe-flow runs over cell radii x moduli (Dask, resumable)
     written as area_um / deform / emodulus in dclab's format, with isoelastics. Register it with
     dclab.features.emodulus.register_lut(FILE)."""
-    from elastocell.inverse.lut import (
-        compute_lut,  # lazy: a command loads JAX/Numba only when it runs (elastocell --help 0.3 s, not 2.5 s)
+    from elastocell.inverse.lut import (  # lazy: a command loads JAX/Numba only when it runs (--help 0.3 s, not 2.5 s)
+        VOLUME_DRIFT,
+        compute_lut,
     )
 
     result = compute_lut(out, channel_radius, flow_rate, viscosity, radii=radii, moduli=moduli, quick=quick,
@@ -95,6 +96,11 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
             typer.echo(f"warning: {len(result['outline_fallback'])} point(s) were read partly through the nodes' hull, "
                        "not the smooth side-view outline (listed in the metadata, elastocell.outline_fallback): their "
                        "deform is biased by the mesh-scale roughness", err=True)
+        if result.get("volume_drift"):
+            typer.echo(f"warning: the cell's volume drifted by more than {VOLUME_DRIFT:.1%} at "
+                       f"{len(result['volume_drift'])} point(s) (the immersed boundary's leak; listed in the metadata, "
+                       "elastocell.volume_drift): their shape is swollen; --volume-correction projection holds the "
+                       "volume", err=True)
         for failure in result["failures"]:
             typer.echo(f"failed {failure['key']}: {failure['error']}", err=True)
         if result["records"]:

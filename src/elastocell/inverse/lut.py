@@ -507,6 +507,12 @@ def plan(channel_radius=None, flow_rate=None, viscosity=None, radii=None, moduli
     return points, settings
 
 
+VOLUME_DRIFT = 0.005
+"""|V/V0 - 1| above which a point's cell is listed as having drifted in volume (``elastocell.volume_drift``): the
+immersed boundary's leak, without the projection. In the standard table's first computation the cells that kept
+their shape (converged, symmetric, within 5 % of HE-3D-FEM-22 where inside it) stayed within 0.0034; those that
+leaked reached 0.0073-0.033 and swelled (docs/validation/lut_square.md)."""
+
 TRANSIT_CAP = 1.5
 """The duration cap of a transit run, in units of the transit time at the channel's mean speed Q/A: a centred cell
 moves faster than the mean flow (about 1.6 times it at R/R_ch 0.5 in the cylinder: 0.81 u_max, u_max = 2 Q/A)."""
@@ -1062,7 +1068,9 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
     mean, not a steady shape); points whose final window holds records read through the nodes' hull rather than
     the smooth outline (the pipe's ``outline_fallback``; the hull's deform is biased high, and an extrapolation
     carries that bias either way) are listed under ``elastocell.outline_fallback`` (also in the returned summary)
-    and keep the share in their record. ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
+    and keep the share in their record; points whose cell's volume changed by more than :data:`VOLUME_DRIFT` (the
+    immersed boundary's leak: run them with ``volume_correction="projection"``) under ``elastocell.volume_drift``.
+    ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
     0.5): a table for the cell with a centred spherical nucleus (the metadata's ``elastocell.cell_model``; its
     ``emodulus`` column is the cytoplasm's E_c); without them the cell is homogeneous. ``channel_length`` (a
     quantity, bare number in um): each point is read at the end of a channel of that length, the cell started
@@ -1103,16 +1111,19 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
         metadata = lut_metadata(settings, identifier)
         not_stationary = [r["key"] for r in records if point_state(r) == "cap"]
         hull_outline = [r["key"] for r in records if r.get("outline_fallback", 0.0) > 0]
+        drifted = [r["key"] for r in records if (r.get("volume_change_max_abs") or 0.0) > VOLUME_DRIFT]
         single = [p["key"] for p in points if settings["coarse_resolution"] is not None
                   and p["options"].get("extrapolate") is False]
         metadata["elastocell"] = {**settings, "points": len(points), "finished": len(records),
                                   "failed": [f["key"] for f in failures], "not_stationary": not_stationary,
                                   "not_extrapolated": single, "outline_fallback": hull_outline,
                                   "point_states": {r["key"]: point_state(r) for r in records}}
+        if drifted:  # said only where there is something to say: the metadata of tables without it stay as they were
+            metadata["elastocell"]["volume_drift"] = drifted
         result = {"lut": str(out), "isoelastics": str(isoelastics_path(out)), "runs": str(runs),
                   "records": records, "failures": failures, "wall_time_s": time.perf_counter() - start,
                   "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary,
-                  "outline_fallback": hull_outline}
+                  "outline_fallback": hull_outline, "volume_drift": drifted}
         if records:
             write_lut(out, records, metadata)
             write_isoelastics(isoelastics_path(out), records, metadata)

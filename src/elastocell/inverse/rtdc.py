@@ -198,6 +198,9 @@ def table_caveats(table: str) -> tuple[str, str]:
     if own.get("outline_fallback"):
         notes.append(f"{len(own['outline_fallback'])}{of} points read partly through the nodes' hull, their "
                      "deformation biased high (elastocell.outline_fallback)")
+    if own.get("volume_drift"):
+        notes.append(f"{len(own['volume_drift'])}{of} points whose cell drifted in volume, their shape swollen "
+                     "(elastocell.volume_drift; made without --volume-correction projection)")
     return "; ".join(caveats), "; ".join(notes)
 
 
