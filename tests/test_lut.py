@@ -655,3 +655,33 @@ def test_a_finished_point_under_an_older_key_of_the_same_options_is_adopted(tmp_
     assert record["key"] == point["key"] and record["deform"] == 0.01 and record["options"] == point["options"]
     assert not near.exists() and (tmp_path / point["key"] / POINT_FILE).exists()
     assert far.exists() and other.exists()
+
+
+def test_points_read_on_the_hull_are_left_out_of_the_table_and_listed(tmp_path, monkeypatch):
+    """Four finished points (their point.json written beforehand, so nothing runs): the one whose final window was
+    read on the nodes' hull is not a row of the table, is listed under elastocell.outline_fallback and is not counted
+    as not stationary; the table's rows are the other three, and a point whose cell drifted in volume by more than
+    VOLUME_DRIFT is listed under elastocell.volume_drift."""
+    import distributed
+
+    from elastocell.inverse.lut import POINT_FILE, VOLUME_DRIFT, plan
+
+    monkeypatch.setattr(distributed, "as_completed", lambda futures: list(futures))
+    out = tmp_path / "lut.txt"
+    kwargs = dict(radii="5,6", moduli="1kPa,2kPa", quick=True)
+    points, _ = plan("10um", "0.04uL/s", "15mPa*s", **kwargs)
+    for index, point in enumerate(points):
+        record = {"key": point["key"], "radius_um": point["radius_um"], "emodulus_kpa": point["emodulus_kpa"],
+                  "area_um": math.pi * point["radius_um"] ** 2, "deform": 0.01 * (index + 1),
+                  "outline_fallback": 1.0 if index == 0 else 0.0, "state": "hull" if index == 0 else "stationary",
+                  "volume_change_max_abs": 2 * VOLUME_DRIFT if index == 2 else 1e-4, "options": point["options"]}
+        (runs_directory(out) / point["key"]).mkdir(parents=True)
+        (runs_directory(out) / point["key"] / POINT_FILE).write_text(json.dumps(record))
+    result = compute_lut(out, "10um", "0.04uL/s", "15mPa*s", client=_Client(), **kwargs)
+    hull = points[0]["key"]
+    assert len(result["records"]) == 4 and result["outline_fallback"] == [hull]
+    data, meta, _ = read_lut(out)
+    assert len(data) == 3 and not np.any(np.isclose(data[:, 1], 0.01))  # the hull point's deform is no row
+    assert meta["elastocell"]["finished"] == 4
+    assert meta["elastocell"]["outline_fallback"] == [hull] and meta["elastocell"]["not_stationary"] == []
+    assert meta["elastocell"]["volume_drift"] == [points[2]["key"]]

@@ -824,3 +824,10 @@ def test_a_deformation_read_on_the_nodes_hull_is_never_stationary():
     series["outline_fallback"][:] = 1.0
     assert StopCriteria(stationary_tolerance=1e-3, stationary_observable="strain_axial",
                         unit=PipeRun.TIME_UNIT).is_stationary(series, "time")
+    # hull_stop: a whole window on the hull ends the run ("hull"); one smooth record in it does not
+    hull = StopCriteria(stationary_tolerance=1e-3, stationary_observable="deformation", unit=PipeRun.TIME_UNIT,
+                        hull_stop=True)
+    assert hull.read_on_hull(series, "time")
+    series["outline_fallback"][-3] = 0.0
+    assert not hull.read_on_hull(series, "time")
+    assert not StopCriteria(stationary_observable="strain_axial", hull_stop=True).read_on_hull(series, "time")

@@ -25,7 +25,9 @@ point's run (the same options, Ca_w equal to rounding). dclab would scale the st
 same way; the scaled tables give them their own identifiers, not new information.
 
 ``compare`` reads the finished points through dclab's HE-3D-FEM-22 at the same conditions (section
-"lut_standard.py" of docs/validation/lut_square.md).
+"lut_standard.py" of docs/validation/lut_square.md), and sets each beside the same cell run with the volume
+projection (``--volume-correction projection``, the runs' keys of that option) where such a twin was finished in
+the runs directory: the size of the immersed boundary's volume leak's effect on the table.
 
 ``ship`` copies the finished standard table (every point finished, none failed) and writes the scaled ones into
 src/elastocell/data as ``lut_<name>.txt`` with their isoelastics; ``elastocell.register_lut()`` registers them.
@@ -61,11 +63,13 @@ def command(config: dict, out: Path, workers: int) -> list[str]:
             "--medium", MEDIUM, "--temperature", f"{TEMPERATURE:g}", "--workers", str(workers), "--out", str(out)]
 
 
-def plan_of(config: dict):
+def plan_of(config: dict, volume_correction: str | None = None):
+    """The points and settings of a configuration's table (``volume_correction`` "projection": those of its twins
+    run with the volume projection)."""
     from elastocell.inverse.lut import plan
 
     return plan(None, f"{config['flow_rate_ul_s']:g}uL/s", None, channel_width=f"{config['channel_width_um']:g}um",
-                channel_shape="square", medium=MEDIUM, temperature=TEMPERATURE)
+                channel_shape="square", medium=MEDIUM, temperature=TEMPERATURE, volume_correction=volume_correction)
 
 
 def finished(tables: Path, config: dict) -> dict[str, dict]:
@@ -155,7 +159,8 @@ def ship(tables: Path, data: Path = DATA) -> None:
                          "finished points back and writes the table)")
     table, metadata, _ = read_lut(source)
     keys = set(metadata["elastocell"].get("point_states", {}))
-    if keys != {p["key"] for p in points} or len(table) != len(points) or metadata["elastocell"].get("failed"):
+    rows = len(points) - len(metadata["elastocell"].get("outline_fallback", []))  # hull readings are left out
+    if keys != {p["key"] for p in points} or len(table) != rows or metadata["elastocell"].get("failed"):
         raise SystemExit(f"ship: {source} is not the table of the {len(points)} finished points (its rows, point "
                          "keys or failed points differ): run it once more so that it is rewritten from them")
     records = [{"area_um": a, "deform": d, "emodulus_kpa": e} for a, d, e in table]
@@ -229,6 +234,23 @@ def compare(tables: Path, write_page: bool) -> None:
                formats={"t_end": ".1f", "area_um": ".2f", "deform": ".5f", f"E {COMPARED} [kPa]": ".3f",
                         "ratio": ".3f", "max |dV/V|": ".2g", "hull": ".2f"})
     page.print(summary)
+    # ``done`` holds every point.json of the runs directory: the table's and its twins run with the projection
+    projected = {(p["radius_um"], p["emodulus_kpa"]): done.get(p["key"]) for p in plan_of(STANDARD, "projection")[0]}
+    pairs = [(r, projected.get((r["radius_um"], r["emodulus_kpa"]))) for r in records]
+    effect = [{"R [um]": r["radius_um"], "E [kPa]": r["emodulus_kpa"], "deform": r["deform"],
+               "deform projected": twin["deform"], "deform ratio": twin["deform"] / r["deform"],
+               "area ratio": twin["area_um"] / r["area_um"], "max |dV/V|": r.get("volume_change_max_abs"),
+               "t_end": r.get("duration"), "t_end projected": twin.get("duration")}
+              for r, twin in pairs if twin is not None]
+    if effect:
+        page.table(effect, "The volume leak's effect: table points against their twins run with the projection",
+                   formats={"deform": ".5f", "deform projected": ".5f", "deform ratio": ".4f", "area ratio": ".4f",
+                            "max |dV/V|": ".2g", "t_end": ".1f", "t_end projected": ".1f"})
+        page.print(f"{len(effect)} points also run with --volume-correction projection (their volume held to 1e-14): "
+                   f"deform projected / table {min(e['deform ratio'] for e in effect):.4f} to "
+                   f"{max(e['deform ratio'] for e in effect):.4f}, area {min(e['area ratio'] for e in effect):.4f} to "
+                   f"{max(e['area ratio'] for e in effect):.4f}; `max |dV/V|`: the table point's largest volume "
+                   "change, which the projection holds at zero.")
     if write_page:
         page.write()
 

@@ -210,9 +210,10 @@ def channel_length_of(channel_length, cell) -> float | None:
 
 
 def run_state(stop_reason: str, channel_length_um: float | None) -> str:
-    """"stationary", "transit L um" or "cap": which state a run's values describe."""
-    if stop_reason == "stationary":
-        return "stationary"
+    """"stationary", "transit L um", "hull" (its outline read on the nodes' hull: ``hull_stop``) or "cap": which
+    state a run's values describe."""
+    if stop_reason in ("stationary", "hull"):
+        return stop_reason
     if stop_reason == "transit":
         return f"transit {channel_length_um:g} um"
     return "cap"
@@ -263,6 +264,7 @@ def pipe(
     extrapolate: bool | None = None,
     coarse_resolution: float | None = None,
     channel_length: float | str | None = None,
+    hull_stop: bool = False,
     **cell_options,
 ) -> dict:
     """A cell in a capillary; writes ``out/timeseries.csv``, ``summary.json``, ``pipe.png``, ``vtk/`` and
@@ -304,6 +306,9 @@ def pipe(
     radius): the run ends when the cell has travelled L (:class:`TransitStop`; ``duration`` is then the cap), and
     ``summary["transit"]`` holds its shape at L (with ``extrapolate``: the finer run's, each run's in its own
     directory); ``summary["state"]`` is "transit L um", or "cap" if the duration ran out first. None: the stationary state.
+    hull_stop: end a run ("hull", state "hull") once its ``stationary_observable`` has been read on the nodes' hull
+    for a whole unit of time (:class:`~elastocell.simulation.runner.StopCriteria`): ``lut``'s points, which a table
+    then leaves out.
     """
 
     if stationary_tolerance is None and stationary_observable != "strain_axial":
@@ -334,7 +339,7 @@ def pipe(
     length = channel_length_of(channel_length, flow_cell(cell, cell_options, params.resolution))
     arguments = (capillary_number_wall, cell, equivalent, duration, resume, progress, wall_clock, stationary_tolerance,
                  stationary_observable, record_interval, checkpoint_every, vtk_interval, capillary_number_modulus,
-                 cell_options, length)
+                 cell_options, length, hull_stop)
     if coarse is None:
         return _single(out, params, *arguments)[0]
 
@@ -363,14 +368,15 @@ def pipe(
 
 def _single(out, params, capillary_number_wall, cell, equivalent, duration, resume, progress, wall_clock,
             stationary_tolerance, stationary_observable, record_interval, checkpoint_every, vtk_interval,
-            capillary_number_modulus, cell_options, channel_length=None, part: str = "") -> tuple[dict, dict]:
+            capillary_number_modulus, cell_options, channel_length=None, hull_stop: bool = False,
+            part: str = "") -> tuple[dict, dict]:
     """One run at ``params.resolution`` in ``out`` (:func:`pipe`'s arguments, ``channel_length`` in units of R;
     ``part`` labels its progress): (its summary, its time series)."""
     if stationary_observable not in STATIONARY_OBSERVABLES:
         raise ParameterError("stationary_observable", f"must be one of {', '.join(STATIONARY_OBSERVABLES)}, "
                              f"got {stationary_observable!r}")
     stop = StopCriteria(duration=duration, wall_clock=wall_clock, stationary_tolerance=stationary_tolerance,
-                        stationary_observable=stationary_observable, unit=PipeRun.TIME_UNIT)
+                        stationary_observable=stationary_observable, unit=PipeRun.TIME_UNIT, hull_stop=hull_stop)
     check_record_interval(duration, PipeRun.DEFAULT_RECORD_INTERVAL if record_interval is None else record_interval,
                           PipeRun.TIME_UNIT)
     if channel_length is not None:

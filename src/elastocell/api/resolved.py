@@ -91,6 +91,10 @@ def resolved_parameters(scenario: str, options: dict) -> dict:
         stop["stationary_observable"] = arguments.pop("stationary_observable")
     criteria = StopCriteria(**stop)
     stop = {field.name: getattr(criteria, field.name) for field in dataclasses.fields(criteria) if field.name != "unit"}
+    hull_stop = arguments.pop("hull_stop", False)  # left out when off: the runs made before the choice existed
+    stop.pop("hull_stop")
+    if hull_stop:
+        stop["hull_stop"] = True
     # a single-resolution run resolves without the extrapolation options (whether extrapolate was off or could not
     # apply: the same computation, one key); an extrapolated one names its coarse resolution
     extrapolate = arguments.pop("extrapolate")

@@ -95,7 +95,7 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
         if result.get("outline_fallback"):
             typer.echo(f"warning: {len(result['outline_fallback'])} point(s) were read partly through the nodes' hull, "
                        "not the smooth side-view outline (listed in the metadata, elastocell.outline_fallback): their "
-                       "deform is biased by the mesh-scale roughness", err=True)
+                       "deform is biased by the mesh-scale roughness, and the table leaves them out", err=True)
         if result.get("volume_drift"):
             typer.echo(f"warning: the cell's volume drifted by more than {VOLUME_DRIFT:.1%} at "
                        f"{len(result['volume_drift'])} point(s) (the immersed boundary's leak; listed in the metadata, "

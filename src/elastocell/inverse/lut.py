@@ -778,7 +778,7 @@ def point_shape(directory: Path, summary: dict) -> tuple[dict, str]:
 
 
 def point_state(record: dict) -> str:
-    """A finished point's state ("stationary", "transit L um" or "cap"; a point.json without one: from its
+    """A finished point's state ("stationary", "transit L um", "hull" or "cap"; a point.json without one: from its
     ``stationary`` flag)."""
     return record.get("state") or ("stationary" if record.get("stationary") else "cap")
 
@@ -846,7 +846,10 @@ def run_point(task: tuple[dict, str]) -> dict:
         options.pop("stationary_observable", None)  # read only by the stationarity stop, which is off
     if options.get("extrapolate") is False:  # a point too near the wall for the grid's coarse run: one resolution
         options = {k: v for k, v in options.items() if k != "coarse_resolution"}
-    summary = resume_or_restart(pipe, directory, progress=False, vtk_interval=None, **options)
+    # hull_stop: a point whose reading has fallen back to the nodes' hull for a unit of time ends there (state
+    # "hull"); the table leaves it out (:func:`compute_lut`), so running on to the cap would buy nothing. It is not an
+    # option of the point's key: the stop only ends a run whose reading the table does not use.
+    summary = resume_or_restart(pipe, directory, progress=False, vtk_interval=None, hull_stop=True, **options)
     radius = point["radius_um"]
     final, state = point_shape(directory, summary)
     record = {
@@ -1066,9 +1069,11 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
     rerun next time) and the keys of the points that hit the duration cap before the stationarity criterion
     (kept in the table, listed in the metadata under ``elastocell.not_stationary``: their shape is a transient
     mean, not a steady shape); points whose final window holds records read through the nodes' hull rather than
-    the smooth outline (the pipe's ``outline_fallback``; the hull's deform is biased high, and an extrapolation
-    carries that bias either way) are listed under ``elastocell.outline_fallback`` (also in the returned summary)
-    and keep the share in their record; points whose cell's volume changed by more than :data:`VOLUME_DRIFT` (the
+    the smooth outline (the pipe's ``outline_fallback``; the hull's deform is biased high, by 40 % at a soft cell of
+    the standard table, and an extrapolation carries that bias either way) are left out of the table's rows,
+    listed under ``elastocell.outline_fallback`` (also in the returned summary) and keep the share in their record
+    (a point read on the hull for a whole unit of time stops there, state "hull": running on would not make it
+    readable); events where only they would have placed a modulus are then outside the table; points whose cell's volume changed by more than :data:`VOLUME_DRIFT` (the
     immersed boundary's leak: run them with ``volume_correction="projection"``) under ``elastocell.volume_drift``.
     ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
     0.5): a table for the cell with a centred spherical nucleus (the metadata's ``elastocell.cell_model``; its
@@ -1109,9 +1114,10 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
                 records.append(outcome)
         records.sort(key=lambda r: (r["emodulus_kpa"], r["radius_um"]))
         metadata = lut_metadata(settings, identifier)
-        not_stationary = [r["key"] for r in records if point_state(r) == "cap"]
         hull_outline = [r["key"] for r in records if r.get("outline_fallback", 0.0) > 0]
-        drifted = [r["key"] for r in records if (r.get("volume_change_max_abs") or 0.0) > VOLUME_DRIFT]
+        rows = [r for r in records if r["key"] not in hull_outline]  # a reading on the hull is not the shape
+        not_stationary = [r["key"] for r in rows if point_state(r) == "cap"]
+        drifted = [r["key"] for r in rows if (r.get("volume_change_max_abs") or 0.0) > VOLUME_DRIFT]
         single = [p["key"] for p in points if settings["coarse_resolution"] is not None
                   and p["options"].get("extrapolate") is False]
         metadata["elastocell"] = {**settings, "points": len(points), "finished": len(records),
@@ -1124,7 +1130,7 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
                   "records": records, "failures": failures, "wall_time_s": time.perf_counter() - start,
                   "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary,
                   "outline_fallback": hull_outline, "volume_drift": drifted}
-        if records:
-            write_lut(out, records, metadata)
-            write_isoelastics(isoelastics_path(out), records, metadata)
+        if rows:
+            write_lut(out, rows, metadata)
+            write_isoelastics(isoelastics_path(out), rows, metadata)
         return result

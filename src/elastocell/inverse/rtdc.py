@@ -177,8 +177,8 @@ def table_caveats(table: str) -> tuple[str, str]:
     """(why the table's moduli are not trustworthy, what else to know), each "" when nothing, from the metadata
     ``elastocell lut`` writes (:func:`elastocell.inverse.lut.compute_lut`): a ``--quick`` table (2 x 2 grid run for
     one unit of time) or points that reached ``--duration`` before their state (``elastocell.not_stationary``)
-    are not converged; points read partly through the nodes' hull (``elastocell.outline_fallback``, deformation
-    biased high) are said. dclab's own tables have neither."""
+    are not converged; points left out because they were read on the nodes' hull (``elastocell.outline_fallback``,
+    deformation biased high) are said. dclab's own tables have neither."""
     if table in DCLAB_TABLES:
         return "", ""
     with warnings.catch_warnings():
@@ -196,8 +196,9 @@ def table_caveats(table: str) -> tuple[str, str]:
         caveats.append(f"{len(own['not_stationary'])}{of} points not stationary, they reached --duration first "
                        "(elastocell.not_stationary)")
     if own.get("outline_fallback"):
-        notes.append(f"{len(own['outline_fallback'])}{of} points read partly through the nodes' hull, their "
-                     "deformation biased high (elastocell.outline_fallback)")
+        notes.append(f"{len(own['outline_fallback'])}{of} points left out, read on the nodes' hull (their "
+                     "deformation biased high; elastocell.outline_fallback): events only they would cover are outside "
+                     "the table")
     if own.get("volume_drift"):
         notes.append(f"{len(own['volume_drift'])}{of} points whose cell drifted in volume, their shape swollen "
                      "(elastocell.volume_drift; made without --volume-correction projection)")

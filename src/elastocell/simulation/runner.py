@@ -170,6 +170,10 @@ class StopCriteria:
         window (:data:`OUTLINE_FALLBACK_OF`: the pipe's deformation and projected area) is not stationary: the
         hull's reading is biased by the mesh's roughness, and one that switched to it can look flat while the
         smooth shape still drifts.
+    hull_stop: stop ("hull") once every record of the last ``stationary_window`` read ``stationary_observable`` on
+        the nodes' hull (after ``2 * stationary_window``): the outline can no longer be read smoothly at this
+        resolution, and running on will not make the reading trustworthy (a look-up table's point, whose reading is
+        then left out of the table).
     unit: the time unit, for messages.
     """
 
@@ -179,6 +183,7 @@ class StopCriteria:
     stationary_observable: str = "taylor_deformation"
     stationary_window: float = 1.0
     unit: str = "strain"
+    hull_stop: bool = False
 
     def __post_init__(self):
         if not (math.isfinite(self.duration) and self.duration > 0):
@@ -206,6 +211,18 @@ class StopCriteria:
             return False
         mean = last.mean()
         return abs(mean - before.mean()) <= self.stationary_tolerance * abs(mean)
+
+    def read_on_hull(self, series: dict, time_column: str = "strain") -> bool:
+        """Whether every record of the last ``stationary_window`` read ``stationary_observable`` on the nodes' hull
+        (False before ``2 * stationary_window`` or for an observable not read on the outline)."""
+        fallback = OUTLINE_FALLBACK_OF.get(self.stationary_observable)
+        if fallback not in series:
+            return False
+        t = np.asarray(series[time_column])
+        if t[-1] < 2 * self.stationary_window:
+            return False
+        window = np.asarray(series[fallback])[t > t[-1] - self.stationary_window]
+        return bool(window.size and np.all(window > 0))
 
     def reached(self, series: dict) -> str:
         """A scenario's own end of the run (a subclass: e.g. the pipe's transit of a finite channel), named as the
@@ -360,7 +377,8 @@ class FlowRun:
 
     def run(self, stop: StopCriteria, observers: tuple[Callable, ...] = (), checkpoint: str | Path | None = None,
             checkpoint_every: int = 20) -> str:
-        """Advance until a stop criterion holds; returns the reason ("duration", "wall_clock", "stationary").
+        """Advance until a stop criterion holds; returns the reason ("duration", "wall_clock", "stationary", "hull"
+        or the scenario's own, :meth:`StopCriteria.reached`).
 
         observers: ``observer(row, run)`` after every record. checkpoint: path of the ``.npz`` written every
         ``checkpoint_every`` records and when the run stops."""
@@ -385,6 +403,9 @@ class FlowRun:
                     break
                 if stop.is_stationary(self.series, self.time_column):
                     reason = "stationary"
+                    break
+                if stop.hull_stop and stop.read_on_hull(self.series, self.time_column):
+                    reason = "hull"
                     break
                 if stop.wall_clock is not None and time.perf_counter() - session_start >= stop.wall_clock:
                     reason = "wall_clock"
