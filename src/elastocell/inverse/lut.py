@@ -1073,9 +1073,9 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
     the standard table, and an extrapolation carries that bias either way) are left out of the table's rows,
     listed under ``elastocell.outline_fallback`` (also in the returned summary) and keep the share in their record
     (a point read on the hull for a whole unit of time stops there, state "hull": running on would not make it
-    readable); events where only they would have placed a modulus are then outside the table; points whose cell's volume changed by more than :data:`VOLUME_DRIFT` (the
-    immersed boundary's leak: run them with ``volume_correction="projection"``) under ``elastocell.volume_drift``.
-    ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
+    readable); events where only they would have placed a modulus are then outside the table. Points whose cell's
+    volume changed by more than :data:`VOLUME_DRIFT` (the immersed boundary's leak: run them with
+    ``volume_correction="projection"``) are listed under ``elastocell.volume_drift``. ``stiffness_ratio`` (gamma = E_n/E_c) and ``size_ratio`` (lambda = R_n/R, default
     0.5): a table for the cell with a centred spherical nucleus (the metadata's ``elastocell.cell_model``; its
     ``emodulus`` column is the cytoplasm's E_c); without them the cell is homogeneous. ``channel_length`` (a
     quantity, bare number in um): each point is read at the end of a channel of that length, the cell started
