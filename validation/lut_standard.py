@@ -98,12 +98,14 @@ def status(tables: Path) -> None:
     for point in points:
         record = done.get(point["key"])
         states.setdefault(point["radius_um"], []).append(
-            "." if record is None else ("s" if record.get("state") == "stationary" else "c"))
+            "." if record is None else "h" if (record.get("outline_fallback") or 0) > 0
+            else {"stationary": "s"}.get(record.get("state"), "c"))
         reached = None if record is not None else checkpoint_time(runs / point["key"])
         if reached is not None:
             started.append(f"R {point['radius_um']:g} um / E {point['emodulus_kpa']:g} kPa at t {reached:.1f}")
     print(f"{table_name(STANDARD)}: {sum(p['key'] in done for p in points)} of {len(points)} points finished "
-          "(s stationary, c duration cap, . to run; moduli ascending)")
+          "(s stationary, h read on the nodes' hull: left out of the table's rows, c duration cap, . to run; moduli "
+          "ascending)")
     for radius, marks in sorted(states.items()):
         print(f"  R {radius:4.1f} um  {' '.join(marks)}")
     if started:
