@@ -213,12 +213,15 @@ def compare(tables: Path, write_page: bool) -> None:
              "max |dV/V|": r.get("volume_change_max_abs", float("nan")),
              "hull": r.get("outline_fallback", float("nan"))}
             for r, e in zip(records, e_pa, strict=True)]
-    inside = [row for row in rows if np.isfinite(row["ratio"])]
+    hull = [row for row in rows if (row["hull"] or 0) > 0]  # left out of the table's rows
+    kept = [row for row in rows if not (row["hull"] or 0) > 0]
+    inside = [row for row in kept if np.isfinite(row["ratio"])]
     within = [row for row in inside if abs(row["ratio"] - 1.0) <= 0.05]
-    summary = (f"{len(records)} of {len(points)} points finished; {len(inside)} inside {COMPARED}, "
+    summary = (f"{len(records)} of {len(points)} points finished, {len(hull)} of them read on the nodes' hull and left "
+               f"out of the table; of the {len(kept)} others {len(inside)} inside {COMPARED}, "
                f"E_dclab/E_input within 5 % at {len(within)} of them"
                + (f" (ratios {min(r['ratio'] for r in inside):.3f} to {max(r['ratio'] for r in inside):.3f})"
-                  if inside else "") + f"; {len(rows) - len(inside)} outside its (area, deformation) range")
+                  if inside else "") + f"; {len(kept) - len(inside)} outside its (area, deformation) range")
     page = Page("lut_square", "lut_standard.py", intro=(
         f"The finished points of the standard table ({table_name(STANDARD)}: `elastocell lut`'s default grid, "
         "square channel 20 um, 0.04 uL/s, 0.59 % MC-PBS at 23 degC, R/dx 8, each point to a stationary shape or "
@@ -226,7 +229,8 @@ def compare(tables: Path, write_page: bool) -> None:
         "(buyukurganci-2022 viscosity, no pixelation correction). `ratio`: E_dclab/E_input (1 where the two "
         "tables agree); `max |dV/V|`: the largest volume change of the cell in its run (the immersed boundary's "
         "leak, docs/validation/pipe_dclab.md); `hull`: the share of the final window's records whose side view is "
-        "the nodes' hull, not the smooth outline (its deform is biased high). The runs' ducts are the channel's own width (whole lattice nodes, the cell's R/dx moved to "
+        "the nodes' hull, not the smooth outline (its deform is biased high; `elastocell lut` leaves such a point out of "
+        "the table's rows, state `hull` where it stopped on it). The runs' ducts are the channel's own width (whole lattice nodes, the cell's R/dx moved to "
         "make it so: 7.90-8.13). Near its convex hull (the "
         "softest, most deformed cells of an area) dclab's HE-3D-FEM-22 is not FEM runs but its isoelastics "
         "extrapolated by third-order polynomials (the header of dclab's lut_HE-3D-FEM-22.txt), so a ratio there "
