@@ -189,7 +189,7 @@ EXPECTED_OPTIONS = {
               '--radius=1 --material=neo-hookean --element=p2 --quadrature-degree=None --volumetric=standard --resume=False '
               '--quiet=False '
               '--json=False',
-    'lut': '--channel-radius=None --channel-width=None --channel-shape=None --channel-height=None --channel-wall=interpolated --flow-rate! '
+    'lut': '--channel-radius=None --channel-width=None --channel-shape=None --channel-height=None --channel-wall=interpolated --volume-correction=none --flow-rate! '
            '--viscosity=None --medium=newtonian --temperature=None --flow-index=None --channel-length=None '
            '--out! --radii=None '
            '--moduli=None --quick=False --stiffness-ratio=None --size-ratio=None --poisson-ratio=0.48 '
@@ -208,7 +208,7 @@ EXPECTED_OPTIONS = {
             '--radius=1 --material=neo-hookean --element=p1 --volumetric=standard --equivalent=False --channel-radius-ratio=2.0 '
             '--start-offset=0.0 --resolution=8.0 --extrapolate=None --coarse-resolution=None '
             '--hold-flow-rate=True --hydrodynamic-radius-correction=0.3 --channel-shape=None '
-            '--channel-wall=interpolated --channel-width=None --channel-height=None '
+            '--channel-wall=interpolated --volume-correction=none --channel-width=None --channel-height=None '
             '--channel-aspect-ratio=None --medium=newtonian --temperature=None --flow-index=None '
             '--channel-length=None --duration=10.0 --pressure-gradient=None --wall-clock=None '
             '--stationary-tolerance=None --stationary-observable=strain_axial --record-interval=0.1 '
