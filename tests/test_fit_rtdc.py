@@ -152,6 +152,8 @@ def test_impossible_inputs_are_refused_in_one_line_before_reading(tmp_path):
     assert code == 2 and output.strip().count("\n") == 0 and "lut" in output
     code, output = _fit(tmp_path, "--lut", "LE-2D-FEM-20", "--out", tmp_path)
     assert code == 2 and "neither one of dclab's tables" in output
+    code, output = _fit(tmp_path, "--lut", "elastocell-lut_square_25um", "--out", tmp_path)
+    assert code == 2 and "one elastocell ships (" in output and output.strip().count("\n") == 0
 
 
 def test_reservoir_measurements_and_twin_names_are_told_apart(measurements, tmp_path):

@@ -336,8 +336,9 @@ OPTIONS: dict[str, Opt] = _declare(
         units="standard deviations of the baseline"),
     Opt("baseline_tilt", bool, False, "Subtract a sloped baseline (default: offset).", shown="off"),
     Opt("no_plots", bool, False, "Skip the per-curve PNGs (faster for many curves).", shown="off"),
-    Opt("lut", list[str], REQUIRED, "Look-up table(s) of RT-DC: LE-2D-FEM-19 | HE-2D-FEM-22 | HE-3D-FEM-22 (dclab's) "
-        "or a file in dclab's text format (elastocell lut writes one); repeat the option for several."),
+    Opt("lut", list[str], REQUIRED, "Look-up table(s) of RT-DC: LE-2D-FEM-19 | HE-2D-FEM-22 | HE-3D-FEM-22 (dclab's), "
+        "the identifier of a table elastocell ships (elastocell shipped-luts lists them), or a file in dclab's text "
+        "format (elastocell lut writes one); repeat the option for several."),
     # ---------------------------------------------------------------- fit shear
     Opt("deformation", float | None, None, "Stationary Taylor deformation D = (a-b)/(a+b).",
         units=_DIMENSIONLESS, shown="none: give --table"),

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from elastocell.files import replace_atomically, save_figure, software_versions, write_json
+from elastocell.inverse.shipped_luts import register_lut, shipped_luts
 from elastocell.parameters.medium import MC_PBS_TEMPERATURES
 from elastocell.parameters.units import ParameterError, parse_temperature
 
@@ -134,7 +135,8 @@ def check_temperature(temperature, medium: str | None = None) -> float | None:
 
 
 def check_tables(tables: list[str]) -> list[str]:
-    """The tables as given (dclab's names, or paths of tables in dclab's text format), without repeats (a file
+    """The tables as given (dclab's names, the identifiers of the tables elastocell ships, which are registered
+    with dclab here, or paths of tables in dclab's text format), without repeats (a file
     named twice, however written, counts once; the first order is kept), refused in one line when one is neither,
     or when two would be reported under one name (before any file is read)."""
     if not tables:
@@ -142,13 +144,16 @@ def check_tables(tables: list[str]) -> list[str]:
     checked, seen, names = [], set(), {}
     for table in tables:
         text = str(table)
-        if text in DCLAB_TABLES:
+        if is_named(text):
             key = text
+            if text not in DCLAB_TABLES:
+                register_lut(text)  # a table elastocell ships: dclab then reads it by its identifier
         else:
             path = Path(text)
             if not path.is_file():
-                raise ParameterError("lut", f"{text!r} is neither one of dclab's tables ({', '.join(DCLAB_TABLES)}) "
-                                            "nor a file")
+                raise ParameterError("lut", f"{text!r} is neither one of dclab's tables ({', '.join(DCLAB_TABLES)}), "
+                                            f"one elastocell ships ({', '.join(shipped_luts()) or 'none'}), nor a "
+                                            "file")
             key = str(path.resolve())
         if key in seen:
             continue
@@ -168,9 +173,16 @@ def check_tables(tables: list[str]) -> list[str]:
     return checked
 
 
+def is_named(table: str) -> bool:
+    """Whether ``table`` is a table's name rather than a file: one of dclab's tables, or the identifier of one
+    elastocell ships (:func:`elastocell.inverse.shipped_luts.shipped_luts`; a file of that name wins)."""
+    return table in DCLAB_TABLES or (not Path(table).is_file() and table in shipped_luts())
+
+
 def table_name(table: str) -> str:
-    """The name a table is reported under: dclab's name, or the file's stem."""
-    return table if table in DCLAB_TABLES else Path(table).stem
+    """The name a table is reported under: its name (dclab's, or a shipped table's identifier), or the file's
+    stem."""
+    return table if is_named(table) else Path(table).stem
 
 
 def table_caveats(table: str) -> tuple[str, str]:

@@ -31,7 +31,6 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from elastocell.inverse.lut import isoelastics_path, read_lut
 from elastocell.parameters.units import ParameterError
 
 SHIPPED_PREFIX = "lut_"
@@ -47,6 +46,11 @@ def data_directory() -> Path:
 def shipped_luts(directory: Path | None = None) -> dict[str, dict]:
     """The shipped tables by dclab identifier: ``{"path", "isoelastics" (or None), "metadata"}`` each, in file
     name order. ``directory``: where to look (default :func:`data_directory`)."""
+    from elastocell.inverse.lut import (  # lazy: the table module imports the flow solver
+        isoelastics_path,
+        read_lut,
+    )
+
     directory = data_directory() if directory is None else Path(directory)
     tables = {}
     for path in sorted(directory.glob(f"{SHIPPED_PREFIX}*.txt")):
