@@ -685,3 +685,26 @@ def test_points_read_on_the_hull_are_left_out_of_the_table_and_listed(tmp_path, 
     assert meta["elastocell"]["finished"] == 4
     assert meta["elastocell"]["outline_fallback"] == [hull] and meta["elastocell"]["not_stationary"] == []
     assert meta["elastocell"]["volume_drift"] == [points[2]["key"]]
+
+
+def test_the_shipped_standard_table_is_its_committed_points():
+    """The standard table that ships (elastocell/data) holds exactly the committed finished points of
+    validation/tables (each run's point.json, kept in git): every point of the default grid finished, none failed
+    or capped, the points read on the nodes' hull listed and left out, every other one a row with its area,
+    deformation and modulus (to the text format's 7 significant digits). The scaled tables are dclab's scaling of
+    it (test_the_standard_table_ships_with_the_tables_scaled_from_it checks that on synthetic points)."""
+    from elastocell.inverse.shipped_luts import shipped_luts
+
+    stem = "lut_square_20um_0.04uLs_0.59MC-PBS_23C"
+    table = shipped_luts()[f"elastocell-{stem}"]
+    rows, metadata, _ = read_lut(table["path"])
+    own = metadata["elastocell"]
+    assert own["points"] == own["finished"] == 48 and not own["failed"] and not own["not_stationary"]
+    runs = ROOT / "validation" / "tables" / f"{stem}_runs"
+    points = {key: json.loads((runs / key / "point.json").read_text()) for key in own["point_states"]}
+    hull = {key for key, point in points.items() if point["outline_fallback"] > 0}  # also read partly on the hull
+    assert hull == set(own["outline_fallback"])
+    expected = sorted((p["area_um"], p["deform"], p["emodulus_kpa"]) for k, p in points.items() if k not in hull)
+    assert len(rows) == len(expected) == 48 - len(own["outline_fallback"])
+    np.testing.assert_allclose(sorted(map(tuple, rows)), expected, rtol=1e-6)
+    assert table["isoelastics"] is not None
