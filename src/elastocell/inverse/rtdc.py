@@ -135,19 +135,23 @@ def check_temperature(temperature, medium: str | None = None) -> float | None:
 
 
 def check_tables(tables: list[str]) -> list[str]:
-    """The tables as given (dclab's names, the identifiers of the tables elastocell ships, which are registered
-    with dclab here, or paths of tables in dclab's text format), without repeats (a file
-    named twice, however written, counts once; the first order is kept), refused in one line when one is neither,
-    or when two would be reported under one name (before any file is read)."""
+    """The tables as given (dclab's names, the identifiers of the tables elastocell ships, or paths of tables in
+    dclab's text format), without repeats (a file named twice, however written, counts once, and so does a shipped
+    table given by identifier and by path; the first order is kept), refused in one line when one is neither, or
+    when two would be reported under one name (before any file is read). The shipped tables given by identifier
+    are registered with dclab once every table is checked."""
     if not tables:
-        raise ParameterError("lut", f"give at least one table: {', '.join(DCLAB_TABLES)} or a file")
-    checked, seen, names = [], set(), {}
+        raise ParameterError("lut", f"give at least one table: {', '.join(DCLAB_TABLES)}, the identifier of one "
+                                    "elastocell ships, or a file")
+    checked, seen, names, shipped = [], set(), {}, []
     for table in tables:
         text = str(table)
-        if is_named(text):
+        source = text
+        if text in DCLAB_TABLES:
             key = text
-            if text not in DCLAB_TABLES:
-                register_lut(text)  # a table elastocell ships: dclab then reads it by its identifier
+        elif is_named(text):  # a table elastocell ships: the same file as its path, if that is given too
+            source = str(shipped_luts()[text]["path"])
+            key = str(Path(source).resolve())
         else:
             path = Path(text)
             if not path.is_file():
@@ -159,7 +163,7 @@ def check_tables(tables: list[str]) -> list[str]:
             continue
         if text not in DCLAB_TABLES:
             try:
-                data, meta = _dclab().features.emodulus.load.load_lut(text)
+                data, meta = _dclab().features.emodulus.load.load_lut(source)
             except Exception as error:  # noqa: BLE001 - dclab raises several kinds for a malformed table
                 raise ParameterError("lut", f"{text}: not a look-up table dclab can read ({error})") from None
             if len(data) < 3:
@@ -170,19 +174,27 @@ def check_tables(tables: list[str]) -> list[str]:
         seen.add(key)
         names[name] = text
         checked.append(text)
+        if source != text:
+            shipped.append(text)
+    for identifier in shipped:  # registered with dclab, which then reads them by identifier, once all are checked
+        try:
+            register_lut(identifier)
+        except ParameterError as error:
+            raise ParameterError("lut", str(error).removeprefix(f"{error.parameter}: ")) from None
     return checked
 
 
 def is_named(table: str) -> bool:
-    """Whether ``table`` is a table's name rather than a file: one of dclab's tables, or the identifier of one
-    elastocell ships (:func:`elastocell.inverse.shipped_luts.shipped_luts`; a file of that name wins)."""
-    return table in DCLAB_TABLES or (not Path(table).is_file() and table in shipped_luts())
+    """Whether ``table`` is a table's name rather than a path: one of dclab's tables, or the identifier of one
+    elastocell ships (:func:`elastocell.inverse.shipped_luts.shipped_luts`; a file or folder of that name wins, as
+    in dclab's ``get_lut_path``)."""
+    return table in DCLAB_TABLES or (not Path(table).exists() and table in shipped_luts())
 
 
 def table_name(table: str) -> str:
-    """The name a table is reported under: its name (dclab's, or a shipped table's identifier), or the file's
-    stem."""
-    return table if is_named(table) else Path(table).stem
+    """The name a table is reported under: its name (dclab's, or a shipped table's identifier), or the file's name
+    without ``.txt`` (a dotted name such as ``lut_0.04uLs`` kept whole)."""
+    return table if is_named(table) else Path(table).name.removesuffix(".txt")
 
 
 def table_caveats(table: str) -> tuple[str, str]:
@@ -199,6 +211,7 @@ def table_caveats(table: str) -> tuple[str, str]:
     own = meta.get("elastocell") if isinstance(meta, dict) else None
     if not isinstance(own, dict):
         return "", ""
+    own = {**own, **own.get("scaled_from_points", {})}  # a table scaled from another: that one's points
     points = own.get("finished", own.get("points"))
     of = f" of {points}" if points is not None else ""
     caveats, notes = [], []
@@ -376,7 +389,8 @@ def fit_rtdc(files: list[Path], lut: list[str] | str = ("LE-2D-FEM-19",), out: P
              medium: str | None = None, temperature: float | str | None = None, plots: bool = True,
              tables: list[str] | None = None) -> dict:
     """Young's modulus of every event of every file through every table: ``lut`` as ``elastocell fit rtdc
-    --lut`` (dclab's names or files in dclab's format; one name or a list; ``tables`` is an older name of it).
+    --lut`` (dclab's names, the identifiers of the tables elastocell ships, or files in dclab's format; one name or
+    a list; ``tables`` is an older name of it).
     ``medium`` (any of dclab's names, case
     and blanks ignored: :func:`known_medium`) and ``temperature`` (a quantity such as "23degC", "23°C" or
     "296.15K"; a bare number in degC) stand in where a file records none; both are refused in one line (before

@@ -23,7 +23,8 @@ dclab's shortcut, setting ``ds.config["calculation"]`` ("emodulus lut", "emodulu
 temperature", "emodulus viscosity model") and reading ``ds["emodulus"]``, computes the modulus only when the file
 stores none: where ``"emodulus" in ds.features_innate`` (files whose instrument computed it, e.g. dclab's
 ``fmt-hdf5_fl_wide-channel_2023`` test file) ``ds["emodulus"]`` is the stored modulus, silently, whatever table
-is configured. ``elastocell fit rtdc FILES --lut <the table's file>`` does all of this and recomputes every event.
+is configured. ``elastocell fit rtdc FILES --lut <the table's identifier>`` does all of this and recomputes every
+event.
 """
 
 from __future__ import annotations
