@@ -452,24 +452,31 @@ def test_the_shipped_standard_table_converts_real_measurements_near_he_3d_fem_22
     """The standard table elastocell ships (20 um square channel, 0.04 uL/s, 0.59 % MC-PBS at 23 degC; written by
     validation/lut_standard.py ship), given to `fit rtdc` by its identifier, converts dclab's real measurements
     (dclab scales it to each file's channel, flow rate and viscosity; files that record no temperature at 23 degC,
-    as the coverage script). Reference: dclab's HE-3D-FEM-22 (Wittwer et
-    al. 2022, the same problem by an independent finite-element model) on the same events. Measured
-    (`python validation/rtdc_coverage.py --shipped`, docs/validation/rtdc.md): 39 of 79 events inside the shipped
-    table against 37 inside HE-3D-FEM-22, 36 converted by both, E / E_HE-3D-FEM-22 from 0.923 to 1.091, median
-    1.031; the table's own points read through HE-3D-FEM-22 at 0.944-1.107 (docs/validation/lut_square.md).
-    Tolerance: every event within 0.90-1.12 (the measured extremes plus the 0.02-0.03 that the points' own band
-    exceeds them by) and the median within 5 % (issue 25's target for the table); at least 36 events both."""
+    as the coverage script). Reference: dclab's HE-3D-FEM-22 (Wittwer et al. 2022, the same problem by an
+    independent finite-element model) on the same events. Measured (`python validation/rtdc_coverage.py
+    --shipped`, docs/validation/rtdc.md): 39 of 79 events inside the shipped table against 37 inside
+    HE-3D-FEM-22, 36 converted by both, E / E_HE-3D-FEM-22 from 0.907 to 1.049, median 1.001 (with the computed
+    points alone, before the interpolated rows: 0.923 to 1.091, median 1.031). Tolerance: every event within
+    0.885-1.07 (the measured extremes with a margin of about 0.02 for other versions of dclab's interpolation
+    and pixelation correction) and the median within 5 % (issue 25's target for the table); at least 36 events
+    both (the measured count: the conversion is deterministic). The shipped table given by identifier and by
+    path counts once; every shipped table, the scaled ones too, says which points it left out."""
     import elastocell
+    from elastocell.inverse.rtdc import table_caveats
 
     identifier = "elastocell-lut_square_20um_0.04uLs_0.59MC-PBS_23C"
-    assert identifier in elastocell.shipped_luts()
-    code, output = _fit(*measurements.values(), "--lut", "HE-3D-FEM-22", "--lut", identifier, "--temperature", "23",
-                        "--out", tmp_path, "--no-plots", "--quiet")
+    shipped = elastocell.shipped_luts()
+    assert identifier in shipped
+    code, output = _fit(*measurements.values(), "--lut", "HE-3D-FEM-22", "--lut", identifier, "--lut",
+                        shipped[identifier]["path"], "--temperature", "23", "--out", tmp_path, "--no-plots", "--quiet")
     assert code == 0, output
     fits = pd.read_csv(tmp_path / "rtdc_fits.csv")
     assert set(fits["lut"]) == {"HE-3D-FEM-22", identifier}  # reported under its identifier, not a file's stem
     moduli = fits.pivot_table(index=["file", "event"], columns="lut", values="youngs_modulus").dropna()
     ratio = (moduli[identifier] / moduli["HE-3D-FEM-22"]).to_numpy()
     assert len(ratio) >= 36
-    assert 0.90 <= ratio.min() and ratio.max() <= 1.12, (ratio.min(), ratio.max())
+    assert 0.885 <= ratio.min() and ratio.max() <= 1.07, (ratio.min(), ratio.max())
     assert abs(np.median(ratio) - 1) < 0.05, np.median(ratio)
+    left_out = f"{len(shipped[identifier]['metadata']['elastocell']['outline_fallback'])} of 48 points left out"
+    for table in shipped.values():  # the scaled tables say what the standard one left out
+        assert left_out in table_caveats(str(table["path"]))[1]

@@ -688,11 +688,14 @@ def test_points_read_on_the_hull_are_left_out_of_the_table_and_listed(tmp_path, 
 
 
 def test_the_shipped_standard_table_is_its_committed_points():
-    """The standard table that ships (elastocell/data) holds exactly the committed finished points of
+    """The standard table that ships (elastocell/data) is made of exactly the committed finished points of
     validation/tables (each run's point.json, kept in git): every point of the default grid finished, none failed
     or capped, the points read on the nodes' hull listed and left out, every other one a row with its area,
-    deformation and modulus (to the text format's 7 significant digits). The scaled tables are dclab's scaling of
-    it (test_the_standard_table_ships_with_the_tables_scaled_from_it checks that on synthetic points)."""
+    deformation and modulus (to the text format's 7 significant digits), and between them the rows
+    ``refined_rows`` interpolates from those points, as many as the metadata say. The scaled tables are dclab's
+    scaling of it (test_the_standard_table_ships_with_the_tables_scaled_from_it checks that on synthetic points);
+    the isoelastics are the computed points alone."""
+    from elastocell.inverse.lut import REFINE_SUBDIVISIONS, refined_rows
     from elastocell.inverse.shipped_luts import shipped_luts
 
     stem = "lut_square_20um_0.04uLs_0.59MC-PBS_23C"
@@ -704,7 +707,35 @@ def test_the_shipped_standard_table_is_its_committed_points():
     points = {key: json.loads((runs / key / "point.json").read_text()) for key in own["point_states"]}
     hull = {key for key, point in points.items() if point["outline_fallback"] > 0}  # also read partly on the hull
     assert hull == set(own["outline_fallback"])
-    expected = sorted((p["area_um"], p["deform"], p["emodulus_kpa"]) for k, p in points.items() if k not in hull)
-    assert len(rows) == len(expected) == 48 - len(own["outline_fallback"])
+    kept = [p for k, p in points.items() if k not in hull]
+    assert own["rows"]["computed"] == len(kept) == 48 - len(hull) and own["rows"]["subdivisions"] == REFINE_SUBDIVISIONS
+    expected = sorted((r["area_um"], r["deform"], r["emodulus_kpa"]) for r in refined_rows(kept))
+    assert len(rows) == len(expected) == own["rows"]["computed"] + own["rows"]["interpolated"]
     np.testing.assert_allclose(sorted(map(tuple, rows)), expected, rtol=1e-6)
-    assert table["isoelastics"] is not None
+    isoelastics, _, _ = read_lut(table["isoelastics"])
+    np.testing.assert_allclose(sorted(map(tuple, isoelastics)),
+                               sorted((p["area_um"], p["deform"], p["emodulus_kpa"]) for p in kept), rtol=1e-6)
+
+
+def test_refined_rows_are_exact_for_a_power_law_and_stay_inside_computed_cells():
+    """``refined_rows`` interpolates ln area and ln deform bilinearly in (ln R, ln E). Reference: a forward map that
+    is a power law in R and E (deform = c R^2.5 E^-2.2, area = 1.01 pi R^2), which that interpolation reproduces to
+    round-off (tolerance 1e-12 in ln deform). Counted on a 3 x 3 grid with one corner missing (as a point read on
+    the hull): 8 computed points, 5 + 5 edges with a computed pair at each end (3 rows inside each at 4
+    subdivisions), 3 complete cells (9 interior rows each): 65 rows; the incomplete cell gets none, so no row lies
+    beyond the computed points' cells. 1 subdivision returns the computed points alone; 0 is refused."""
+    from elastocell.inverse.lut import refined_rows
+
+    def law(r, e):
+        return {"radius_um": r, "emodulus_kpa": e, "area_um": 1.01 * math.pi * r**2, "deform": 0.02 * (r / 5) ** 2.5 / e**2.2}
+
+    points = [law(r, e) for r in (3.0, 5.0, 7.0) for e in (1.0, 2.0, 4.0) if (r, e) != (7.0, 4.0)]
+    rows = refined_rows(points, 4)
+    assert len(rows) == 65 and rows[:8] == points and all(r["interpolated"] for r in rows[8:])
+    radius = [math.sqrt(r["area_um"] / (1.01 * math.pi)) for r in rows]
+    error = [abs(math.log(r["deform"]) - math.log(law(x, r["emodulus_kpa"])["deform"])) for r, x in zip(rows, radius, strict=True)]
+    assert max(error) < 1e-12
+    assert not any(x > 5.0 + 1e-9 and r["emodulus_kpa"] > 2.0 + 1e-9 for r, x in zip(rows, radius, strict=True))
+    assert refined_rows(points, 1) == points
+    with pytest.raises(ParameterError, match="subdivisions"):
+        refined_rows(points, 0)

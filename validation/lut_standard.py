@@ -29,8 +29,13 @@ same way; the scaled tables give them their own identifiers, not new information
 projection (``--volume-correction projection``, the runs' keys of that option) where such a twin was finished in
 the runs directory: the size of the immersed boundary's volume leak's effect on the table.
 
-``ship`` copies the finished standard table (every point finished, none failed) and writes the scaled ones into
+``ship`` writes the finished standard table (every point finished, none failed) and the scaled ones into
 src/elastocell/data as ``lut_<name>.txt`` with their isoelastics; ``elastocell.register_lut()`` registers them.
+The shipped tables hold the computed points and, between them, rows interpolated in the grid's parameters
+(``elastocell.inverse.lut.refined_rows``: ln area and ln deform bilinear in ln R and ln E, 8 steps per interval),
+because dclab reads a table linearly in (area, deform), which between the grid's points overstates E by several
+per cent; their metadata say how many rows are which (``elastocell.rows``), the isoelastics are the computed
+points'. ``compare`` measures both readings against HE-3D-FEM-22 over the common region.
 """
 
 from __future__ import annotations
@@ -137,9 +142,9 @@ def scaled_metadata(metadata: dict, config: dict, rows: list[dict]) -> dict:
     scaled["date"] = metadata["date"]
     points = {k: v for k, v in metadata["elastocell"].items()
               if k in ("points", "finished", "failed", "not_stationary", "not_extrapolated", "outline_fallback",
-                       "point_states")}
+                       "point_states", "rows")}
     scaled["elastocell"] = {**settings, "scaled_from": metadata["identifier"], "scaled_from_points": points,
-                            "moduli_kpa": sorted({round(r["emodulus_kpa"], 6) for r in rows})}
+                            "moduli_kpa": sorted({round(r["emodulus_kpa"], 6) for r in rows if not r.get("interpolated")})}
     return scaled
 
 
@@ -147,7 +152,14 @@ def ship(tables: Path, data: Path = DATA) -> None:
     import numpy as np
     from dclab.features.emodulus.scale_linear import scale_area_um, scale_emodulus
 
-    from elastocell.inverse.lut import isoelastics_path, read_lut, write_isoelastics, write_lut
+    from elastocell.inverse.lut import (
+        REFINE_SUBDIVISIONS,
+        isoelastics_path,
+        read_lut,
+        refined_rows,
+        write_isoelastics,
+        write_lut,
+    )
 
     points, _ = plan_of(STANDARD)
     done = finished(tables, STANDARD)
@@ -165,10 +177,19 @@ def ship(tables: Path, data: Path = DATA) -> None:
     if keys != {p["key"] for p in points} or len(table) != rows or metadata["elastocell"].get("failed"):
         raise SystemExit(f"ship: {source} is not the table of the {len(points)} finished points (its rows, point "
                          "keys or failed points differ): run it once more so that it is rewritten from them")
-    records = [{"area_um": a, "deform": d, "emodulus_kpa": e} for a, d, e in table]
+    computed = [{"area_um": a, "deform": d, "emodulus_kpa": e} for a, d, e in table]
+    left_out = set(metadata["elastocell"].get("outline_fallback", []))
+    records = refined_rows([done[p["key"]] for p in points if p["key"] not in left_out])
+    if len(records) - sum(r.get("interpolated", False) for r in records) != len(table):
+        raise SystemExit(f"ship: the finished points are not the rows of {source}: run it once more")
+    metadata["elastocell"]["rows"] = {
+        "computed": len(table), "interpolated": len(records) - len(table), "subdivisions": REFINE_SUBDIVISIONS,
+        "method": "between computed points, ln(area_um) and ln(deform) bilinear in (ln R, ln E) over each grid cell "
+                  "whose four corners were computed (elastocell.inverse.lut.refined_rows)"}
     write_lut(data / source.name, records, metadata)
-    write_isoelastics(isoelastics_path(data / source.name), records, metadata)
-    print(f"wrote {data / source.name}")
+    write_isoelastics(isoelastics_path(data / source.name), computed, metadata)  # the computed points' lines
+    print(f"wrote {data / source.name} ({len(table)} computed rows, {len(records) - len(table)} interpolated)")
+    table = np.array([[r["area_um"], r["deform"], r["emodulus_kpa"]] for r in records])
     for config in SCALED:
         _, settings = plan_of(config)
         width = float(config["channel_width_um"])
@@ -176,12 +197,12 @@ def ship(tables: Path, data: Path = DATA) -> None:
         emodulus = scale_emodulus(table[:, 2], metadata["channel_width"], width, metadata["flow_rate"],
                                   float(config["flow_rate_ul_s"]), metadata["fluid_viscosity"],
                                   settings["viscosity_mpa_s"])
-        rows = [{"area_um": a, "deform": d, "emodulus_kpa": e}
-                for a, d, e in zip(area, table[:, 1], np.asarray(emodulus), strict=True)]
+        rows = [{"area_um": a, "deform": d, "emodulus_kpa": e, "interpolated": r.get("interpolated", False)}
+                for a, d, e, r in zip(area, table[:, 1], np.asarray(emodulus), records, strict=True)]
         scaled = scaled_metadata(metadata, config, rows)
         name = table_name(config)
         write_lut(data / f"{name}.txt", rows, scaled)
-        write_isoelastics(isoelastics_path(data / f"{name}.txt"), rows, scaled)
+        write_isoelastics(isoelastics_path(data / f"{name}.txt"), [r for r in rows if not r["interpolated"]], scaled)
         print(f"wrote {data / name}.txt (scaled from {metadata['identifier']})")
 
 
@@ -257,8 +278,69 @@ def compare(tables: Path, write_page: bool) -> None:
                    f"{max(e['deform ratio'] for e in effect):.4f}, area {min(e['area ratio'] for e in effect):.4f} to "
                    f"{max(e['area ratio'] for e in effect):.4f}; `max |dV/V|`: the table point's largest volume "
                    "change, which the projection holds at zero.")
+    interpolation(page, records, conditions)
     if write_page:
         page.write()
+
+
+def interpolation(page, records: list[dict], conditions) -> None:
+    """How the table is read between its points. (1) Left-one-out along E at each radius: each interior point
+    predicted from its two neighbours (twice the grid's spacing) by the shipped tables' interpolation (ln deform
+    linear in ln E, ``refined_rows``) and by dclab's linear reading in deform, as the error of the E each assigns
+    to the point's true deformation. (2) The common region: a grid of (area, deform) read through HE-3D-FEM-22
+    and through the table, once with the computed points alone (dclab's linear reading between them) and once as
+    shipped (with the rows of ``refined_rows``)."""
+    import math
+
+    import numpy as np
+
+    from elastocell.inverse.lut import read_lut
+    from elastocell.inverse.rtdc import emodulus_of_events
+
+    kept = {(r["radius_um"], r["emodulus_kpa"]): r for r in records if not r.get("outline_fallback", 0) > 0}
+    moduli = sorted({e for _, e in kept})
+    errors = []
+    for radius in sorted({r for r, _ in kept}):
+        for low, mid, high in zip(moduli, moduli[1:], moduli[2:], strict=False):
+            if not all((radius, e) in kept for e in (low, mid, high)):
+                continue
+            d_low, d_mid, d_high = (kept[(radius, e)]["deform"] for e in (low, mid, high))
+            slope = math.log(d_high / d_low) / math.log(high / low)  # d ln D / d ln E over the pair
+            log_e = math.log(low) + math.log(d_mid / d_low) / slope  # the E whose interpolated D is the point's
+            linear = low + (high - low) * (d_mid - d_low) / (d_high - d_low)
+            errors.append({"R [um]": radius, "E [kPa]": mid, "deform": d_mid,
+                           "E error, ln D linear in ln E": math.exp(log_e) / mid - 1,
+                           "E error, dclab's linear reading": linear / mid - 1})
+    page.table(errors, "Left-one-out: each interior point from its neighbours at twice the spacing",
+               formats={"deform": ".5f", "E error, ln D linear in ln E": "+.4f",
+                        "E error, dclab's linear reading": "+.4f"})
+    for column in ("E error, ln D linear in ln E", "E error, dclab's linear reading"):
+        values = np.abs([e[column] for e in errors])
+        page.print(f"|{column}|: median {np.median(values):.4f}, largest {values.max():.4f} ({len(values)} points)")
+
+    area, deform = (a.ravel() for a in np.meshgrid(np.linspace(30.0, 200.0, 35), np.geomspace(0.002, 0.06, 30)))
+    reference, _ = emodulus_of_events(area, deform, conditions, COMPARED)
+    shipped = DATA / f"{table_name(STANDARD)}.txt"
+    computed = TABLES / f"{table_name(STANDARD)}.txt"
+    rows = []
+    for label, path in (("computed points alone", computed), ("as shipped", shipped)):
+        if not path.is_file():
+            continue
+        values, _ = emodulus_of_events(area, deform, conditions, str(path))
+        ratio = values / reference
+        ratio = ratio[np.isfinite(ratio)]
+        if not ratio.size:
+            continue
+        q = np.percentile(ratio, [0, 25, 50, 75, 100])
+        rows.append({"table": label, "rows": len(read_lut(path)[0]), "samples in both": ratio.size,
+                     "within 5 %": float(np.mean(np.abs(ratio - 1) <= 0.05)), "min": q[0], "q1": q[1],
+                     "median": q[2], "q3": q[3], "max": q[4]})
+    page.table(rows, f"The common region: E_table / E_{COMPARED} on a grid of (area, deform)",
+               formats={"within 5 %": ".3f", "min": ".3f", "q1": ".3f", "median": ".3f", "q3": ".3f",
+                        "max": ".3f"})
+    page.print("grid: area 30-200 um^2 (35 values, linear) x deform 0.002-0.06 (30 values, logarithmic), the samples "
+               f"inside both tables; the same conditions as above. `computed points alone`: {computed.name} as "
+               "`elastocell lut` wrote it; `as shipped`: with the interpolated rows (elastocell.rows of its metadata).")
 
 
 def main() -> None:

@@ -6,7 +6,7 @@ The measurements are dclab's own test files (tests/data/rtdc, 79 events: 20 and 
 CellCarrierB, see the README there). Every event is converted by ``elastocell fit rtdc`` (dclab's
 ``get_emodulus``: the table scaled to the file's channel width, flow rate and medium viscosity, pixelation
 correction, no extrapolation) through dclab's LE-2D-FEM-19, HE-2D-FEM-22 and HE-3D-FEM-22, the tables elastocell
-ships (``--shipped``: ``elastocell.shipped_luts()``) and any table given with ``--lut`` (one ``elastocell lut``
+ships (``--shipped``: ``elastocell.shipped_luts()``, by identifier) and any table given with ``--lut`` (one ``elastocell lut``
 wrote). A file that records no temperature is converted at
 ``--temperature`` (the RT-DC standard 23 degC by default: an assumption, said in the table). Reported: each
 table's coverage (events inside it) per file and in all, and each table's modulus over HE-3D-FEM-22's (the 3D
@@ -59,7 +59,7 @@ def main() -> None:
         "different models is the point."))
     out = arguments.out or Path(tempfile.mkdtemp(prefix="rtdc-coverage-"))
     files = unpack(out / "measurements")
-    shipped = [str(t["path"]) for t in shipped_luts().values()] if arguments.shipped else []
+    shipped = list(shipped_luts()) if arguments.shipped else []  # by identifier, as a user names them
     if arguments.shipped and not shipped:
         raise SystemExit("--shipped: this elastocell ships no look-up table")
     tables = [*DCLAB_TABLES, *shipped, *arguments.lut]
