@@ -196,7 +196,7 @@ EXPECTED_OPTIONS = {
            '--material=neo-hookean --resolution=None '
            '--extrapolate=False --coarse-resolution=None --hydrodynamic-radius-correction=0.3 --duration=None '
            '--stationary-tolerance=None '
-           '--identifier=None --scheduler=None --workers=None --quiet=False',
+           '--identifier=None --subdivisions=8 --scheduler=None --workers=None --quiet=False',
     'mastercurve compression': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False '
                                '--quiet=False',
     'mastercurve shear': '--poisson-ratio=0.48 --material=neo-hookean --out=None --no-cache=False --quiet=False',

@@ -197,6 +197,7 @@ def test_dclab_loads_the_lut_and_isoelastics(tmp_path):
     (["--resolution", "-3"], "--resolution"),  # was blamed on --hydrodynamic-radius-correction
     (["--moduli", "1,2"], "--moduli"),  # 1 Pa: Ca_w beyond the pipe's limit, was named --capillary-number-wall
     (["--duration", "0.05"], "--duration"),  # under one record interval: each point failed after the lock was taken
+    (["--subdivisions", "0"], "--subdivisions"),
 ])
 def test_one_line_refusals(tmp_path, extra, option):
     _refused(BASE, extra, option, tmp_path)
@@ -255,7 +256,11 @@ def test_quick_grid_end_to_end(tmp_path, monkeypatch):
     result = compute_lut(out, "10um", "0.04uL/s", "15mPa*s", **kwargs)
     assert not result["failures"], result["failures"]
     data, meta, header = read_lut(out)
-    assert data.shape == (2, 3) and header[0] == "area_um [um^2]"
+    # the 2 computed points and the 7 rows refined_rows puts between them (8 subdivisions by default)
+    assert data.shape == (9, 3) and header[0] == "area_um [um^2]"
+    assert {k: meta["elastocell"]["rows"][k] for k in ("computed", "interpolated", "subdivisions")} == {
+        "computed": 2, "interpolated": 7, "subdivisions": 8}
+    assert read_lut(tmp_path / "lut_isoelastics.txt")[0].shape == (2, 3)  # the computed points' lines
     assert np.all(np.isfinite(data)) and np.all(data[:, 0] > 0)
     # area in um^2: about pi R^2 for R = 5 um
     assert 0.5 * math.pi * 25 < data[0, 0] < 1.5 * math.pi * 25
@@ -532,6 +537,7 @@ def test_the_standard_table_ships_with_the_tables_scaled_from_it(tmp_path):
 
     from dclab.features import emodulus
 
+    from elastocell.inverse.lut import isoelastics_path, refined_rows, write_isoelastics
     from elastocell.inverse.shipped_luts import register_lut
 
     spec = importlib.util.spec_from_file_location("lut_standard", ROOT / "validation" / "lut_standard.py")
@@ -556,8 +562,14 @@ def test_the_standard_table_ships_with_the_tables_scaled_from_it(tmp_path):
     with pytest.raises(SystemExit, match="run `python validation/lut_standard.py run` once"):
         standard.ship(tables, data)
     meta = lut_metadata(settings, f"elastocell-{out.stem}")
-    meta["elastocell"] = {**settings, "failed": [], "point_states": {p["key"]: "stationary" for p in points}}
+    refined = refined_rows(records)  # as compute_lut writes it
+    meta["elastocell"] = {**settings, "failed": [], "point_states": {p["key"]: "stationary" for p in points},
+                          "rows": {"computed": len(records), "interpolated": len(refined) - len(records)}}
     write_lut(out, records, meta)
+    with pytest.raises(SystemExit, match="is not the table of the 48 finished points"):
+        standard.ship(tables, data)  # its rows are not the counted ones
+    write_lut(out, refined, meta)
+    write_isoelastics(isoelastics_path(out), records, meta)
     standard.ship(tables, data)
     shipped = register_lut(directory=data)
     assert len(shipped) == 3
@@ -677,7 +689,7 @@ def test_points_read_on_the_hull_are_left_out_of_the_table_and_listed(tmp_path, 
                   "volume_change_max_abs": 2 * VOLUME_DRIFT if index == 2 else 1e-4, "options": point["options"]}
         (runs_directory(out) / point["key"]).mkdir(parents=True)
         (runs_directory(out) / point["key"] / POINT_FILE).write_text(json.dumps(record))
-    result = compute_lut(out, "10um", "0.04uL/s", "15mPa*s", client=_Client(), **kwargs)
+    result = compute_lut(out, "10um", "0.04uL/s", "15mPa*s", client=_Client(), subdivisions=1, **kwargs)
     hull = points[0]["key"]
     assert len(result["records"]) == 4 and result["outline_fallback"] == [hull]
     data, meta, _ = read_lut(out)

@@ -31,11 +31,12 @@ the runs directory: the size of the immersed boundary's volume leak's effect on 
 
 ``ship`` writes the finished standard table (every point finished, none failed) and the scaled ones into
 src/elastocell/data as ``lut_<name>.txt`` with their isoelastics; ``elastocell.register_lut()`` registers them.
-The shipped tables hold the computed points and, between them, rows interpolated in the grid's parameters
-(``elastocell.inverse.lut.refined_rows``: ln area and ln deform bilinear in ln R and ln E, 8 steps per interval),
-because dclab reads a table linearly in (area, deform), which between the grid's points overstates E by several
-per cent; their metadata say how many rows are which (``elastocell.rows``), the isoelastics are the computed
-points'. ``compare`` measures both readings against HE-3D-FEM-22 over the common region.
+The table (as every table ``elastocell lut`` writes) holds the computed points and, between them, rows
+interpolated in the grid's parameters (``elastocell.inverse.lut.refined_rows``: ln area and ln deform bilinear in
+ln R and ln E, 8 steps per interval), because dclab reads a table linearly in (area, deform), which between the
+grid's points overstates E by several per cent; its metadata say how many rows are which (``elastocell.rows``),
+the isoelastics are the computed points'. ``compare`` measures both readings against HE-3D-FEM-22 over the common
+region.
 """
 
 from __future__ import annotations
@@ -144,22 +145,12 @@ def scaled_metadata(metadata: dict, config: dict, rows: list[dict]) -> dict:
               if k in ("points", "finished", "failed", "not_stationary", "not_extrapolated", "outline_fallback",
                        "point_states", "rows")}
     scaled["elastocell"] = {**settings, "scaled_from": metadata["identifier"], "scaled_from_points": points,
-                            "moduli_kpa": sorted({round(r["emodulus_kpa"], 6) for r in rows if not r.get("interpolated")})}
+                            "moduli_kpa": sorted({round(r["emodulus_kpa"], 6) for r in rows})}
     return scaled
 
 
 def ship(tables: Path, data: Path = DATA) -> None:
-    import numpy as np
-    from dclab.features.emodulus.scale_linear import scale_area_um, scale_emodulus
-
-    from elastocell.inverse.lut import (
-        REFINE_SUBDIVISIONS,
-        isoelastics_path,
-        read_lut,
-        refined_rows,
-        write_isoelastics,
-        write_lut,
-    )
+    from elastocell.inverse.lut import isoelastics_path, read_lut, write_isoelastics, write_lut
 
     points, _ = plan_of(STANDARD)
     done = finished(tables, STANDARD)
@@ -172,38 +163,42 @@ def ship(tables: Path, data: Path = DATA) -> None:
         raise SystemExit(f"ship: no {source}: run `python validation/lut_standard.py run` once (it reads the "
                          "finished points back and writes the table)")
     table, metadata, _ = read_lut(source)
-    keys = set(metadata["elastocell"].get("point_states", {}))
-    rows = len(points) - len(metadata["elastocell"].get("outline_fallback", []))  # hull readings are left out
-    if keys != {p["key"] for p in points} or len(table) != rows or metadata["elastocell"].get("failed"):
+    own = metadata["elastocell"]
+    keys = set(own.get("point_states", {}))
+    computed = len(points) - len(own.get("outline_fallback", []))  # hull readings are left out
+    counted = own.get("rows", {})
+    if (keys != {p["key"] for p in points} or own.get("failed") or counted.get("computed") != computed
+            or len(table) != computed + counted.get("interpolated", 0)):
         raise SystemExit(f"ship: {source} is not the table of the {len(points)} finished points (its rows, point "
                          "keys or failed points differ): run it once more so that it is rewritten from them")
-    computed = [{"area_um": a, "deform": d, "emodulus_kpa": e} for a, d, e in table]
-    left_out = set(metadata["elastocell"].get("outline_fallback", []))
-    records = refined_rows([done[p["key"]] for p in points if p["key"] not in left_out])
-    if len(records) - sum(r.get("interpolated", False) for r in records) != len(table):
-        raise SystemExit(f"ship: the finished points are not the rows of {source}: run it once more")
-    metadata["elastocell"]["rows"] = {
-        "computed": len(table), "interpolated": len(records) - len(table), "subdivisions": REFINE_SUBDIVISIONS,
-        "method": "between computed points, ln(area_um) and ln(deform) bilinear in (ln R, ln E) over each grid cell "
-                  "whose four corners were computed (elastocell.inverse.lut.refined_rows)"}
-    write_lut(data / source.name, records, metadata)
-    write_isoelastics(isoelastics_path(data / source.name), computed, metadata)  # the computed points' lines
-    print(f"wrote {data / source.name} ({len(table)} computed rows, {len(records) - len(table)} interpolated)")
-    table = np.array([[r["area_um"], r["deform"], r["emodulus_kpa"]] for r in records])
-    for config in SCALED:
-        _, settings = plan_of(config)
-        width = float(config["channel_width_um"])
-        area = scale_area_um(table[:, 0], metadata["channel_width"], width)
-        emodulus = scale_emodulus(table[:, 2], metadata["channel_width"], width, metadata["flow_rate"],
-                                  float(config["flow_rate_ul_s"]), metadata["fluid_viscosity"],
-                                  settings["viscosity_mpa_s"])
-        rows = [{"area_um": a, "deform": d, "emodulus_kpa": e, "interpolated": r.get("interpolated", False)}
-                for a, d, e, r in zip(area, table[:, 1], np.asarray(emodulus), records, strict=True)]
-        scaled = scaled_metadata(metadata, config, rows)
-        name = table_name(config)
-        write_lut(data / f"{name}.txt", rows, scaled)
-        write_isoelastics(isoelastics_path(data / f"{name}.txt"), [r for r in rows if not r["interpolated"]], scaled)
-        print(f"wrote {data / name}.txt (scaled from {metadata['identifier']})")
+    isoelastics, _, _ = read_lut(isoelastics_path(source))  # the computed points
+    outputs = [(source.name, table, isoelastics, metadata)]
+    for config in SCALED:  # the same rows scaled, as dclab scales any table
+        lines = scaled_rows(isoelastics, metadata, config)
+        outputs.append((f"{table_name(config)}.txt", scaled_rows(table, metadata, config), lines,
+                        scaled_metadata(metadata, config, _records(lines))))
+    for name, rows, lines, meta in outputs:
+        write_lut(data / name, _records(rows), meta)
+        write_isoelastics(isoelastics_path(data / name), _records(lines), meta)
+        print(f"wrote {data / name} ({len(rows)} rows, {computed} of them computed)")
+
+
+def _records(rows) -> list[dict]:
+    return [{"area_um": a, "deform": d, "emodulus_kpa": e} for a, d, e in rows]
+
+
+def scaled_rows(rows, metadata: dict, config: dict):
+    """The rows (area_um, deform, emodulus in kPa) of the standard table scaled to ``config``'s channel and flow
+    rate as dclab scales any table (``dclab.features.emodulus.scale_linear``)."""
+    import numpy as np
+    from dclab.features.emodulus.scale_linear import scale_area_um, scale_emodulus
+
+    _, settings = plan_of(config)
+    width = float(config["channel_width_um"])
+    area = scale_area_um(rows[:, 0], metadata["channel_width"], width)
+    emodulus = scale_emodulus(rows[:, 2], metadata["channel_width"], width, metadata["flow_rate"],
+                              float(config["flow_rate_ul_s"]), metadata["fluid_viscosity"], settings["viscosity_mpa_s"])
+    return np.column_stack([area, rows[:, 1], np.asarray(emodulus)])
 
 
 COMPARED = "HE-3D-FEM-22"
@@ -291,10 +286,11 @@ def interpolation(page, records: list[dict], conditions) -> None:
     and through the table, once with the computed points alone (dclab's linear reading between them) and once as
     shipped (with the rows of ``refined_rows``)."""
     import math
+    import tempfile
 
     import numpy as np
 
-    from elastocell.inverse.lut import read_lut
+    from elastocell.inverse.lut import read_lut, write_lut
     from elastocell.inverse.rtdc import emodulus_of_events
 
     kept = {(r["radius_um"], r["emodulus_kpa"]): r for r in records if not r.get("outline_fallback", 0) > 0}
@@ -321,11 +317,13 @@ def interpolation(page, records: list[dict], conditions) -> None:
     area, deform = (a.ravel() for a in np.meshgrid(np.linspace(30.0, 200.0, 35), np.geomspace(0.002, 0.06, 30)))
     reference, _ = emodulus_of_events(area, deform, conditions, COMPARED)
     shipped = DATA / f"{table_name(STANDARD)}.txt"
-    computed = TABLES / f"{table_name(STANDARD)}.txt"
+    if not shipped.is_file():
+        return
+    computed = Path(tempfile.mkdtemp(prefix="lut-computed-")) / shipped.name  # without the interpolated rows
+    _, metadata, _ = read_lut(shipped)
+    write_lut(computed, list(kept.values()), metadata)
     rows = []
     for label, path in (("computed points alone", computed), ("as shipped", shipped)):
-        if not path.is_file():
-            continue
         values, _ = emodulus_of_events(area, deform, conditions, str(path))
         ratio = values / reference
         ratio = ratio[np.isfinite(ratio)]
@@ -339,8 +337,9 @@ def interpolation(page, records: list[dict], conditions) -> None:
                formats={"within 5 %": ".3f", "min": ".3f", "q1": ".3f", "median": ".3f", "q3": ".3f",
                         "max": ".3f"})
     page.print("grid: area 30-200 um^2 (35 values, linear) x deform 0.002-0.06 (30 values, logarithmic), the samples "
-               f"inside both tables; the same conditions as above. `computed points alone`: {computed.name} as "
-               "`elastocell lut` wrote it; `as shipped`: with the interpolated rows (elastocell.rows of its metadata).")
+               "inside both tables; the same conditions as above. `computed points alone`: the shipped table's computed "
+               "rows (`elastocell lut --subdivisions 1`); `as shipped`: with its interpolated rows (elastocell.rows of "
+               "its metadata).")
 
 
 def main() -> None:

@@ -51,7 +51,7 @@ from elastocell.cli.options import opt, takes
            shown="120, stopping earlier once stationary; --quick: 1; with --channel-length 1.5 times the transit at the mean flow speed"),
        opt("stationary_tolerance", help="Stop a point once its deformation is stationary to this fraction.",
            shown="1e-3; --quick and --channel-length: off"),
-       "identifier", opt("scheduler", help="Dask scheduler address."),
+       "identifier", "subdivisions", opt("scheduler", help="Dask scheduler address."),
        opt("workers", help="Local Dask workers."), "quiet")
 def lut(channel_radius: str | None, channel_width: str | None, channel_shape, channel_height: str | None, channel_wall,
         volume_correction,
@@ -62,7 +62,7 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
         resolution: float | None, extrapolate: bool, coarse_resolution: float | None,
         hydrodynamic_radius_correction: float, duration: float | None,
         stationary_tolerance: float | None,
-        identifier: str | None, scheduler: str | None, workers: int | None, quiet: bool):
+        identifier: str | None, subdivisions: int, scheduler: str | None, workers: int | None, quiet: bool):
     """Look-up table for deformability cytometry: pipe-flow runs over cell radii x moduli (Dask, resumable)
     written as area_um / deform / emodulus in dclab's format, with isoelastics. Register it with
     dclab.features.emodulus.register_lut(FILE)."""
@@ -80,7 +80,8 @@ def lut(channel_radius: str | None, channel_width: str | None, channel_shape, ch
                          flow_index=flow_index, extrapolate=extrapolate, coarse_resolution=coarse_resolution,
                          hydrodynamic_radius_correction=hydrodynamic_radius_correction,
                          stiffness_ratio=stiffness_ratio, size_ratio=size_ratio, channel_length=channel_length,
-                         channel_wall=channel_wall.value, volume_correction=volume_correction.value)
+                         channel_wall=channel_wall.value, volume_correction=volume_correction.value,
+                         subdivisions=subdivisions)
     if not quiet:
         settings = result["settings"]
         typer.echo(f"{settings.get('cell_description', 'homogeneous cell')}, "

@@ -364,6 +364,10 @@ OPTIONS: dict[str, Opt] = _declare(
     Opt("moduli", str | None, None, "Young's moduli.", quantity="Pa", listed=True,
         shown="0.5,0.75,1,1.5,2,3,5 kPa; --quick: 1,2 kPa"),
     Opt("identifier", str | None, None, "LUT identifier for dclab.", shown="elastocell-<stem of --out>"),
+    Opt("subdivisions", int, 8, "Rows per grid interval written between the computed points: ln area and ln deform "
+        "bilinear in ln R and ln E within each grid cell whose four corners were computed (dclab reads a table "
+        "linearly in area and deform, which between the grid's points overstates E by several per cent); 1: the "
+        "computed points alone. The isoelastics are the computed points'.", units=_DIMENSIONLESS),
     # ---------------------------------------------------------------- study
     Opt("name", str, REQUIRED, "Study name (see `elastocell study list`).", argument=True),
     Opt("directory", Path, REQUIRED, "The --out directory of `study run`.", argument=True),

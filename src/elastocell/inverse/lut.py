@@ -984,9 +984,23 @@ def _rows(records: list[dict]) -> np.ndarray:
 
 
 REFINE_SUBDIVISIONS = 8
-"""Rows per grid interval of the shipped tables (:func:`refined_rows`): from 4 to 8 the share of the common region
-with HE-3D-FEM-22 read within 5 % rose from 0.91 to 0.94 and the median ratio moved by 0.001
-(docs/validation/lut_square.md, section lut_standard.py)."""
+"""Rows per grid interval of the tables ``elastocell lut`` writes (``--subdivisions``, :func:`refined_rows`): on the
+standard table, from 4 to 8 the share of the common region with HE-3D-FEM-22 read within 5 % rose from 0.91 to
+0.94 and the median ratio moved by 0.001 (measured once on the shipped table's points against HE-3D-FEM-22, as
+``validation/lut_standard.py compare`` does at 8)."""
+
+
+REFINE_METHOD = ("between computed points, ln(area_um) and ln(deform) bilinear in (ln R, ln E) over each grid cell "
+                 "whose four corners were computed (elastocell.inverse.lut.refined_rows)")
+"""How the interpolated rows of a table are made (its metadata, ``elastocell.rows.method``)."""
+
+
+def check_subdivisions(subdivisions) -> int:
+    """``subdivisions`` as a whole number of at least 1, refused in one line otherwise."""
+    if isinstance(subdivisions, bool) or not float(subdivisions).is_integer() or subdivisions < 1:
+        raise ParameterError("subdivisions", f"{subdivisions}: a whole number of at least 1 (1: the computed points "
+                                             "alone)")
+    return int(subdivisions)
 
 
 def refined_rows(points: list[dict], subdivisions: int = REFINE_SUBDIVISIONS) -> list[dict]:
@@ -1005,9 +1019,9 @@ def refined_rows(points: list[dict], subdivisions: int = REFINE_SUBDIVISIONS) ->
 
     ``points``: dicts with ``radius_um``, ``emodulus_kpa``, ``area_um``, ``deform`` (the computed ones, returned
     first, unchanged); the interpolated rows carry ``interpolated: True``."""
-    if subdivisions < 1:
-        raise ParameterError("subdivisions", f"{subdivisions}: at least 1 (1: the computed points alone)")
-    shape = {(p["radius_um"], p["emodulus_kpa"]): (math.log(p["area_um"]), math.log(p["deform"])) for p in points}
+    subdivisions = check_subdivisions(subdivisions)
+    shape = {(p["radius_um"], p["emodulus_kpa"]): (math.log(p["area_um"]), math.log(p["deform"])) for p in points
+             if p["area_um"] > 0 and p["deform"] > 0}  # a point without a logarithm counts as missing
     radii = sorted({r for r, _ in shape})
     moduli = sorted({e for _, e in shape})
     steps = [k / subdivisions for k in range(subdivisions + 1)]
@@ -1114,8 +1128,11 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
                 coarse_resolution: float | None = None, stiffness_ratio: float | None = None,
                 size_ratio: float | None = None, channel_length=None,
                 hydrodynamic_radius_correction: float | None = None, channel_wall: str | None = None,
-                volume_correction: str | None = None) -> dict:
-    """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``. ``security``:
+                volume_correction: str | None = None, subdivisions: int = REFINE_SUBDIVISIONS) -> dict:
+    """Run the grid (Dask; resumable) and write ``out`` (the LUT) and ``<stem>_isoelastics.txt``. The table holds the
+    computed points and the rows :func:`refined_rows` interpolates between them (``subdivisions`` per grid
+    interval; 1: the computed points alone; counted under ``elastocell.rows``); the isoelastics are the computed
+    points'. ``security``:
     a ``distributed.Security`` for a TLS scheduler (docs/usage/cluster.md).
 
     channel_radius, flow_rate, viscosity: quantities ("10um", "0.04uL/s", "15mPa*s") or numbers in um, uL/s,
@@ -1151,6 +1168,7 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
     if out.exists() and out.is_dir():
         raise ParameterError("out", f"{out} is a directory; give a file name such as lut.txt")
     check_identifier(identifier)
+    subdivisions = check_subdivisions(subdivisions)
     points, settings = plan(channel_radius, flow_rate, viscosity, radii, moduli, quick, poisson_ratio, material,
                             resolution, duration, stationary_tolerance, channel_width=channel_width,
                             channel_shape=channel_shape, channel_height=channel_height, medium=medium,
@@ -1193,6 +1211,9 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
                   "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary,
                   "outline_fallback": hull_outline, "volume_drift": drifted}
         if rows:
-            write_lut(out, rows, metadata)
+            refined = refined_rows(rows, subdivisions)
+            metadata["elastocell"]["rows"] = {"computed": len(rows), "interpolated": len(refined) - len(rows),
+                                              "subdivisions": subdivisions, "method": REFINE_METHOD}
+            write_lut(out, refined, metadata)
             write_isoelastics(isoelastics_path(out), rows, metadata)
         return result
