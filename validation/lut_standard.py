@@ -290,7 +290,7 @@ def interpolation(page, records: list[dict], conditions) -> None:
 
     import numpy as np
 
-    from elastocell.inverse.lut import read_lut, write_lut
+    from elastocell.inverse.lut import REFINE_SUBDIVISIONS, read_lut, refined_rows, write_lut
     from elastocell.inverse.rtdc import emodulus_of_events
 
     kept = {(r["radius_um"], r["emodulus_kpa"]): r for r in records if not r.get("outline_fallback", 0) > 0}
@@ -319,11 +319,15 @@ def interpolation(page, records: list[dict], conditions) -> None:
     shipped = DATA / f"{table_name(STANDARD)}.txt"
     if not shipped.is_file():
         return
-    computed = Path(tempfile.mkdtemp(prefix="lut-computed-")) / shipped.name  # without the interpolated rows
     _, metadata, _ = read_lut(shipped)
-    write_lut(computed, list(kept.values()), metadata)
+    folder = Path(tempfile.mkdtemp(prefix="lut-subdivisions-"))
+    tables = []
+    for subdivisions in (1, 2, 4, REFINE_SUBDIVISIONS):  # the same computed points, written with each count
+        path = folder / f"subdivisions-{subdivisions}.txt"
+        write_lut(path, refined_rows(list(kept.values()), subdivisions), metadata)
+        tables.append((f"--subdivisions {subdivisions}", path))
     rows = []
-    for label, path in (("computed points alone", computed), ("as shipped", shipped)):
+    for label, path in [*tables, ("as shipped", shipped)]:
         values, _ = emodulus_of_events(area, deform, conditions, str(path))
         ratio = values / reference
         ratio = ratio[np.isfinite(ratio)]
@@ -337,9 +341,9 @@ def interpolation(page, records: list[dict], conditions) -> None:
                formats={"within 5 %": ".3f", "min": ".3f", "q1": ".3f", "median": ".3f", "q3": ".3f",
                         "max": ".3f"})
     page.print("grid: area 30-200 um^2 (35 values, linear) x deform 0.002-0.06 (30 values, logarithmic), the samples "
-               "inside both tables; the same conditions as above. `computed points alone`: the shipped table's computed "
-               "rows (`elastocell lut --subdivisions 1`); `as shipped`: with its interpolated rows (elastocell.rows of "
-               "its metadata).")
+               "inside both tables; the same conditions as above. `--subdivisions N`: the kept points written as "
+               "`elastocell lut --subdivisions N` writes them (1: the computed points alone); `as shipped`: the "
+               f"shipped file (--subdivisions {REFINE_SUBDIVISIONS}, the default).")
 
 
 def main() -> None:
