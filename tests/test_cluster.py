@@ -368,7 +368,8 @@ def test_a_lut_on_a_cluster_survives_a_killed_worker(cluster, tmp_path, monkeypa
     monkeypatch.setattr(distributed, "as_completed", lambda futures: list(futures))
     assert compute_lut(local, client=_InProcess(), **arguments)["failures"] == []
     here, there = read_lut(out)[0], read_lut(local)[0]
-    assert here.shape == there.shape == (3, 3) and np.all(np.isfinite(here))
+    # the 3 computed points and the 2 x 7 rows interpolated between them (--subdivisions 8, the default)
+    assert here.shape == there.shape == (17, 3) and np.all(np.isfinite(here))
     np.testing.assert_allclose(here, there, rtol=1e-10, atol=0)
 
 

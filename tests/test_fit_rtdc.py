@@ -154,6 +154,15 @@ def test_impossible_inputs_are_refused_in_one_line_before_reading(tmp_path):
     assert code == 2 and "neither one of dclab's tables" in output
     code, output = _fit(tmp_path, "--lut", "elastocell-lut_square_25um", "--out", tmp_path)
     assert code == 2 and "one elastocell ships (" in output and output.strip().count("\n") == 0
+    from elastocell.inverse.lut import refined_rows, write_lut
+
+    # two computed points and the 7 rows between them: on one line in (area, deform), no surface to read
+    points = [{"radius_um": 5.0, "emodulus_kpa": e, "area_um": 78.5, "deform": 0.02 / e} for e in (1.0, 2.0)]
+    _, metadata = dclab.features.emodulus.load.load_lut("LE-2D-FEM-19")
+    metadata.update(identifier="elastocell-line", elastocell={"rows": {"computed": 2}})
+    write_lut(tmp_path / "line.txt", refined_rows(points), metadata)
+    code, output = _fit(tmp_path, "--lut", tmp_path / "line.txt", "--out", tmp_path)
+    assert code == 2 and "2 computed point(s), at least 3" in output and output.strip().count("\n") == 0
 
 
 def test_reservoir_measurements_and_twin_names_are_told_apart(measurements, tmp_path):

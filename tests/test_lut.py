@@ -198,6 +198,7 @@ def test_dclab_loads_the_lut_and_isoelastics(tmp_path):
     (["--moduli", "1,2"], "--moduli"),  # 1 Pa: Ca_w beyond the pipe's limit, was named --capillary-number-wall
     (["--duration", "0.05"], "--duration"),  # under one record interval: each point failed after the lock was taken
     (["--subdivisions", "0"], "--subdivisions"),
+    (["--subdivisions", "65"], "--subdivisions"),  # the rows grow as its square
 ])
 def test_one_line_refusals(tmp_path, extra, option):
     _refused(BASE, extra, option, tmp_path)
@@ -751,3 +752,9 @@ def test_refined_rows_are_exact_for_a_power_law_and_stay_inside_computed_cells()
     assert refined_rows(points, 1) == points
     with pytest.raises(ParameterError, match="subdivisions"):
         refined_rows(points, 0)
+    # a radius none of whose points is here: with the planned grid its cells stay empty (only the edges along E
+    # at R 3 and 7 um: 2 x 2 x 3 rows); without it R 3 and 7 um would be neighbours (3 edges along R, 3 rows each,
+    # and 2 cells, 9 rows each, across the missing radius)
+    outer = [law(r, e) for r in (3.0, 7.0) for e in (1.0, 2.0, 4.0)]
+    assert len(refined_rows(outer, 4, ([3.0, 5.0, 7.0], [1.0, 2.0, 4.0]))) == 6 + 12
+    assert len(refined_rows(outer, 4)) == 6 + 12 + 9 + 18

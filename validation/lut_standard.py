@@ -324,7 +324,8 @@ def interpolation(page, records: list[dict], conditions) -> None:
     tables = []
     for subdivisions in (1, 2, 4, REFINE_SUBDIVISIONS):  # the same computed points, written with each count
         path = folder / f"subdivisions-{subdivisions}.txt"
-        write_lut(path, refined_rows(list(kept.values()), subdivisions), metadata)
+        planned = ([r["radius_um"] for r in records], [r["emodulus_kpa"] for r in records])
+        write_lut(path, refined_rows(list(kept.values()), subdivisions, planned), metadata)
         tables.append((f"--subdivisions {subdivisions}", path))
     rows = []
     for label, path in [*tables, ("as shipped", shipped)]:

@@ -995,15 +995,25 @@ REFINE_METHOD = ("between computed points, ln(area_um) and ln(deform) bilinear i
 """How the interpolated rows of a table are made (its metadata, ``elastocell.rows.method``)."""
 
 
+MAX_SUBDIVISIONS = 64
+"""The most rows per grid interval: the rows grow as its square (at 64, about 150,000 for the default grid's 35
+cells), and dclab triangulates them all on every conversion."""
+
+
 def check_subdivisions(subdivisions) -> int:
-    """``subdivisions`` as a whole number of at least 1, refused in one line otherwise."""
-    if isinstance(subdivisions, bool) or not float(subdivisions).is_integer() or subdivisions < 1:
-        raise ParameterError("subdivisions", f"{subdivisions}: a whole number of at least 1 (1: the computed points "
-                                             "alone)")
-    return int(subdivisions)
+    """``subdivisions`` as a whole number from 1 to :data:`MAX_SUBDIVISIONS`, refused in one line otherwise."""
+    try:
+        number = float(subdivisions)
+    except (TypeError, ValueError):
+        number = float("nan")
+    if isinstance(subdivisions, bool) or not number.is_integer() or not 1 <= number <= MAX_SUBDIVISIONS:
+        raise ParameterError("subdivisions", f"{subdivisions}: a whole number from 1 to {MAX_SUBDIVISIONS} (1: the "
+                                             "computed points alone)")
+    return int(number)
 
 
-def refined_rows(points: list[dict], subdivisions: int = REFINE_SUBDIVISIONS) -> list[dict]:
+def refined_rows(points: list[dict], subdivisions: int = REFINE_SUBDIVISIONS,
+                 grid: tuple[list[float], list[float]] | None = None) -> list[dict]:
     """The computed points of a table on its (R, E) grid and, between them, rows interpolated in the grid's
     parameters: each of ln(area_um) and ln(deform) is bilinear in (ln R, ln E) over every grid cell whose four
     corners were computed, at ``subdivisions`` equal steps of ln R and ln E (on a grid edge whose two ends were
@@ -1018,12 +1028,14 @@ def refined_rows(points: list[dict], subdivisions: int = REFINE_SUBDIVISIONS) ->
     reading at that spacing (docs/validation/lut_square.md).
 
     ``points``: dicts with ``radius_um``, ``emodulus_kpa``, ``area_um``, ``deform`` (the computed ones, returned
-    first, unchanged); the interpolated rows carry ``interpolated: True``."""
+    first, unchanged); the interpolated rows carry ``interpolated: True``. ``grid``: the planned (radii, moduli),
+    so that a radius or modulus none of whose points is here leaves its cells empty instead of joining its
+    neighbours into one cell (default: those of ``points``)."""
     subdivisions = check_subdivisions(subdivisions)
     shape = {(p["radius_um"], p["emodulus_kpa"]): (math.log(p["area_um"]), math.log(p["deform"])) for p in points
              if p["area_um"] > 0 and p["deform"] > 0}  # a point without a logarithm counts as missing
-    radii = sorted({r for r, _ in shape})
-    moduli = sorted({e for _, e in shape})
+    radii, moduli = (sorted({r for r, _ in shape}), sorted({e for _, e in shape})) if grid is None else (
+        sorted(set(grid[0])), sorted(set(grid[1])))
     steps = [k / subdivisions for k in range(subdivisions + 1)]
     rows: dict[tuple, dict] = {}
 
@@ -1211,7 +1223,8 @@ def compute_lut(out: str | Path, channel_radius=None, flow_rate=None, viscosity=
                   "identifier": identifier, "settings": settings, "lattice": lattice, "not_stationary": not_stationary,
                   "outline_fallback": hull_outline, "volume_drift": drifted}
         if rows:
-            refined = refined_rows(rows, subdivisions)
+            planned = ([p["radius_um"] for p in points], [p["emodulus_kpa"] for p in points])
+            refined = refined_rows(rows, subdivisions, planned)
             metadata["elastocell"]["rows"] = {"computed": len(rows), "interpolated": len(refined) - len(rows),
                                               "subdivisions": subdivisions, "method": REFINE_METHOD}
             write_lut(out, refined, metadata)

@@ -166,8 +166,12 @@ def check_tables(tables: list[str]) -> list[str]:
                 data, meta = _dclab().features.emodulus.load.load_lut(source)
             except Exception as error:  # noqa: BLE001 - dclab raises several kinds for a malformed table
                 raise ParameterError("lut", f"{text}: not a look-up table dclab can read ({error})") from None
-            if len(data) < 3:
-                raise ParameterError("lut", f"{text}: {len(data)} point(s), at least 3 are needed to interpolate")
+            own = meta.get("elastocell") if isinstance(meta, dict) else None
+            own = own if isinstance(own, dict) else {}
+            counted = {**own.get("scaled_from_points", {}), **own}.get("rows", {}).get("computed", len(data))
+            if counted < 3:  # the rows interpolated between fewer points do not make a surface
+                raise ParameterError("lut", f"{text}: {counted} computed point(s), at least 3 are needed to "
+                                            "interpolate")
         name = table_name(text)
         if name in names:
             raise ParameterError("lut", f"{names[name]} and {text} would both be reported as {name!r}: rename one")
