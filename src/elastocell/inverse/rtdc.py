@@ -23,6 +23,7 @@ from __future__ import annotations
 import re
 import warnings
 from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -166,9 +167,7 @@ def check_tables(tables: list[str]) -> list[str]:
                 data, meta = _dclab().features.emodulus.load.load_lut(source)
             except Exception as error:  # noqa: BLE001 - dclab raises several kinds for a malformed table
                 raise ParameterError("lut", f"{text}: not a look-up table dclab can read ({error})") from None
-            own = meta.get("elastocell") if isinstance(meta, dict) else None
-            own = own if isinstance(own, dict) else {}
-            counted = {**own.get("scaled_from_points", {}), **own}.get("rows", {}).get("computed", len(data))
+            counted = own_metadata(meta).get("rows", {}).get("computed", len(data))
             if counted < 3:  # the rows interpolated between fewer points do not make a surface
                 raise ParameterError("lut", f"{text}: {counted} computed point(s), at least 3 are needed to "
                                             "interpolate")
@@ -188,11 +187,27 @@ def check_tables(tables: list[str]) -> list[str]:
     return checked
 
 
+def own_metadata(meta) -> dict:
+    """What ``elastocell lut`` records of a table (its metadata's ``elastocell``; {} for other tables), with the
+    point bookkeeping of the table a scaled one comes from (``scaled_from_points``: its points, rows, hull
+    points) in place."""
+    own = meta.get("elastocell") if isinstance(meta, dict) else None
+    if not isinstance(own, dict):
+        return {}
+    return {**own, **own.get("scaled_from_points", {})}
+
+
+@cache
+def _shipped_identifiers() -> frozenset[str]:
+    """The identifiers of the tables in the package (read once: the package's data do not change while it runs)."""
+    return frozenset(shipped_luts())
+
+
 def is_named(table: str) -> bool:
     """Whether ``table`` is a table's name rather than a path: one of dclab's tables, or the identifier of one
     elastocell ships (:func:`elastocell.inverse.shipped_luts.shipped_luts`; a file or folder of that name wins, as
     in dclab's ``get_lut_path``)."""
-    return table in DCLAB_TABLES or (not Path(table).exists() and table in shipped_luts())
+    return table in DCLAB_TABLES or (not Path(table).exists() and table in _shipped_identifiers())
 
 
 def table_name(table: str) -> str:
@@ -212,10 +227,9 @@ def table_caveats(table: str) -> tuple[str, str]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         _, meta = _dclab().features.emodulus.load.load_lut(str(table))
-    own = meta.get("elastocell") if isinstance(meta, dict) else None
-    if not isinstance(own, dict):
+    own = own_metadata(meta)
+    if not own:
         return "", ""
-    own = {**own, **own.get("scaled_from_points", {})}  # a table scaled from another: that one's points
     points = own.get("finished", own.get("points"))
     of = f" of {points}" if points is not None else ""
     caveats, notes = [], []
